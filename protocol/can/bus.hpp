@@ -74,13 +74,13 @@ std::uint32_t socketcan_id(const Frame& frame);
 
 // Errors a port reports (std::error_code over BusError, category "can-bus").
 enum class BusError {
-  bus_off = 1,          // the node is bus-off: it may not transmit
-  queue_full,           // the transmit queue stayed full (ENOBUFS) past the send timeout
-  interface_down,       // the network interface is down or gone
-  no_such_interface,    // no interface of that name
-  no_can_in_kernel,     // socket(PF_CAN) failed: the kernel has no CAN support
-  invalid_frame,        // the frame cannot be sent (id or DLC out of range)
-  io_error,             // any other system error (the message carries errno's text)
+  bus_off = 1,        // the node is bus-off: it may not transmit
+  queue_full,         // the transmit queue stayed full (ENOBUFS) past the send timeout
+  interface_down,     // the network interface is down or gone
+  no_such_interface,  // no interface of that name
+  no_can_in_kernel,   // socket(PF_CAN) failed: the kernel has no CAN support
+  invalid_frame,      // the frame cannot be sent (id or DLC out of range)
+  io_error,           // any other system error (the message carries errno's text)
 };
 const std::error_category& bus_category();
 std::error_code make_error_code(BusError error);

@@ -86,17 +86,19 @@ Expected<Frame, std::string> parse_candump(std::string_view text) {
   const std::string_view id_text = text.substr(0, hash);
   std::string_view rest = text.substr(hash + 1);
   if (!rest.empty() && rest.front() == '#') {
-    return Unexpected(std::string("CAN FD frames ('##') are not supported: drivecheck is classic CAN"));
+    return Unexpected(
+        std::string("CAN FD frames ('##') are not supported: drivecheck is classic CAN"));
   }
   if (id_text.size() != 3 && id_text.size() != 8) {
     return Unexpected(fmt::format(
-        "identifier '{}' has {} hex digits: use 3 for an 11-bit id or 8 for a 29-bit id",
-        id_text, id_text.size()));
+        "identifier '{}' has {} hex digits: use 3 for an 11-bit id or 8 for a 29-bit id", id_text,
+        id_text.size()));
   }
   std::uint32_t id = 0;
   for (char c : id_text) {
     const int v = hex_value(c);
-    if (v < 0) return Unexpected(fmt::format("identifier: {} is not a hex digit", describe_char(c)));
+    if (v < 0)
+      return Unexpected(fmt::format("identifier: {} is not a hex digit", describe_char(c)));
     id = (id << 4) | static_cast<std::uint32_t>(v);
   }
 
@@ -122,7 +124,8 @@ Expected<Frame, std::string> parse_candump(std::string_view text) {
   }
 
   if (!rest.empty() && (rest.front() == 'R' || rest.front() == 'r')) {
-    if (frame.is_error()) return Unexpected(std::string("an error frame cannot be a remote request"));
+    if (frame.is_error())
+      return Unexpected(std::string("an error frame cannot be a remote request"));
     frame.kind = FrameKind::remote;
     rest.remove_prefix(1);
     if (rest.empty()) return frame;

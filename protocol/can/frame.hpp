@@ -60,8 +60,7 @@ struct Frame {
   // A 29-bit data frame. Precondition: id <= 0x1FFFFFFF, bytes.size() <= 8.
   static Frame extended(std::uint32_t id, std::span<const std::uint8_t> bytes);
   // A remote transmission request (RTR) frame with the given DLC (0..8).
-  static Frame remote(std::uint32_t id, std::uint8_t dlc = 0,
-                      IdFormat format = IdFormat::standard);
+  static Frame remote(std::uint32_t id, std::uint8_t dlc = 0, IdFormat format = IdFormat::standard);
 
   friend bool operator==(const Frame&, const Frame&) = default;
 };

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <iterator>
 #include <string>
 
 namespace drivecheck::cia301 {
@@ -17,13 +18,15 @@ constexpr SdoAbortInfo kTable[] = {
 
 constexpr bool is_sorted_by_value() {
   for (std::size_t i = 1; i < std::size(kTable); ++i) {
-    if (static_cast<std::uint32_t>(kTable[i - 1].code) >= static_cast<std::uint32_t>(kTable[i].code)) {
+    if (static_cast<std::uint32_t>(kTable[i - 1].code) >=
+        static_cast<std::uint32_t>(kTable[i].code)) {
       return false;
     }
   }
   return true;
 }
-static_assert(is_sorted_by_value(), "sdo_abort_codes.inc must list codes in ascending order, once each");
+static_assert(is_sorted_by_value(),
+              "sdo_abort_codes.inc must list codes in ascending order, once each");
 
 class SdoAbortCategory final : public std::error_category {
  public:
@@ -35,12 +38,15 @@ class SdoAbortCategory final : public std::error_category {
 
 }  // namespace
 
-std::span<const SdoAbortInfo> sdo_abort_table() { return kTable; }
+std::span<const SdoAbortInfo> sdo_abort_table() {
+  return kTable;
+}
 
 std::optional<SdoAbortInfo> find_sdo_abort(std::uint32_t value) {
-  const auto* it = std::lower_bound(
-      std::begin(kTable), std::end(kTable), value,
-      [](const SdoAbortInfo& row, std::uint32_t v) { return static_cast<std::uint32_t>(row.code) < v; });
+  const auto* it = std::lower_bound(std::begin(kTable), std::end(kTable), value,
+                                    [](const SdoAbortInfo& row, std::uint32_t v) {
+                                      return static_cast<std::uint32_t>(row.code) < v;
+                                    });
   if (it == std::end(kTable) || static_cast<std::uint32_t>(it->code) != value) return std::nullopt;
   return *it;
 }
@@ -50,6 +56,19 @@ std::string describe_sdo_abort(std::uint32_t value) {
     return fmt::format("{:08X}h {}: {}", value, info->name, info->text);
   }
   return fmt::format("{:08X}h (unknown abort code)", value);
+}
+
+std::string sdo_abort_fuzz_dictionary() {
+  std::string text;
+  for (const SdoAbortInfo& row : kTable) {
+    const auto value = static_cast<std::uint32_t>(row.code);
+    fmt::format_to(std::back_inserter(text), "# {:08X}h {}: {} ({})\n", value, row.name, row.text,
+                   row.source);
+    fmt::format_to(std::back_inserter(text),
+                   "sdo_abort_{:08X}=\"\\x{:02X}\\x{:02X}\\x{:02X}\\x{:02X}\"\n", value,
+                   value & 0xFF, (value >> 8) & 0xFF, (value >> 16) & 0xFF, value >> 24);
+  }
+  return text;
 }
 
 const std::error_category& sdo_abort_category() {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 #include <string_view>
 #include <system_error>
 
@@ -35,6 +36,16 @@ std::optional<SdoAbortInfo> find_sdo_abort(std::uint32_t value);
 
 // "06010002h write_read_only: Attempt to write a read only object", or "…h (unknown abort code)".
 std::string describe_sdo_abort(std::uint32_t value);
+
+// The libFuzzer dictionary of abort codes: for every row of the table, a comment line naming
+// the code, its text and source, then the token: the 4 bytes of the code as an SDO abort frame
+// carries them (bytes 4..7, little-endian):
+//
+//   # 06010002h write_read_only: Attempt to write a read only object (CiA 301 §7.2.4.3.17)
+//   sdo_abort_06010002="\x02\x00\x01\x06"
+//
+// The text ends with a newline; a fuzz target's .dict generator writes it as is.
+std::string sdo_abort_fuzz_dictionary();
 
 const std::error_category& sdo_abort_category();
 std::error_code make_error_code(SdoAbort abort);

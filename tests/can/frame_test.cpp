@@ -24,9 +24,9 @@ TEST(CandumpCompact, RoundTripsEveryShape) {
   // Given one frame text of each kind
   // When each is parsed and printed again
   // Then the text is unchanged
-  for (const char* text : {"000#", "7FF#01", "704#R", "704#R3", "12345678#DEADBEEF",
-                           "00000000#", "1FFFFFFF#R8", "20000080#0000000000000000",
-                           "123#1122334455667788_C", "080#"}) {
+  for (const char* text :
+       {"000#", "7FF#01", "704#R", "704#R3", "12345678#DEADBEEF", "00000000#", "1FFFFFFF#R8",
+        "20000080#0000000000000000", "123#1122334455667788_C", "080#"}) {
     const auto frame = parse_candump(text);
     ASSERT_TRUE(frame) << text << ": " << frame.error();
     EXPECT_EQ(to_candump(*frame), text);
