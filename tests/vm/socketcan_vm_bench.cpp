@@ -1,0 +1,262 @@
+// Round trips per second over vcan0 between two processes, inside the test VM:
+//   a. drivecheck's SocketCanBus on both sides (client: send + receive(deadline); peer: frame
+//      handler in run_until, answering with send),
+//   b. the baseline: plain blocking raw sockets on both sides (write + read),
+//   c. for the diagnosis: raw sockets doing a's kernel work without drivecheck's code
+//      (ppoll on the socket and an eventfd, SO_TIMESTAMPING, SO_RXQ_OVFL, recvmsg).
+// They run in rotating rounds in the same boot, so all see the same machine; the median
+// round of each is compared. Exits 1 when a round trip fails, or when a reaches less than
+// 90% of b's round trips per second.
+//
+//   socketcan_vm_bench [ROUNDS [SECONDS_PER_ROUND]]     (default 5 rounds of 1 s each)
+#include <fmt/format.h>
+#include <linux/can.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <vector>
+
+#include "protocol/can/socketcan_bus.hpp"
+#include "tests/vm/vm_peer.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using drivecheck::can::Frame;
+using drivecheck::can::SocketCanBus;
+using Clock = std::chrono::steady_clock;
+
+constexpr const char* kInterface = "vcan0";
+constexpr std::uint32_t kBusRequest = 0x601;   // answered with 602h by the SocketCanBus peer
+constexpr std::uint32_t kRawRequest = 0x611;   // answered with 612h by the raw-socket peer
+constexpr std::uint32_t kPollRequest = 0x621;  // answered with 622h by the polling raw peer
+constexpr double kTarget = 0.90;
+
+struct Round {
+  double per_second = 0;
+  double p50_us = 0;
+  double p99_us = 0;
+};
+
+Round summarize(std::vector<double>& latencies_us, Clock::duration elapsed) {
+  Round round;
+  if (latencies_us.empty()) return round;
+  std::sort(latencies_us.begin(), latencies_us.end());
+  round.per_second =
+      static_cast<double>(latencies_us.size()) / std::chrono::duration<double>(elapsed).count();
+  round.p50_us = latencies_us[latencies_us.size() / 2];
+  round.p99_us = latencies_us[latencies_us.size() * 99 / 100];
+  return round;
+}
+
+Frame request(std::uint32_t id, std::uint32_t sequence) {
+  // data: ccs=2 upload request (40h), index 1000h sub 0, then the sequence number
+  return Frame::standard(
+      id, {0x40, 0x00, 0x10, 0x00, static_cast<std::uint8_t>(sequence >> 24),
+           static_cast<std::uint8_t>(sequence >> 16), static_cast<std::uint8_t>(sequence >> 8),
+           static_cast<std::uint8_t>(sequence)});
+}
+
+// One round with SocketCanBus; nullopt when an answer is missing or wrong.
+std::optional<Round> bus_round(SocketCanBus& bus, Clock::duration length, std::uint32_t& sequence) {
+  std::vector<double> latencies;
+  const auto start = Clock::now();
+  auto now = start;
+  while (now - start < length) {
+    const Frame sent = request(kBusRequest, ++sequence);
+    if (const auto error = bus.send(sent)) {
+      fmt::print(stderr, "bench: SocketCanBus send: {}\n", error.message());
+      return std::nullopt;
+    }
+    const auto answer = bus.receive(bus.now() + 1s);
+    if (!answer || answer->frame.id != kBusRequest + 1 || answer->frame.data != sent.data) {
+      fmt::print(stderr, "bench: SocketCanBus: no or wrong answer to request {}\n", sequence);
+      return std::nullopt;
+    }
+    const auto done = Clock::now();
+    latencies.push_back(std::chrono::duration<double, std::micro>(done - now).count());
+    now = done;
+  }
+  return summarize(latencies, now - start);
+}
+
+std::optional<Round> raw_round(int fd, Clock::duration length, std::uint32_t& sequence) {
+  std::vector<double> latencies;
+  const auto start = Clock::now();
+  auto now = start;
+  while (now - start < length) {
+    const Frame sent = request(kRawRequest, ++sequence);
+    can_frame out{};
+    out.can_id = kRawRequest;
+    out.len = 8;
+    std::memcpy(out.data, sent.data.data(), 8);
+    can_frame in{};
+    if (::write(fd, &out, sizeof out) != static_cast<ssize_t>(sizeof out) ||
+        ::read(fd, &in, sizeof in) != static_cast<ssize_t>(sizeof in) ||
+        in.can_id != kRawRequest + 1 || std::memcmp(in.data, out.data, 8) != 0) {
+      fmt::print(stderr, "bench: raw socket: no or wrong answer to request {}: {}\n", sequence,
+                 std::strerror(errno));
+      return std::nullopt;
+    }
+    const auto done = Clock::now();
+    latencies.push_back(std::chrono::duration<double, std::micro>(done - now).count());
+    now = done;
+  }
+  return summarize(latencies, now - start);
+}
+
+std::optional<Round> polling_round(drivecheck::vm::PollingRawSocket& socket, Clock::duration length,
+                                   std::uint32_t& sequence) {
+  std::vector<double> latencies;
+  const auto start = Clock::now();
+  auto now = start;
+  while (now - start < length) {
+    const Frame sent = request(kPollRequest, ++sequence);
+    can_frame out{};
+    out.can_id = kPollRequest;
+    out.len = 8;
+    std::memcpy(out.data, sent.data.data(), 8);
+    can_frame in{};
+    if (!socket.send(out) || !socket.receive(in) || in.can_id != kPollRequest + 1 ||
+        std::memcmp(in.data, out.data, 8) != 0) {
+      fmt::print(stderr, "bench: polling raw socket: no or wrong answer to request {}: {}\n",
+                 sequence, std::strerror(errno));
+      return std::nullopt;
+    }
+    const auto done = Clock::now();
+    latencies.push_back(std::chrono::duration<double, std::micro>(done - now).count());
+    now = done;
+  }
+  return summarize(latencies, now - start);
+}
+
+double median_of(std::vector<Round> rounds, double Round::*field) {
+  std::sort(rounds.begin(), rounds.end(),
+            [field](const Round& a, const Round& b) { return a.*field < b.*field; });
+  return rounds[rounds.size() / 2].*field;
+}
+
+struct Mode {
+  const char* name;
+  std::function<std::optional<Round>(Clock::duration, std::uint32_t&)> round;
+  std::vector<Round> rounds;
+};
+
+int run(int rounds, Clock::duration length) {
+  std::string error;
+  std::vector<std::unique_ptr<drivecheck::vm::PeerProcess>> peers;
+  for (const auto& [role, id] : {std::pair{"echo", kBusRequest}, std::pair{"raw-echo", kRawRequest},
+                                 std::pair{"poll-echo", kPollRequest}}) {
+    auto peer = drivecheck::vm::PeerProcess::start(role, {kInterface, std::to_string(id)}, error);
+    if (!peer) {
+      fmt::print(stderr, "bench: {}\n", error);
+      return 1;
+    }
+    peers.push_back(std::move(peer));
+  }
+
+  drivecheck::can::SocketCanOptions options;
+  options.filters = {drivecheck::can::Filter::standard(kBusRequest + 1)};
+  auto opened = SocketCanBus::open(kInterface, options);
+  if (!opened) {
+    fmt::print(stderr, "bench: {}\n",
+               drivecheck::can::describe_open_error(kInterface, opened.error()));
+    return 1;
+  }
+  SocketCanBus& bus = **opened;
+  const int raw = drivecheck::vm::open_raw_socket(kInterface, static_cast<int>(kRawRequest + 1));
+  auto polling =
+      drivecheck::vm::PollingRawSocket::open(kInterface, static_cast<int>(kPollRequest + 1));
+  if (raw < 0 || !polling) {
+    fmt::print(stderr, "bench: raw socket: {}\n", std::strerror(errno));
+    return 1;
+  }
+  timeval read_timeout{1, 0};
+  ::setsockopt(raw, SOL_SOCKET, SO_RCVTIMEO, &read_timeout, sizeof read_timeout);
+
+  std::vector<Mode> modes = {
+      {"a. drivecheck SocketCanBus",
+       [&](Clock::duration l, std::uint32_t& n) { return bus_round(bus, l, n); },
+       {}},
+      {"b. plain raw sockets",
+       [&](Clock::duration l, std::uint32_t& n) { return raw_round(raw, l, n); },
+       {}},
+      {"c. raw sockets + a's kernel work",
+       [&](Clock::duration l, std::uint32_t& n) { return polling_round(*polling, l, n); },
+       {}},
+  };
+  std::uint32_t sequence = 0;
+  // Warm-up: caches, page faults, the peers' first wake-ups.
+  for (auto& mode : modes) {
+    if (!mode.round(200ms, sequence)) return 1;
+  }
+  for (int i = 0; i < rounds; ++i) {
+    // Rotate which goes first, so a drift of the machine hits all alike.
+    for (std::size_t k = 0; k < modes.size(); ++k) {
+      Mode& mode = modes[(k + static_cast<std::size_t>(i)) % modes.size()];
+      const auto round = mode.round(length, sequence);
+      if (!round) return 1;
+      mode.rounds.push_back(*round);
+    }
+    fmt::print("round {:2}:", i + 1);
+    for (const auto& mode : modes) {
+      fmt::print("  {} {:6.0f}/s p50 {:5.1f} us", mode.name[0], mode.rounds.back().per_second,
+                 mode.rounds.back().p50_us);
+    }
+    fmt::print("\n");
+  }
+
+  fmt::print("\nround trips over vcan0 between two processes, median of {} rounds of {} ms:\n",
+             rounds, std::chrono::duration_cast<std::chrono::milliseconds>(length).count());
+  for (const auto& mode : modes) {
+    fmt::print("  {:34} {:6.0f}/s   p50 {:6.1f} us   p99 {:7.1f} us\n", mode.name,
+               median_of(mode.rounds, &Round::per_second), median_of(mode.rounds, &Round::p50_us),
+               median_of(mode.rounds, &Round::p99_us));
+  }
+  const double ratio = median_of(modes[0].rounds, &Round::per_second) /
+                       median_of(modes[1].rounds, &Round::per_second);
+  const double p50_ratio =
+      median_of(modes[1].rounds, &Round::p50_us) / median_of(modes[0].rounds, &Round::p50_us);
+  const double own_ratio =
+      median_of(modes[2].rounds, &Round::p50_us) / median_of(modes[0].rounds, &Round::p50_us);
+  fmt::print(
+      "  a/b: {:.1f}% of the round trips per second, {:.1f}% by median latency "
+      "(target >= {:.0f}%)\n",
+      100 * ratio, 100 * p50_ratio, 100 * kTarget);
+  fmt::print("  a/c: {:.1f}% by median latency (what drivecheck's own code costs)\n",
+             100 * own_ratio);
+
+  if (const auto send_error = bus.send(drivecheck::vm::quit_frame())) {
+    fmt::print(stderr, "bench: quit: {}\n", send_error.message());
+  }
+  bool peers_ok = true;
+  for (auto& peer : peers)
+    peers_ok = peer->wait(3s) == 0 && peers_ok;
+  ::close(raw);
+  if (!peers_ok) {
+    fmt::print(stderr, "bench: a peer failed or did not quit\n");
+    return 1;
+  }
+  if (ratio < kTarget) {
+    fmt::print("bench: BELOW TARGET: drivecheck reaches {:.1f}% of the raw-socket baseline\n",
+               100 * ratio);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (const int status = drivecheck::vm::run_peer_if_asked(argc, argv); status >= 0) return status;
+  const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
+  const double seconds = argc > 2 ? std::atof(argv[2]) : 1.0;
+  return run(rounds, std::chrono::duration_cast<Clock::duration>(
+                         std::chrono::duration<double>(seconds > 0 ? seconds : 1.0)));
+}

@@ -1,0 +1,84 @@
+// Peer processes for the programs that run inside the test VM: a test (or benchmark) starts
+// its own executable again as `PROGRAM --peer ROLE READY_FD ARGS...`, so that two processes
+// with two sockets talk over vcan, as a master and a drive would.
+//
+// Roles (run_peer):
+//   echo IF [ID]        SocketCanBus on IF (only standard id ID if given): answers every
+//                       frame with the same frame, id + 1; quits on kQuitFrame
+//   raw-echo IF ID      the same with a plain blocking raw socket (benchmark baseline)
+//   poll-echo IF ID     the same with a PollingRawSocket (benchmark: cost of the kernel work)
+//   send IF FRAME...    sends the candump-text frames with SocketCanBus, then exits
+//   raw-send IF FRAME...  sends them with a plain raw socket (can inject error frames)
+//   count IF N MS       receives with SocketCanBus until N frames or MS ms of silence; exits 0
+//                       when exactly N frames came with 32-bit big-endian sequence numbers
+//                       0..N-1 in data[0..3], in order
+// Every role prints its problems to stderr and exits non-zero on failure.
+#pragma once
+
+#include <linux/can.h>
+#include <sys/types.h>
+
+#include <chrono>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "protocol/can/frame.hpp"
+
+namespace drivecheck::vm {
+
+// Extended id 1FFFFFFF, no data: tells echo peers to exit.
+can::Frame quit_frame();
+
+class PeerProcess {
+ public:
+  // Starts the peer and waits (at most 5 s) until it reports that its socket is open.
+  // On failure returns nullptr and sets `error`.
+  static std::unique_ptr<PeerProcess> start(const std::string& role,
+                                            const std::vector<std::string>& args,
+                                            std::string& error);
+  ~PeerProcess();  // kills a peer that is still running
+  PeerProcess(const PeerProcess&) = delete;
+  PeerProcess& operator=(const PeerProcess&) = delete;
+
+  // Exit status of the peer, or -1 when it had to be killed after `timeout`.
+  int wait(std::chrono::milliseconds timeout);
+
+ private:
+  explicit PeerProcess(pid_t pid) : pid_(pid) {}
+  pid_t pid_;
+  bool reaped_ = false;
+};
+
+// If argv is `PROGRAM --peer ROLE READY_FD ...`, runs that role and returns its exit status;
+// otherwise returns -1 (the caller runs its tests).
+int run_peer_if_asked(int argc, char** argv);
+
+// A plain blocking raw CAN socket bound to `interface`, with one standard-id filter when
+// `filter_id` >= 0; -1 on error (errno set).
+int open_raw_socket(const std::string& interface, int filter_id = -1);
+
+// A raw socket doing, without drivecheck's code, the kernel work SocketCanBus does for each
+// frame: SO_TIMESTAMPING and SO_RXQ_OVFL on the socket, waiting in ppoll() on it and an
+// eventfd, reading with recvmsg() and its control messages. ppoll has no timeout: a timerfd
+// armed once, ticking every second, guards against a lost frame.
+class PollingRawSocket {
+ public:
+  // nullptr on error (errno set).
+  static std::unique_ptr<PollingRawSocket> open(const std::string& interface, int filter_id);
+  ~PollingRawSocket();
+  PollingRawSocket(const PollingRawSocket&) = delete;
+  PollingRawSocket& operator=(const PollingRawSocket&) = delete;
+  bool send(const can_frame& frame);
+  // Waits for a frame; with `limited`, fails (ETIMEDOUT) after 1..2 s without one.
+  bool receive(can_frame& frame, bool limited = true);
+
+ private:
+  PollingRawSocket(int socket_fd, int event_fd, int timer_fd)
+      : socket_fd_(socket_fd), event_fd_(event_fd), timer_fd_(timer_fd) {}
+  int socket_fd_;
+  int event_fd_;
+  int timer_fd_;
+};
+
+}  // namespace drivecheck::vm
