@@ -1,0 +1,320 @@
+// The bad_*.eds files (one kind of mistake each) and the linter's findings, asserted as the
+// exact "file:line: severity: message [id]" lines a user sees.
+#include "protocol/cia306/eds_lint.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace drivecheck::cia306 {
+namespace {
+
+using Lines = std::vector<std::string>;
+
+std::string load(const std::string& name) {
+  std::ifstream in(std::string(DRIVECHECK_EDS_TEST_DATA) + "/" + name, std::ios::binary);
+  EXPECT_TRUE(in) << name;
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+Lines lines(const std::vector<Diagnostic>& diagnostics, Severity severity) {
+  Lines out;
+  for (const auto& d : diagnostics) {
+    if (d.severity == severity) out.push_back(d.to_string());
+  }
+  return out;
+}
+
+Lines read_errors(const std::string& name) {
+  return lines(read_eds(load(name), name).diagnostics, Severity::error);
+}
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const auto pos = text.find(from);
+  EXPECT_NE(pos, std::string::npos) << from;
+  if (pos != std::string::npos) text.replace(pos, from.size(), to);
+  return text;
+}
+
+TEST(EdsErrors, DuplicateSection) {
+  // Given [1001] twice
+  // When read
+  // Then the repeat is an error at its line, naming the first
+  EXPECT_EQ(
+      read_errors("bad_duplicate_section.eds"),
+      Lines{"bad_duplicate_section.eds:58: error: section [1001] repeats the one at line 29; the "
+            "repeat is ignored [duplicate-section]"});
+}
+
+TEST(EdsErrors, DuplicateKeyWithAnotherValue) {
+  // Given DefaultValue=0 and DefaultValue=1000 in one section
+  // When read
+  // Then the second is an error and the first value is kept
+  EXPECT_EQ(
+      read_errors("bad_duplicate_key.eds"),
+      Lines{"bad_duplicate_key.eds:40: error: key 'DefaultValue' of [1017] repeats line 39 with "
+            "another value ('0' vs '1000'); the first is used [duplicate-key]"});
+  EXPECT_EQ(read_eds(load("bad_duplicate_key.eds")).eds.find(0x1017)->keys.default_value, "0");
+}
+
+TEST(EdsErrors, DuplicateKeyWithTheSameValueIsAWarning) {
+  // Given a key repeated with the same value
+  // When read
+  // Then it is a warning only
+  const auto text =
+      replaced(load("minimal.eds"), "DefaultValue=4\n", "DefaultValue=4\ndefaultvalue = 4\n");
+  const auto result = read_eds(text, "minimal.eds");
+  EXPECT_FALSE(result.has_errors());
+  EXPECT_EQ(
+      lines(result.diagnostics, Severity::warning),
+      Lines{"minimal.eds:69: warning: key 'defaultvalue' of [1018sub0] repeats line 68 with the "
+            "same value [duplicate-key]"});
+}
+
+TEST(EdsErrors, SubNumberInconsistentWithSubSections) {
+  // Given SubNumber=3 and two sub-object sections
+  // When read
+  // Then an error at the SubNumber line
+  EXPECT_EQ(
+      read_errors("bad_subnumber.eds"),
+      Lines{"bad_subnumber.eds:44: error: [1018] SubNumber=3 but 2 sub-object sections follow "
+            "[subnumber-mismatch]"});
+}
+
+TEST(EdsErrors, UnknownOrAmbiguousDataType) {
+  // Given DataType=0x0017 (reserved) and DataType=0010 (octal 8, hex 16)
+  // When read
+  // Then both are errors
+  EXPECT_EQ(
+      read_errors("bad_data_type.eds"),
+      (Lines{
+          "bad_data_type.eds:25: error: DataType '0010' reads 0008h as CiA 306 says (leading 0 = "
+          "octal, else decimal) but 0010h as hex; write it with 0x [ambiguous-data-type]",
+          "bad_data_type.eds:37: error: DataType 0x0017 of [1017] is not a CiA 301 basic data "
+          "type [unknown-data-type]"}));
+}
+
+TEST(EdsErrors, DefaultValueNotParseableForItsType) {
+  // Given 0x1FF for UNSIGNED8, 089 (bad octal) and $NODEID-1
+  // When read
+  // Then each is an error that says why
+  EXPECT_EQ(
+      read_errors("bad_default_value.eds"),
+      (Lines{"bad_default_value.eds:33: error: DefaultValue '0x1FF' is not valid for UNSIGNED8: "
+             "0x1FF does not fit UNSIGNED8 [bad-value]",
+             "bad_default_value.eds:39: error: DefaultValue '089' is not valid for UNSIGNED16: "
+             "'089' is not an octal number (CiA 306 reads a leading 0 as octal) [bad-value]",
+             "bad_default_value.eds:56: error: DefaultValue '$NODEID-1' is not valid for "
+             "UNSIGNED32: '$NODEID-1' is not a $NODEID expression ($NODEID, $NODEID+n or "
+             "n+$NODEID) [bad-value]"}));
+}
+
+TEST(EdsErrors, ListedObjectWithoutSection) {
+  // Given 0x1005 in [OptionalObjects] and no [1005]
+  // When read
+  // Then an error at the list entry
+  EXPECT_EQ(
+      read_errors("bad_listed_without_section.eds"),
+      Lines{"bad_listed_without_section.eds:22: error: object 1005h is listed in [OptionalObjects] "
+            "but has no section [1005] [missing-object-section]"});
+}
+
+TEST(EdsErrors, SectionNotListedAndOrphanSubSection) {
+  // Given [2000] that no list names and [2001sub1] without [2001]
+  // When read
+  // Then both are errors at their section lines
+  EXPECT_EQ(read_errors("bad_unlisted_section.eds"),
+            (Lines{"bad_unlisted_section.eds:58: error: section [2000] is not listed in "
+                   "[MandatoryObjects], [OptionalObjects] or [ManufacturerObjects] "
+                   "[unlisted-object-section]",
+                   "bad_unlisted_section.eds:64: error: [2001sub1] has no object section [2001] "
+                   "[orphan-sub-section]"}));
+}
+
+TEST(EdsErrors, SyntaxAccessTypeAndObjectType) {
+  // Given a key before any section, a line without '=', ObjectType=0x4, AccessType=readwrite
+  // When read
+  // Then four errors, each at its line
+  EXPECT_EQ(
+      read_errors("bad_syntax.eds"),
+      (Lines{
+          "bad_syntax.eds:2: error: key 'Orphan' before the first section [syntax]",
+          "bad_syntax.eds:9: error: 'this line has no equals sign' is neither 'key=value', "
+          "'[section]' nor a ';' comment [syntax]",
+          "bad_syntax.eds:33: error: ObjectType '0x4' is not 0x0, 0x2, 0x5, 0x6, 0x7, 0x8 or "
+          "0x9 [bad-object-type]",
+          "bad_syntax.eds:41: error: AccessType 'readwrite' is not ro, wo, rw, rwr, rww or const "
+          "[bad-access-type]"}));
+}
+
+TEST(EdsErrors, CompactSubObjMisuse) {
+  // Given CompactSubObj on a RECORD, [1016Name] with NrOfEntries=3 and a name for sub 3 of 2
+  // When read
+  // Then three errors
+  EXPECT_EQ(
+      read_errors("bad_compact.eds"),
+      (Lines{"bad_compact.eds:65: error: CompactSubObj on [1016], a RECORD (CiA 306 allows it on "
+             "ARRAY only) [compact-not-array]",
+             "bad_compact.eds:68: error: [1016Name] NrOfEntries=3 but 1 usable entry follows "
+             "[count-mismatch]",
+             "bad_compact.eds:70: error: key '3' in [1016Name] is not a sub-index 1..2 (decimal) "
+             "[bad-compact-entry]"}));
+}
+
+TEST(EdsErrors, AmbiguousListIndex) {
+  // Given a list entry "1017" without 0x, where decimal 1017 (03F9h) has no section but 1017h does
+  // When read
+  // Then it is read as hex with a warning; with sections for both readings it is an error
+  const auto text = replaced(load("minimal.eds"), "1=0x1017", "1=1017");
+  const auto result = read_eds(text, "minimal.eds");
+  EXPECT_FALSE(result.has_errors());
+  EXPECT_EQ(
+      lines(result.diagnostics, Severity::warning),
+      Lines{"minimal.eds:105: warning: '1017' read as 1017h (hex without 0x: that object has a "
+            "section) [hex-without-prefix]"});
+  const auto both = replaced(text, "[1017]\n",
+                             "[03F9]\nParameterName=x\nDataType=0x0005\nAccessType=ro\n\n[1017]\n");
+  EXPECT_EQ(
+      lines(read_eds(both, "minimal.eds").diagnostics, Severity::error)[0],
+      "minimal.eds:105: error: '1017' names object 03F9h read as CiA 306 says, or 1017h read as "
+      "hex; both have a section: write 0x1017 [ambiguous-index]");
+}
+
+TEST(EdsErrors, GarbageNeverCrashes) {
+  // Given truncations and byte mutations of a large valid file
+  // When read, linted and turned into a dictionary
+  // Then every call returns (errors are values), whatever the input
+  const std::string text = load("servo_drive.eds");
+  std::uint32_t seed = 12345;
+  auto next = [&seed] {
+    seed = seed * 1664525u + 1013904223u;
+    return seed >> 8;
+  };
+  const char alphabet[] = "[]=;\r\n 0x$NODEIDsub+-09AFaf\t\xEF\xBB\xBF\xFF";
+  for (int round = 0; round < 300; ++round) {
+    std::string mutated = text.substr(0, next() % text.size());
+    for (int k = 0; k < 20; ++k) {
+      if (mutated.empty()) break;
+      mutated[next() % mutated.size()] = alphabet[next() % (sizeof alphabet - 1)];
+    }
+    const auto result = read_eds(mutated, "fuzz");
+    (void)lint_eds(result.eds);
+    (void)to_object_dictionary(result.eds, 1);
+    (void)write_eds(result.eds);
+  }
+  SUCCEED();
+}
+
+TEST(EdsFile, UnreadableFileIsAnError) {
+  // Given a path that does not exist, and a directory
+  // When linted
+  // Then the error names the file and no diagnostic list is produced
+  const auto missing = lint_eds_file("/nonexistent/drivecheck.eds");
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().to_string(), "/nonexistent/drivecheck.eds: No such file or directory");
+  const auto directory = lint_eds_file(DRIVECHECK_EDS_TEST_DATA);
+  ASSERT_FALSE(directory);
+  EXPECT_EQ(directory.error().message, "is a directory");
+  const auto ok = lint_eds_file(std::string(DRIVECHECK_EDS_TEST_DATA) + "/minimal.eds");
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->size(), 0u);
+}
+
+TEST(EdsLint, CleanFilesHaveNoErrors) {
+  // Given the well-formed test files
+  // When linted
+  // Then no finding has error severity
+  for (const char* name :
+       {"minimal.eds", "crlf_bom.eds", "lowercase_keys.eds", "compact_subobj.eds",
+        "nodeid_forms.eds", "octal_and_hex.eds", "missing_optional.eds", "device.dcf",
+        "comments_tools.eds", "value_types.eds", "servo_drive.eds"}) {
+    EXPECT_EQ(lines(lint_eds_text(load(name), name), Severity::error), Lines{}) << name;
+  }
+}
+
+TEST(EdsLint, FindsCiA301RuleViolations) {
+  // Given a file that reads cleanly but breaks CiA 301 rules
+  // When linted
+  // Then every violation is found at its line with its id
+  const auto findings = lint_eds_text(load("bad_lint.eds"), "bad_lint.eds");
+  EXPECT_EQ(
+      lines(findings, Severity::error),
+      (Lines{
+          "bad_lint.eds: error: mandatory object 1001h is missing (CiA 301 §7.5.2) "
+          "[mandatory-object-missing]",
+          "bad_lint.eds: error: no error control: neither 1017h (producer heartbeat time) nor "
+          "100Ch/100Dh (node guarding) [error-control-missing]",
+          "bad_lint.eds:11: error: [DeviceInfo] NrOfRXPDO=2 but 1 PDO communication objects "
+          "(1400h-15FFh) exist [pdo-count-mismatch]",
+          "bad_lint.eds:41: error: 100Ch without 100Dh: node guarding needs guard time and life "
+          "time factor [guarding-incomplete]",
+          "bad_lint.eds:43: error: 100Ch sub 0 is UNSIGNED32, CiA 301 defines it as UNSIGNED16 "
+          "[data-type-mismatch]",
+          "bad_lint.eds:56: error: 1018h sub 0 (highest sub-index supported) defaults to 3 but "
+          "the highest sub-index is 1 [sub0-inconsistent]",
+          "bad_lint.eds:96: error: RPDO mapping 1600h sub 1 (0x20020010) names 2002h sub 0, "
+          "which is ro: an RPDO cannot write it [pdo-mapping-direction]",
+          "bad_lint.eds:102: error: RPDO mapping 1600h sub 2 (0x20030008) names 2003h sub 0, "
+          "which has PDOMapping=0 [pdo-mapping-not-mappable]",
+          "bad_lint.eds:108: error: RPDO mapping 1600h sub 3 (0x20040020) gives 32 bits, 2004h "
+          "sub 0 is UNSIGNED16 (16 bits) [pdo-mapping-length]",
+          "bad_lint.eds:110: error: PDO mapping 1A00h has no communication object 1800h "
+          "[pdo-without-communication]",
+          "bad_lint.eds:119: error: TPDO mapping 1A00h maps 80 bits, more than the 64 of a CAN "
+          "frame [pdo-mapping-too-long]",
+          "bad_lint.eds:137: error: 2000h sub 0 DefaultValue '200' is above HighLimit '100' "
+          "[default-out-of-range]",
+          "bad_lint.eds:146: error: 2001h sub 0 LowLimit 10 is above HighLimit -10 "
+          "[limits-inverted]",
+      }));
+  EXPECT_EQ(
+      lines(findings, Severity::warning),
+      Lines{"bad_lint.eds:8: warning: [DeviceInfo] VendorNumber=0x10 but 1018h sub 1 defaults to "
+            "0x1 [identity-mismatch]"});
+}
+
+TEST(EdsLint, DummyMappingNeedsDummyUsage) {
+  // Given an RPDO mapping dummy 0005h while [DummyUsage] says Dummy0005=0
+  // When linted
+  // Then the mapping entry is an error
+  const auto text = replaced(load("compact_subobj.eds"), "Dummy0005=1", "Dummy0005=0");
+  EXPECT_EQ(
+      lines(lint_eds_text(text, "compact_subobj.eds"), Severity::error),
+      Lines{"compact_subobj.eds:156: error: RPDO mapping 1600h sub 1 (0x00050008) maps dummy 0005h "
+            "(UNSIGNED8) but [DummyUsage] Dummy0005 is not 1 [pdo-mapping-dummy-disabled]"});
+}
+
+TEST(EdsLint, NodeIdDefaultsAreCheckedForNodes1And127) {
+  // Given HighLimit 0x1FF on a COB-ID defaulting to $NODEID+0x180
+  // When linted
+  // Then node 127 (0x1FF) is within the limit, but a limit of 0x1FE is not
+  const std::string base = replaced(load("nodeid_forms.eds"), "DefaultValue=$nodeid + 0x80",
+                                    "DefaultValue=$NODEID+0x180\nHighLimit=0x1FF");
+  EXPECT_EQ(lines(lint_eds_text(base, "n.eds"), Severity::error), Lines{});
+  const std::string low = replaced(base, "HighLimit=0x1FF", "HighLimit=0x1FE");
+  EXPECT_EQ(lines(lint_eds_text(low, "n.eds"), Severity::error),
+            Lines{"n.eds:73: error: 1014h sub 0 DefaultValue '$NODEID+0x180' is above HighLimit "
+                  "'0x1FE' [default-out-of-range]"});
+}
+
+TEST(EdsLint, DcfCommissioningIsChecked) {
+  // Given the DCF with NodeID 0 and a bit rate the device does not support
+  // When linted
+  // Then both are errors
+  std::string text = replaced(load("device.dcf"), "NodeID=5", "NodeID=0");
+  text = replaced(text, "Baudrate=500", "Baudrate=125");
+  EXPECT_EQ(
+      lines(lint_eds_text(text, "device.dcf"), Severity::error),
+      (Lines{
+          "device.dcf:33: error: [DeviceComissioning] NodeID=0 is outside 1..127 [dcf-node-id]",
+          "device.dcf:35: error: [DeviceComissioning] Baudrate=125 but [DeviceInfo] BaudRate_125 "
+          "is not 1 [dcf-baudrate]"}));
+}
+
+}  // namespace
+}  // namespace drivecheck::cia306
