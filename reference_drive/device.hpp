@@ -1,0 +1,163 @@
+// The reference drive: one CANopen device (CiA 301 part) on one can::Bus port and one node-ID,
+// composed of the protocol services (protocol/cia301):
+//
+//   DeviceServices  NMT slave, heartbeat producer/consumer, node guarding, EMCY, SYNC
+//   SdoServer       the default SDO server channel (600h/580h + node-ID, 1200h)
+//   PdoService      4 RPDOs and 4 TPDOs, dynamic mapping (pdo_service.hpp)
+//   StoreRestore    1010h/1011h over an injected ParameterStorage (memory or a file)
+// over one object dictionary (dictionary.hpp). Any number of drives share a SimBus, one port
+// each; on SocketCAN the port is the interface (`drivecheck drive`).
+//
+// Frames on the port go first to DeviceServices (NMT, error control, SYNC), then to the SDO
+// server (its request COB-ID, while the NMT state allows SDO), then to the PDO service (RPDOs
+// and TPDO RTRs, in Operational). The drive reacts to the NMT state as CiA 301 §7.3.2.2 says:
+// an open SDO transfer is dropped without a frame in Stopped and at every reset; PDOs run only
+// in Operational. Resets (and power on) apply the stored parameters (StoreRestore::apply):
+// reset node the application and manufacturer groups, then (every reset) the communication
+// group; then the PDOs are reconfigured and their EMCYs cleared.
+//
+// PDO errors become EMCYs with error register bit 4 (communication): 8210h, 8220h, 8250h.
+//
+// The application (the CiA 402 part comes in the next issue) plugs in through DriveApplication:
+// it adds its objects before the services bind, is told about resets and NMT states, and gets a
+// hook every control cycle (DriveConfig::control_cycle, default 1 ms, on the bus's clock) with
+// the object dictionary at hand; after each cycle event-driven TPDOs see the changed values.
+// Nothing else in the drive knows the application.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "protocol/can/bus.hpp"
+#include "protocol/cia301/device_services.hpp"
+#include "protocol/cia301/object_dictionary.hpp"
+#include "protocol/cia301/pdo_service.hpp"
+#include "protocol/cia301/sdo_server.hpp"
+#include "protocol/cia301/store_restore.hpp"
+#include "protocol/common/expected.hpp"
+#include "reference_drive/dictionary.hpp"
+
+namespace drivecheck::reference_drive {
+
+class ReferenceDrive;
+
+// The device's application: everything above CiA 301 communication.
+class DriveApplication {
+ public:
+  virtual ~DriveApplication() = default;
+  // Adds the application's objects, once, before the services start (2000h-9FFFh).
+  virtual Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) {
+    (void)od;
+    return {};
+  }
+  // A reset while initialising, after the stored parameters of its groups were applied:
+  // ResetKind::application (power on, reset node), then ResetKind::communication.
+  virtual void on_reset(ReferenceDrive& drive, cia301::ResetKind kind) {
+    (void)drive;
+    (void)kind;
+  }
+  // Every change of the NMT state.
+  virtual void on_nmt_state(ReferenceDrive& drive, cia301::NmtState from, cia301::NmtState to) {
+    (void)drive;
+    (void)from;
+    (void)to;
+  }
+  // Every control cycle, in every NMT state once powered on.
+  virtual void on_cycle(ReferenceDrive& drive, can::TimePoint now) {
+    (void)drive;
+    (void)now;
+  }
+};
+
+struct DriveConfig {
+  DictionaryOptions dictionary;  // node-ID, identity, PDO counts, 1017h default, ...
+  // The application's control cycle; 0: none (then event-driven TPDOs see changes only at
+  // their timers and at SYNC/SDO activity).
+  can::Duration control_cycle = std::chrono::milliseconds(1);
+  // Power on or reset command to boot-up message.
+  can::Duration initialisation_time{0};
+  can::Duration sdo_timeout = std::chrono::milliseconds(1000);
+  // Where 1010h saves to; nullptr: a MemoryParameterStorage the drive owns. Must outlive the
+  // drive.
+  cia301::ParameterStorage* storage = nullptr;
+  // nullptr: no application. Must outlive the drive.
+  DriveApplication* application = nullptr;
+};
+
+struct DriveStatistics {
+  std::uint64_t frames_sent = 0;
+  std::uint64_t send_errors = 0;  // bus send() failures (bus-off, queue full)
+  std::uint64_t cycles = 0;       // control cycles run
+};
+
+class ReferenceDrive {
+ public:
+  // Builds the dictionary (and the application's objects), reads the storage and binds the
+  // services to `bus`, which must outlive the drive. The drive is powered off: power_on().
+  // Errors: a bad option (node-ID), the application's objects, an unreadable storage.
+  static Expected<std::unique_ptr<ReferenceDrive>, std::string> create(can::Bus& bus,
+                                                                       DriveConfig config);
+  ~ReferenceDrive();
+  ReferenceDrive(const ReferenceDrive&) = delete;
+  ReferenceDrive& operator=(const ReferenceDrive&) = delete;
+
+  // Power on: initialisation (stored parameters applied), boot-up after initialisation_time,
+  // Pre-operational.
+  void power_on();
+  // Local NMT control, as if the master had sent it.
+  void command(cia301::NmtCommand command);
+
+  cia301::ObjectDictionary& dictionary() { return *od_; }
+  const cia301::ObjectDictionary& dictionary() const { return *od_; }
+  cia301::NmtState state() const { return services_->state(); }
+  std::uint8_t node_id() const { return od_->node_id(); }
+  can::Bus& bus() { return bus_; }
+
+  // The application's errors (EMCY, 1001h, 1003h).
+  bool raise_error(std::uint16_t code, std::uint8_t register_bits,
+                   const std::array<std::uint8_t, 5>& manufacturer = {});
+  bool clear_error(std::uint16_t code);
+  // An application event for a TPDO (transmission types 0, 254, 255).
+  bool trigger_tpdo(std::uint16_t number);
+
+  const cia301::DeviceServices& services() const { return *services_; }
+  const cia301::SdoServer& sdo_server() const { return *sdo_; }
+  const cia301::PdoService& pdos() const { return *pdos_; }
+  const cia301::StoreRestore& store() const { return *store_; }
+  const DriveStatistics& statistics() const { return stats_; }
+  const DriveConfig& config() const { return config_; }
+
+ private:
+  ReferenceDrive(can::Bus& bus, DriveConfig config);
+  Expected<void, std::string> start();
+
+  void on_frame(const can::TimedFrame& frame);
+  void on_reset(cia301::ResetKind kind);
+  void on_state_changed(cia301::NmtState from, cia301::NmtState to);
+  void on_sync(const cia301::SyncConsumerEvent& event);
+  void handle(const cia301::PdoOutput& output);
+  void send(const can::Frame& frame);
+  void tick();
+  void rearm();
+
+  can::Bus& bus_;
+  DriveConfig config_;
+  std::unique_ptr<cia301::ObjectDictionary> od_;
+  std::unique_ptr<cia301::MemoryParameterStorage> own_storage_;
+  std::unique_ptr<cia301::StoreRestore> store_;
+  std::unique_ptr<cia301::PdoService> pdos_;
+  std::unique_ptr<cia301::SdoServer> sdo_;
+  std::unique_ptr<cia301::SdoServerRunner> sdo_runner_;
+  std::unique_ptr<cia301::DeviceServices> services_;
+  bool powered_ = false;
+  can::TimePoint next_cycle_ = can::kForever;
+  can::TimerId timer_ = can::kNoTimer;
+  can::TimePoint armed_at_ = can::kForever;
+  bool in_tick_ = false;
+  DriveStatistics stats_;
+};
+
+}  // namespace drivecheck::reference_drive

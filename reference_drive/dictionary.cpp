@@ -1,0 +1,171 @@
+#include "reference_drive/dictionary.hpp"
+
+#include <fmt/format.h>
+
+#include <utility>
+
+#include "protocol/cia301/cob_id.hpp"
+#include "protocol/cia301/device_services.hpp"
+#include "protocol/cia301/sdo_codec.hpp"
+#include "protocol/cia301/store_restore.hpp"
+
+namespace drivecheck::reference_drive {
+namespace {
+
+using cia301::AccessType;
+using cia301::DataType;
+using cia301::EntryDefinition;
+using cia301::ObjectCode;
+using cia301::ObjectDefinition;
+using cia301::Value;
+
+EntryDefinition u32(std::uint8_t sub, std::string name, std::uint32_t value,
+                    AccessType access = AccessType::ro) {
+  EntryDefinition e;
+  e.sub_index = sub;
+  e.name = std::move(name);
+  e.type = DataType::unsigned32;
+  e.access = access;
+  e.default_value = Value::of_unsigned(value);
+  return e;
+}
+
+EntryDefinition u8(std::uint8_t sub, std::string name, std::uint8_t value) {
+  EntryDefinition e;
+  e.sub_index = sub;
+  e.name = std::move(name);
+  e.type = DataType::unsigned8;
+  e.access = AccessType::ro;
+  e.default_value = Value::of_unsigned(value);
+  return e;
+}
+
+Expected<void, std::string> add(cia301::ObjectDictionary& od, ObjectDefinition definition) {
+  auto added = od.add_object(std::move(definition));
+  if (!added) return Unexpected(added.error());
+  return {};
+}
+
+Expected<void, std::string> add_string(cia301::ObjectDictionary& od, std::uint16_t index,
+                                       std::string name, const std::string& text) {
+  EntryDefinition e;
+  e.sub_index = 0;
+  e.name = name;
+  e.type = DataType::visible_string;
+  e.access = AccessType::constant;
+  e.default_value = Value::of_string(text);
+  return add(od, {index, std::move(name), ObjectCode::var, {std::move(e)}});
+}
+
+}  // namespace
+
+Expected<cia301::ObjectDictionary, std::string> build_dictionary(const DictionaryOptions& options) {
+  if (!cia301::is_valid_node_id(options.node_id)) {
+    return Unexpected(fmt::format("node-ID {} is outside 1..127", options.node_id));
+  }
+  cia301::ObjectDictionary od(options.node_id);
+  const Identity& id = options.identity;
+
+  if (auto ok = add(od, {kDeviceTypeIndex,
+                         "Device type",
+                         ObjectCode::var,
+                         {u32(0, "Device type", id.device_type)}});
+      !ok) {
+    return Unexpected(ok.error());
+  }
+  for (const auto& [index, name, text] :
+       {std::tuple{kDeviceNameIndex, "Manufacturer device name", &id.device_name},
+        std::tuple{kHardwareVersionIndex, "Manufacturer hardware version", &id.hardware_version},
+        std::tuple{kSoftwareVersionIndex, "Manufacturer software version", &id.software_version}}) {
+    if (auto ok = add_string(od, index, name, *text); !ok) return Unexpected(ok.error());
+  }
+
+  cia301::DeviceObjectsOptions services;
+  services.producer_heartbeat_ms = options.producer_heartbeat_ms;
+  services.heartbeat_consumer_entries = options.heartbeat_consumer_entries;
+  services.error_history_size = options.error_history_size;
+  services.node_guarding = true;
+  services.sync_producer_supported = true;
+  if (auto ok = cia301::DeviceServices::add_objects(od, services); !ok) {
+    return Unexpected(ok.error());
+  }
+  if (auto ok = cia301::add_store_restore_objects(od); !ok) return Unexpected(ok.error());
+
+  if (auto ok =
+          add(od, {kIdentityIndex,
+                   "Identity object",
+                   ObjectCode::record,
+                   {u8(0, "Highest sub-index supported", 4), u32(1, "Vendor-ID", id.vendor_id),
+                    u32(2, "Product code", id.product_code), u32(3, "Revision number", id.revision),
+                    u32(4, "Serial number", id.serial)}});
+      !ok) {
+    return Unexpected(ok.error());
+  }
+
+  EntryDefinition request = u32(1, "COB-ID client to server (rx)", cia301::kSdoRequestBase);
+  request.default_adds_node_id = true;
+  EntryDefinition response = u32(2, "COB-ID server to client (tx)", cia301::kSdoResponseBase);
+  response.default_adds_node_id = true;
+  if (auto ok = add(
+          od, {kSdoServerParameterIndex,
+               "SDO server parameter",
+               ObjectCode::record,
+               {u8(0, "Highest sub-index supported", 2), std::move(request), std::move(response)}});
+      !ok) {
+    return Unexpected(ok.error());
+  }
+
+  if (auto ok = cia301::add_pdo_objects(od, options.pdo); !ok) return Unexpected(ok.error());
+  return od;
+}
+
+cia306::Eds reference_eds(const cia301::ObjectDictionary& od, const Identity& identity) {
+  cia306::FileInfo file;
+  file.file_name = "reference_drive.eds";
+  file.file_version = "1";
+  file.file_revision = "0";
+  file.eds_version = "4.0";
+  file.description = "drivecheck reference drive (CiA 301 part; CiA 402 objects follow)";
+  // Fixed, so that the generated text is reproducible: the date of the dictionary's design.
+  file.creation_time = "12:00PM";
+  file.creation_date = "01-01-2025";
+  file.created_by = "reference_drive_eds (generated from reference_drive/dictionary.cpp)";
+
+  cia306::DeviceInfo device;
+  device.vendor_name = identity.vendor_name;
+  device.vendor_number = identity.vendor_id;
+  device.product_name = "drivecheck reference drive";
+  device.product_number = identity.product_code;
+  device.revision_number = identity.revision;
+  device.order_code = "drivecheck-reference-drive";
+  for (auto* rate : {&device.baud_rate_10, &device.baud_rate_20, &device.baud_rate_50,
+                     &device.baud_rate_125, &device.baud_rate_250, &device.baud_rate_500,
+                     &device.baud_rate_800, &device.baud_rate_1000}) {
+    *rate = true;
+  }
+  device.simple_boot_up_master = false;
+  device.simple_boot_up_slave = true;
+  device.granularity = 8;
+  device.dynamic_channels_supported = 0;
+  device.group_messaging = false;
+  device.lss_supported = false;
+  device.compact_pdo = 0;
+
+  cia306::Eds eds = cia306::from_object_dictionary(od, std::move(file), std::move(device));
+  eds.dummy_usage[1] = false;  // 0001h BOOLEAN: no dummy
+  for (std::size_t i = 2; i <= 7; ++i)
+    eds.dummy_usage[i] = true;
+  eds.comments = {
+      "Generated by reference_drive_eds from the object dictionary defined in",
+      "reference_drive/dictionary.cpp. Do not edit: regenerate (reference_drive_tests check it)."};
+  return eds;
+}
+
+Expected<std::string, std::string> reference_eds_text() {
+  const DictionaryOptions options;
+  auto od = build_dictionary(options);
+  if (!od) return Unexpected(od.error());
+  return cia306::write_eds(reference_eds(*od, options.identity));
+}
+
+}  // namespace drivecheck::reference_drive
