@@ -1,0 +1,155 @@
+// drivecheck drive: the reference drive serving a real CAN interface, as a stand-in device
+// for testing masters and PLCs.
+//
+//   drivecheck drive --bus socketcan:IF --node N [--store FILE]
+//
+// The drive (reference_drive/device.hpp) powers on (boot-up message), then serves SDO, NMT,
+// heartbeat/guarding, EMCY, SYNC and PDOs until SIGINT or SIGTERM, which stop the bus loop
+// (Bus::stop(), async-signal-safe) and end the program with exit 0. With --store, 1010h saves
+// parameters to FILE (atomically) and they are applied at power on and after resets; without
+// it they live in memory until the program ends. Exit 2: bad options, an interface that cannot
+// be opened, an unreadable FILE ("file:line: message"). Exit 3: the interface failed while
+// serving.
+//
+// --personality and --deviation belong to the CiA 402 part of the drive (next issue): they are
+// refused with a message rather than ignored.
+#include <fmt/format.h>
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cli/commands.hpp"
+#include "cli/options.hpp"
+#include "protocol/can/socketcan_bus.hpp"
+#include "reference_drive/device.hpp"
+#include "reference_drive/parameter_file.hpp"
+
+namespace drivecheck::cli {
+namespace {
+
+struct DriveOptions {
+  std::string bus;
+  int node = 0;
+  std::string store;
+  std::string personality;
+  std::vector<std::string> deviations;
+};
+
+// The bus the signal handlers stop; set only while the loop runs.
+std::atomic<can::Bus*> g_running_bus{nullptr};
+volatile sig_atomic_t g_signal = 0;
+
+extern "C" void stop_on_signal(int signal_number) {
+  g_signal = signal_number;
+  if (can::Bus* bus = g_running_bus.load()) bus->stop();
+}
+
+// Installs the SIGINT/SIGTERM handlers for its lifetime.
+class SignalScope {
+ public:
+  SignalScope() {
+    struct sigaction action {};
+    action.sa_handler = stop_on_signal;
+    sigemptyset(&action.sa_mask);
+    for (int i = 0; i < 2; ++i)
+      sigaction(kSignals[i], &action, &previous_[i]);
+  }
+  ~SignalScope() {
+    for (int i = 0; i < 2; ++i)
+      sigaction(kSignals[i], &previous_[i], nullptr);
+  }
+  SignalScope(const SignalScope&) = delete;
+  SignalScope& operator=(const SignalScope&) = delete;
+
+ private:
+  static constexpr int kSignals[2] = {SIGINT, SIGTERM};
+  struct sigaction previous_[2]{};
+};
+
+void run_drive(const DriveOptions& options) {
+  if (!options.personality.empty() || !options.deviations.empty()) {
+    usage_error("drive",
+                "--personality and --deviation come with the reference drive's CiA 402 part, "
+                "which is not built yet; this drive is the CiA 301 device only");
+  }
+  const auto spec = parse_bus_spec(options.bus);
+  if (!spec || spec->kind != BusSpec::Kind::socketcan) {
+    usage_error("drive", "--bus must be socketcan:IF: the reference drive serves a real bus");
+  }
+
+  std::unique_ptr<reference_drive::FileParameterStorage> storage;
+  if (!options.store.empty()) {
+    storage = std::make_unique<reference_drive::FileParameterStorage>(options.store);
+    // A bad file is bad input: report it before touching the bus.
+    if (auto stored = storage->read(); !stored) {
+      fmt::print(stderr, "{}\n", stored.error());
+      exit_with(kExitUsage);
+      return;
+    }
+  }
+
+  auto bus = can::SocketCanBus::open(spec->interface);
+  if (!bus) usage_error("drive", can::describe_open_error(spec->interface, bus.error()));
+
+  reference_drive::DriveConfig config;
+  config.dictionary.node_id = static_cast<std::uint8_t>(options.node);
+  config.dictionary.identity.serial = static_cast<std::uint32_t>(options.node);
+  config.storage = storage.get();
+  auto drive = reference_drive::ReferenceDrive::create(**bus, std::move(config));
+  if (!drive) {
+    fmt::print(stderr, "drivecheck drive: {}\n", drive.error());
+    exit_with(kExitUsage);
+    return;
+  }
+
+  fmt::print(stderr, "drivecheck drive: node {} on {}{}; Ctrl-C stops\n", options.node, options.bus,
+             options.store.empty() ? "" : ", parameters in " + options.store);
+  {
+    SignalScope signals;
+    g_signal = 0;
+    g_running_bus.store(bus->get());
+    (*drive)->power_on();
+    (*bus)->run_until(can::kForever);
+    g_running_bus.store(nullptr);
+  }
+  const auto& stats = (*bus)->stats();
+  if (g_signal != 0) {
+    fmt::print(stderr, "drivecheck drive: stopped by signal {} ({} frames sent, {} received)\n",
+               static_cast<int>(g_signal), stats.frames_sent, stats.frames_received);
+    return;
+  }
+  const std::error_code error = (*bus)->last_error();
+  fmt::print(stderr, "drivecheck drive: the bus loop ended: {}\n",
+             error ? error.message() : std::string("no reason given"));
+  exit_with(kExitDutLost);
+}
+
+}  // namespace
+
+void add_drive_command(CLI::App& app) {
+  auto options = std::make_shared<DriveOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "drive", "Run the reference drive (CiA 301 + CiA 402 device) on a real CAN interface");
+  cmd->add_option("--bus", options->bus, "The CAN interface to serve")
+      ->required()
+      ->check(bus_validator())
+      ->type_name("socketcan:IF");
+  cmd->add_option("--node", options->node, "Node id of the drive")
+      ->required()
+      ->check(CLI::Range(kMinNodeId, kMaxNodeId));
+  cmd->add_option("--store", options->store,
+                  "Keep stored parameters (1010h/1011h) in this file (default: in memory)")
+      ->type_name("FILE");
+  cmd->add_option("--personality", options->personality,
+                  "Behave as the drive of this manual (e.g. festo-cmmp)")
+      ->type_name("NAME");
+  cmd->add_option("--deviation", options->deviations, "Inject a named deviation (repeatable)")
+      ->type_name("NAME");
+  cmd->callback([options] { run_drive(*options); });
+}
+
+}  // namespace drivecheck::cli

@@ -1,0 +1,277 @@
+// Runs the built drivecheck program and checks its command-line contract (DESIGN.md, "The
+// CLI contract"): help, version, exit codes, one-line usage errors, and `decode`.
+#include <gtest/gtest.h>
+
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tests/support/run_command.hpp"
+#include "tests/support/temp_dir.hpp"
+
+namespace drivecheck {
+namespace {
+
+using test_support::CommandResult;
+
+const std::string kData = DRIVECHECK_CLI_TEST_DATA;
+
+CommandResult drivecheck(std::vector<std::string> args, std::string_view input = {}) {
+  args.insert(args.begin(), DRIVECHECK_EXE);
+  return test_support::run_command(args, input);
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    lines.push_back(line);
+  return lines;
+}
+
+// One line on stderr, nothing on stdout, exit 2.
+void expect_usage_error(const CommandResult& result, const std::string& contains) {
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_TRUE(result.out.empty()) << result.out;
+  EXPECT_EQ(lines_of(result.err).size(), 1u) << result.err;
+  EXPECT_NE(result.err.find(contains), std::string::npos)
+      << "stderr: " << result.err << "expected: " << contains;
+}
+
+TEST(CliVersion, PrintsProjectVersion) {
+  // Given the built program
+  // When run with --version
+  // Then it prints "drivecheck <CMake project version>" and exits 0
+  const auto result = drivecheck({"--version"});
+  EXPECT_EQ(result.exit_code, 0);
+  EXPECT_EQ(result.out, std::string("drivecheck ") + DRIVECHECK_EXPECTED_VERSION + "\n");
+}
+
+TEST(CliHelp, EverySubcommandHasHelpExitingZero) {
+  // Given every subcommand path of the CLI contract
+  // When each is run with --help
+  // Then each exits 0 and prints its usage line
+  const std::vector<std::vector<std::string>> paths = {{},
+                                                       {"run"},
+                                                       {"drive"},
+                                                       {"fuzz"},
+                                                       {"decode"},
+                                                       {"eds"},
+                                                       {"eds", "lint"},
+                                                       {"eds", "dump"},
+                                                       {"vectors"},
+                                                       {"vectors", "lint"},
+                                                       {"vectors", "list"},
+                                                       {"report"},
+                                                       {"report", "diff"}};
+  for (const auto& path : paths) {
+    auto args = path;
+    args.push_back("--help");
+    const auto result = drivecheck(args);
+    std::string usage = "Usage: drivecheck";
+    for (const auto& part : path)
+      usage += " " + part;
+    EXPECT_EQ(result.exit_code, 0) << usage << "\n" << result.err;
+    EXPECT_NE(result.out.find(usage), std::string::npos) << result.out;
+  }
+}
+
+TEST(CliHelp, RunHelpListsTheContractOptions) {
+  // Given the run subcommand
+  // When its help is printed
+  // Then every option of the CLI contract is there
+  const auto result = drivecheck({"run", "--help"});
+  ASSERT_EQ(result.exit_code, 0);
+  for (const char* option :
+       {"--bus", "--node", "--profile", "--eds", "--filter", "--strict", "--allow-motion", "--seed",
+        "--junit", "--html", "--json", "--trace", "--pcap"}) {
+    EXPECT_NE(result.out.find(option), std::string::npos) << option;
+  }
+}
+
+TEST(CliUsage, UnknownOptionExitsTwoWithOneLine) {
+  // Given unknown options at the top level and in subcommands
+  // When run
+  // Then each exits 2 with one line on stderr naming the option
+  expect_usage_error(drivecheck({"--bogus"}), "--bogus");
+  expect_usage_error(drivecheck({"run", "--bogus"}), "--bogus");
+  expect_usage_error(drivecheck({"decode", "--bogus", (kData + "/small.log")}), "--bogus");
+  expect_usage_error(drivecheck({"frobnicate"}), "frobnicate");
+}
+
+TEST(CliUsage, MissingSubcommandOrArgumentExitsTwo) {
+  expect_usage_error(drivecheck({}), "subcommand is required");
+  expect_usage_error(drivecheck({"eds"}), "subcommand is required");
+  expect_usage_error(drivecheck({"decode"}), "drivecheck decode: LOG is required");
+  expect_usage_error(drivecheck({"drive", "--node", "5"}), "--bus");
+}
+
+TEST(CliUsage, BadOptionValuesExitTwo) {
+  // Given out-of-range node ids, a bus that is neither sim nor socketcan:IF, a duration
+  // without unit and a negative seed
+  // When run
+  // Then each is a one-line usage error
+  expect_usage_error(drivecheck({"run", "--node", "0"}), "--node");
+  expect_usage_error(drivecheck({"run", "--node", "128"}), "--node");
+  expect_usage_error(drivecheck({"run", "--bus", "can0"}), "neither 'sim' nor 'socketcan:IF'");
+  expect_usage_error(drivecheck({"run", "--bus", "socketcan:"}), "1..15 characters");
+  expect_usage_error(drivecheck({"run", "--seed", "-1"}), "not a whole number");
+  expect_usage_error(drivecheck({"fuzz", "--bus", "sim", "--node", "5", "--duration", "10"}),
+                     "needs a unit");
+  expect_usage_error(drivecheck({"drive", "--bus", "sim", "--node", "5"}),
+                     "--bus must be socketcan:IF");
+  // huge numbers and bytes that are not ASCII
+  expect_usage_error(drivecheck({"run", "--seed", "99999999999999999999999"}), "above 2^64-1");
+  expect_usage_error(drivecheck({"run", "--node", "99999999999999999999999"}), "--node");
+  expect_usage_error(
+      drivecheck({"fuzz", "--bus", "sim", "--node", "5", "--duration", "9999999999999h"}),
+      "too long");
+  expect_usage_error(drivecheck({"run", "--bus", "socketcan:caf\xC3\xA9"}),
+                     "is not a network interface name");
+  expect_usage_error(drivecheck({"run", "--bus", "socketcan:sixteen-chars-xx"}), "1..15");
+}
+
+TEST(CliNotBuiltYet, SubcommandsWithoutMachinerySaySoAndExitTwo) {
+  // Given subcommands whose machinery does not exist yet (remove a line when its part lands)
+  // When run with valid options
+  // Then each says so in one line and exits 2, never pretending to work
+  expect_usage_error(drivecheck({"fuzz", "--bus", "sim", "--node", "5", "--duration", "90s"}),
+                     "not built yet");
+  expect_usage_error(drivecheck({"vectors", "list", kData}), "not built yet");
+  expect_usage_error(drivecheck({"report", "diff", kData + "/small.log", kData + "/small.log"}),
+                     "not built yet");
+}
+
+TEST(CliDecode, PrintsEachRecordWithTimeInterfaceDirectionAndFrame) {
+  // Given a small log with comments, blank lines, R/T flags and every kind of frame
+  // When decoded
+  // Then each record is one line: Unix time, interface, direction, frame (padded columns),
+  //      then the function column, and the exit code is 0
+  const auto result = drivecheck({"decode", kData + "/small.log"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_TRUE(result.err.empty()) << result.err;
+  const std::vector<std::string> expected = {
+      "1700000000.000000  vcan0  T  000#0105                   ",
+      "1700000000.000210  vcan0  R  705#05                     ",
+      "1700000000.001000  vcan0  T  080#                       ",
+      "1700000000.001150  vcan0  R  185#37020000               ",
+      "1700000000.002000  vcan0  T  605#4041600000000000       ",
+      "1700000000.002400  vcan0  R  585#4B41600037020000       ",
+      "1700000000.003000  vcan0  R  085#1023010000000000       ",
+      "1700000000.004000  vcan0  T  705#R                      ",
+      "1700000000.005000  vcan0  -  100#0000000000A4           ",
+      "1700000000.006000  vcan0  -  205#0F00                   ",
+      "1700000000.007000  vcan0  -  7E5#4C00000000000000       ",
+      "1700000000.008000  vcan0  -  12345678#DEADBEEF          ",
+      "1700000000.009000  vcan0  -  20000080#0000000000000000  ",
+      "1700000000.010000  vcan0  -  180#00                     ",
+  };
+  const auto lines = lines_of(result.out);
+  ASSERT_EQ(lines.size(), expected.size()) << result.out;
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(lines[i].substr(0, expected[i].size()), expected[i]);
+    EXPECT_GT(lines[i].size(), expected[i].size()) << "no function column: " << lines[i];
+  }
+}
+
+// The last column is the CANopen dissector's summary (protocol/cia301/dissector.hpp).
+TEST(CliDecode, DissectsEveryFrame) {
+  // Given the small log
+  // When decoded
+  // Then the last column is function, node and the decoded content of each frame
+  const auto result = drivecheck({"decode", kData + "/small.log"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const std::vector<std::string> functions = {
+      "NMT     start node 5",
+      "NMT EC  node 5  heartbeat operational",
+      "SYNC    no counter",
+      "TPDO1   node 5  37 02 00 00",
+      "SDO rx  node 5  initiate upload 6041:00 (statusword)",
+      "SDO tx  node 5  initiate upload response expedited 6041:00 (statusword) = 0x0237 = "
+      "operation enabled",
+      "EMCY    node 5  2310h Continuous over-current; register 01h generic",
+      "NMT EC  node 5  node-guarding request",
+      "TIME    2098-12-12 00:00:00.000 (day 41984, 0 ms)",
+      "RPDO1   node 5  0F 00",
+      "LSS rx  cs 4Ch identify non-configured remote slave data 00 00 00 00 00 00 00",
+      "29-bit  DE AD BE EF: not in the CANopen pre-defined connection set",
+      "CAN     error frame, error class 00000080h",
+      // 180h: TPDO1 function code with node 0 is not a valid COB-ID
+      "-       00 (CAN-ID 180h unassigned, restricted: reserved)",
+  };
+  const auto lines = lines_of(result.out);
+  ASSERT_EQ(lines.size(), functions.size());
+  for (std::size_t i = 0; i < functions.size(); ++i) {
+    EXPECT_EQ(lines[i].substr(56), functions[i]) << lines[i];
+  }
+}
+
+TEST(CliDecode, NodeOptionFlagsOtherNodes) {
+  // Given the small log (node 5) and --node 3
+  // When decoded
+  // Then frames of node 5 are flagged as not configured; a node out of range is a usage error
+  const auto result = drivecheck({"decode", "--node", "3", kData + "/small.log"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const auto lines = lines_of(result.out);
+  ASSERT_GE(lines.size(), 2u);
+  EXPECT_NE(lines[1].find("(node 5 not configured)"), std::string::npos) << lines[1];
+  EXPECT_EQ(drivecheck({"decode", "--node", "128", kData + "/small.log"}).exit_code, 2);
+}
+
+TEST(CliDecode, EdsOptionNamesObjects) {
+  // Given an EDS naming 6041h "Statusword (from EDS)"
+  // When the small log is decoded with --eds
+  // Then SDO lines use the EDS name; an unreadable EDS is a usage error with the file named
+  const auto result = drivecheck({"decode", "--eds", kData + "/names.eds", kData + "/small.log"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const auto lines = lines_of(result.out);
+  ASSERT_GE(lines.size(), 5u);
+  EXPECT_NE(lines[4].find("6041:00 (Statusword (from EDS))"), std::string::npos) << lines[4];
+  const auto missing = drivecheck({"decode", "--eds", kData + "/absent.eds", kData + "/small.log"});
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("absent.eds"), std::string::npos) << missing.err;
+}
+
+TEST(CliDecode, ReadsStandardInput) {
+  const std::string log = test_support::read_file(kData + "/small.log");
+  ASSERT_FALSE(log.empty());
+  const auto from_stdin = drivecheck({"decode", "-"}, log);
+  const auto from_file = drivecheck({"decode", kData + "/small.log"});
+  EXPECT_EQ(from_stdin.exit_code, 0) << from_stdin.err;
+  EXPECT_EQ(from_stdin.out, from_file.out);
+}
+
+TEST(CliDecode, BrokenLogExitsTwoWithFileAndLine) {
+  // Given a log whose third line has a bad data byte
+  // When decoded
+  // Then nothing is printed on stdout, stderr says file:3 and why, and the exit code is 2
+  const auto result = drivecheck({"decode", kData + "/broken.log"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_TRUE(result.out.empty()) << result.out;
+  EXPECT_EQ(result.err, kData + "/broken.log:3: data byte 0: 'G' is not a hex digit\n");
+}
+
+TEST(CliDecode, MalformedInputsExitTwoNamingTheLine) {
+  // Given logs with non-UTF-8 bytes, a truncated line, a huge timestamp and a missing file
+  // When decoded
+  // Then each exits 2 with one file:line message
+  test_support::TempDir dir;
+  const std::pair<std::string, std::string> cases[] = {
+      {"(1.000000) can0 080#\n(2.0) can0 080#\xFF\xFE\n", ":2: column 16: byte 0xFF"},
+      {"(1.000000) can0 080#\n(2.000000) can0", ":2: missing frame"},
+      {"(1.000000) can0 605#404160000000000", ":1: data byte 7: odd number"},
+      {"(123456789012345678901234567890.0) can0 080#\n", ":1: timestamp"},
+      {std::string("\x00\x01\x02", 3), ":1: column 1: byte 0x00"},
+  };
+  int n = 0;
+  for (const auto& [content, expected] : cases) {
+    const auto path = dir.write("case" + std::to_string(n++) + ".log", content);
+    const auto result = drivecheck({"decode", path.string()});
+    expect_usage_error(result, path.string() + expected);
+  }
+  expect_usage_error(drivecheck({"decode", (dir / "absent.log").string()}),
+                     (dir / "absent.log").string() + ": cannot open");
+}
+
+}  // namespace
+}  // namespace drivecheck
