@@ -21,23 +21,12 @@ using cia301::Value;
 
 EntryDefinition u32(std::uint8_t sub, std::string name, std::uint32_t value,
                     AccessType access = AccessType::ro) {
-  EntryDefinition e;
-  e.sub_index = sub;
-  e.name = std::move(name);
-  e.type = DataType::unsigned32;
-  e.access = access;
-  e.default_value = Value::of_unsigned(value);
-  return e;
+  return EntryDefinition::unsigned_entry(sub, std::move(name), DataType::unsigned32, access, value);
 }
 
 EntryDefinition u8(std::uint8_t sub, std::string name, std::uint8_t value) {
-  EntryDefinition e;
-  e.sub_index = sub;
-  e.name = std::move(name);
-  e.type = DataType::unsigned8;
-  e.access = AccessType::ro;
-  e.default_value = Value::of_unsigned(value);
-  return e;
+  return EntryDefinition::unsigned_entry(sub, std::move(name), DataType::unsigned8, AccessType::ro,
+                                         value);
 }
 
 Expected<void, std::string> add(cia301::ObjectDictionary& od, ObjectDefinition definition) {

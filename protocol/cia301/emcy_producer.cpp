@@ -11,22 +11,6 @@
 
 namespace drivecheck::cia301 {
 
-namespace {
-
-// One entry of an ARRAY/VAR definition with an unsigned default.
-EntryDefinition unsigned_entry(std::uint8_t sub_index, std::string name, DataType type,
-                               AccessType access, std::uint64_t default_value) {
-  EntryDefinition entry;
-  entry.sub_index = sub_index;
-  entry.name = std::move(name);
-  entry.type = type;
-  entry.access = access;
-  entry.default_value = Value::of_unsigned(default_value);
-  return entry;
-}
-
-}  // namespace
-
 EmcyProducer::EmcyProducer(std::uint8_t node_id, std::size_t history_size)
     : cob_id_{true, false, emcy_cob_id(node_id)},
       history_size_(std::clamp<std::size_t>(history_size, 1, 254)) {}
@@ -159,12 +143,12 @@ Expected<void, std::string> add_emcy_producer_objects(ObjectDictionary& od,
   field.index = kPreDefinedErrorFieldIndex;
   field.name = "Pre-defined error field";
   field.code = ObjectCode::array;
-  field.entries.push_back(
-      unsigned_entry(0, "Number of errors", DataType::unsigned8, AccessType::rw, 0));
+  field.entries.push_back(EntryDefinition::unsigned_entry(0, "Number of errors",
+                                                          DataType::unsigned8, AccessType::rw, 0));
   for (unsigned sub = 1; sub <= options.history_size; ++sub) {
-    field.entries.push_back(unsigned_entry(static_cast<std::uint8_t>(sub),
-                                           fmt::format("Standard error field {}", sub),
-                                           DataType::unsigned32, AccessType::ro, 0));
+    field.entries.push_back(EntryDefinition::unsigned_entry(
+        static_cast<std::uint8_t>(sub), fmt::format("Standard error field {}", sub),
+        DataType::unsigned32, AccessType::ro, 0));
   }
   auto added_field = od.add_object(std::move(field));
   if (!added_field) return Unexpected(added_field.error());
@@ -194,8 +178,8 @@ Expected<void, std::string> add_emcy_producer_objects(ObjectDictionary& od,
   cob.index = kEmcyCobIdIndex;
   cob.name = "COB-ID EMCY";
   cob.code = ObjectCode::var;
-  cob.entries.push_back(
-      unsigned_entry(0, "COB-ID EMCY", DataType::unsigned32, AccessType::rw, kEmcyBase));
+  cob.entries.push_back(EntryDefinition::unsigned_entry(0, "COB-ID EMCY", DataType::unsigned32,
+                                                        AccessType::rw, kEmcyBase));
   cob.entries.back().default_adds_node_id = true;  // $NODEID+0x80
   auto added_cob = od.add_object(std::move(cob));
   if (!added_cob) return Unexpected(added_cob.error());

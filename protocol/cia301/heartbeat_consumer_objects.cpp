@@ -7,22 +7,6 @@
 
 namespace drivecheck::cia301 {
 
-namespace {
-
-// One entry of an ARRAY/VAR definition with an unsigned default.
-EntryDefinition unsigned_entry(std::uint8_t sub_index, std::string name, DataType type,
-                               AccessType access, std::uint64_t default_value) {
-  EntryDefinition entry;
-  entry.sub_index = sub_index;
-  entry.name = std::move(name);
-  entry.type = type;
-  entry.access = access;
-  entry.default_value = Value::of_unsigned(default_value);
-  return entry;
-}
-
-}  // namespace
-
 Expected<void, std::string> add_heartbeat_consumer_objects(ObjectDictionary& od,
                                                            std::uint8_t entries) {
   if (entries < 1 || entries > 127) {
@@ -33,12 +17,12 @@ Expected<void, std::string> add_heartbeat_consumer_objects(ObjectDictionary& od,
   def.index = kConsumerHeartbeatTimeIndex;
   def.name = "Consumer heartbeat time";
   def.code = ObjectCode::array;
-  def.entries.push_back(unsigned_entry(0, "Highest sub-index supported", DataType::unsigned8,
-                                       AccessType::ro, entries));
+  def.entries.push_back(EntryDefinition::unsigned_entry(
+      0, "Highest sub-index supported", DataType::unsigned8, AccessType::ro, entries));
   for (unsigned sub = 1; sub <= entries; ++sub) {
-    def.entries.push_back(unsigned_entry(static_cast<std::uint8_t>(sub),
-                                         fmt::format("Consumer heartbeat time {}", sub),
-                                         DataType::unsigned32, AccessType::rw, 0));
+    def.entries.push_back(EntryDefinition::unsigned_entry(
+        static_cast<std::uint8_t>(sub), fmt::format("Consumer heartbeat time {}", sub),
+        DataType::unsigned32, AccessType::rw, 0));
   }
   auto added = od.add_object(std::move(def));
   if (!added) return Unexpected(added.error());

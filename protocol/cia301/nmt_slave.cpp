@@ -8,22 +8,6 @@
 
 namespace drivecheck::cia301 {
 
-namespace {
-
-// One entry of an ARRAY/VAR definition with an unsigned default.
-EntryDefinition unsigned_entry(std::uint8_t sub_index, std::string name, DataType type,
-                               AccessType access, std::uint64_t default_value) {
-  EntryDefinition entry;
-  entry.sub_index = sub_index;
-  entry.name = std::move(name);
-  entry.type = type;
-  entry.access = access;
-  entry.default_value = Value::of_unsigned(default_value);
-  return entry;
-}
-
-}  // namespace
-
 std::string_view to_string(NmtService service) {
   switch (service) {
     case NmtService::pdo:
@@ -144,10 +128,10 @@ Expected<void, std::string> add_error_behaviour_objects(ObjectDictionary& od) {
   def.index = kErrorBehaviourIndex;
   def.name = "Error behavior";
   def.code = ObjectCode::array;
-  def.entries.push_back(
-      unsigned_entry(0, "Highest sub-index supported", DataType::unsigned8, AccessType::ro, 1));
-  def.entries.push_back(
-      unsigned_entry(1, "Communication error", DataType::unsigned8, AccessType::rw, 0));
+  def.entries.push_back(EntryDefinition::unsigned_entry(0, "Highest sub-index supported",
+                                                        DataType::unsigned8, AccessType::ro, 1));
+  def.entries.push_back(EntryDefinition::unsigned_entry(1, "Communication error",
+                                                        DataType::unsigned8, AccessType::rw, 0));
   auto added = od.add_object(std::move(def));
   if (!added) return Unexpected(added.error());
   (*added)->find(1)->set_write_validator(

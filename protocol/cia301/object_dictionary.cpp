@@ -9,6 +9,18 @@
 #include <utility>
 
 namespace drivecheck::cia301 {
+
+EntryDefinition EntryDefinition::unsigned_entry(std::uint8_t sub_index, std::string name,
+                                                DataType type, AccessType access,
+                                                std::uint64_t default_value) {
+  EntryDefinition entry;
+  entry.sub_index = sub_index;
+  entry.name = std::move(name);
+  entry.type = type;
+  entry.access = access;
+  entry.default_value = Value::of_unsigned(default_value);
+  return entry;
+}
 namespace {
 
 std::uint8_t default_store_group(std::uint16_t index, AccessType access) {

@@ -77,6 +77,11 @@ struct EntryDefinition {
   std::uint32_t obj_flags = 0;  // CiA 306 ObjFlags (bit 0 refuse write, bit 1 refuse read)
   std::size_t max_size = 0;     // variable-length types: longest value accepted, 0 = any
 
+  // An entry of an unsigned integer type with its default: the shape of most communication
+  // objects (counts, COB-IDs, times).
+  static EntryDefinition unsigned_entry(std::uint8_t sub_index, std::string name, DataType type,
+                                        AccessType access, std::uint64_t default_value);
+
   friend bool operator==(const EntryDefinition&, const EntryDefinition&) = default;
 };
 

@@ -25,13 +25,7 @@ std::uint32_t predefined_base(PdoDirection direction, std::uint16_t number) {
 
 EntryDefinition entry(std::uint8_t sub, std::string name, DataType type, std::uint64_t value,
                       AccessType access = AccessType::rw) {
-  EntryDefinition e;
-  e.sub_index = sub;
-  e.name = std::move(name);
-  e.type = type;
-  e.access = access;
-  e.default_value = Value::of_unsigned(value);
-  return e;
+  return EntryDefinition::unsigned_entry(sub, std::move(name), type, access, value);
 }
 
 bool pdo_valid(const ObjectDictionary& od, PdoDirection direction, std::uint16_t number) {
