@@ -667,8 +667,11 @@ Dissection Dissector::dissect(const can::Frame& frame) {
 
 std::string Dissector::line(const can::Frame& frame) {
   const Dissection d = dissect(frame);
-  const std::string id = frame.is_error() || frame.is_extended() ? fmt::format("{:08X}", frame.id)
-                                                                 : fmt::format("{:03X}", frame.id);
+  // The identifier as candump prints it: an error frame carries CAN_ERR_FLAG, so it cannot be
+  // mistaken for a 29-bit data frame with the same number.
+  const std::string id = frame.is_error()      ? fmt::format("{:08X}", can::kErrorFlag | frame.id)
+                         : frame.is_extended() ? fmt::format("{:08X}", frame.id)
+                                               : fmt::format("{:03X}", frame.id);
   return id + " " + d.summary();
 }
 

@@ -177,7 +177,7 @@ TEST(Dissector, BlockDownloadSegmentsFollowTheTransfer) {
 TEST(Dissector, OtherFrames) {
   // Given an error frame, a 29-bit frame, LSS, and unassigned ids
   EXPECT_EQ(line_of("20000004#0004000000000000"),
-            "00000004 CAN     error frame, error class 00000004h");
+            "20000004 CAN     error frame, error class 00000004h");
   EXPECT_EQ(line_of("18FF1234#0102"),
             "18FF1234 29-bit  01 02: not in the CANopen pre-defined connection set");
   EXPECT_EQ(line_of("7E5#0401000000000000"),
