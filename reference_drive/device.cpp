@@ -59,6 +59,8 @@ Expected<void, std::string> ReferenceDrive::start() {
   services_ = std::make_unique<cia301::DeviceServices>(
       bus_, *od_, cia301::DeviceServicesConfig{config_.initialisation_time}, std::move(handlers));
   services_->attach();
+  // Own frames come back at their end on the wire: PdoService::on_sent (synchronous window).
+  bus_.set_loopback(true);
   return {};
 }
 
@@ -100,7 +102,13 @@ bool ReferenceDrive::trigger_tpdo(std::uint16_t number) {
 // Events
 
 void ReferenceDrive::on_frame(const can::TimedFrame& timed) {
-  if (timed.own || timed.frame.is_error()) return;
+  if (timed.frame.is_error()) return;
+  if (timed.own) {
+    // The end of our own frame on the wire: the PDOs pace synchronous TPDOs by it (1007h).
+    handle(pdos_->on_sent(timed.frame, timed.timestamp));
+    rearm();
+    return;
+  }
   if (sdo_->is_request(timed.frame)) {
     if (services_->allows(cia301::NmtService::sdo)) {
       sdo_runner_->handle(timed);

@@ -18,6 +18,10 @@
 //
 // PDO errors become EMCYs with error register bit 4 (communication): 8210h, 8220h, 8250h.
 //
+// The drive turns loopback on for its port: the echo of its own frames (end of frame on the
+// wire) goes to PdoService::on_sent, which hands out the next synchronous TPDO while the
+// synchronous window 1007h is open (pdo_service.hpp).
+//
 // The application (the CiA 402 part comes in the next issue) plugs in through DriveApplication:
 // it adds its objects before the services bind, is told about resets and NMT states, and gets a
 // hook every control cycle (DriveConfig::control_cycle, default 1 ms, on the bus's clock) with

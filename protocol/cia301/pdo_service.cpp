@@ -7,6 +7,7 @@
 
 #include "protocol/cia301/cob_id.hpp"
 #include "protocol/cia301/emcy.hpp"
+#include "protocol/cia301/sync_consumer.hpp"
 
 namespace drivecheck::cia301 {
 namespace {
@@ -295,8 +296,11 @@ PdoService::PdoService(ObjectDictionary& od, const can::Clock& clock, bool dummy
     pdo.slots.reserve(kMaxMappedObjects);
   for (Tpdo& pdo : tpdos_)
     pdo.slots.reserve(kMaxMappedObjects);
-  // A TPDO per call at most (RTR answers, SYNC), each RPDO's error changes.
-  frames_.reserve(tpdos_.size() + 1);
+  // Every TPDO per call at most (RTR answers, SYNC), twice when synchronous TPDOs held back
+  // by the window (1007h) go with the event-driven ones; each RPDO's error changes.
+  frames_.reserve(2 * tpdos_.size() + 1);
+  held_.reserve(tpdos_.size());
+  window_entry_ = od_.find(kSyncWindowLengthIndex, 0);
   errors_.reserve(6 * (rpdos_.size() + 1));
   for (Rpdo& pdo : rpdos_)
     configure(pdo);
@@ -429,6 +433,7 @@ void PdoService::start(Tpdo& pdo, can::TimePoint now) {
 }
 
 void PdoService::reload(can::TimePoint now) {
+  window_entry_ = od_.find(kSyncWindowLengthIndex, 0);
   for (Rpdo& pdo : rpdos_) {
     configure(pdo);
     if (running_ && pdo.active) start(pdo, now);
@@ -443,6 +448,10 @@ void PdoService::set_nmt_state(NmtState state, can::TimePoint now) {
   const bool run = nmt_allows(state, NmtService::pdo);
   if (run == running_) return;
   running_ = run;
+  last_sync_.reset();
+  held_.clear();
+  held_next_ = 0;
+  in_flight_.reset();
   for (Rpdo& pdo : rpdos_) {
     if (run) {
       start(pdo, now);
@@ -579,6 +588,11 @@ void PdoService::receive(Rpdo& pdo, const can::Frame& frame, can::TimePoint now)
   set_error(pdo.short_error, false, kLengthError);
   if (length > pdo.length) ++stats_.length_errors;
   set_error(pdo.long_error, length > pdo.length, kLengthExceeded);
+  if (pdo.type <= 240 && window_closed(now)) {
+    // 1007h: "all synchronous RPDOs may be discarded until the next SYNC message is received".
+    ++stats_.sync_rpdos_discarded;
+    return;
+  }
   if (pdo.type <= 240) {
     pdo.pending = true;
     pdo.pending_data = frame.data;
@@ -610,9 +624,64 @@ PdoOutput PdoService::on_frame(const can::Frame& frame, can::TimePoint now) {
   return output(taken);
 }
 
+can::Duration PdoService::sync_window() const {
+  if (window_entry_ == nullptr) return can::Duration::zero();
+  return std::chrono::microseconds(window_entry_->as_unsigned());
+}
+
+bool PdoService::window_closed(can::TimePoint now) const {
+  if (!last_sync_) return false;
+  const can::Duration window = sync_window();
+  return window > can::Duration::zero() && now >= *last_sync_ + window;
+}
+
+void PdoService::release_held(can::TimePoint now) {
+  if (held_next_ >= held_.size()) return;
+  if (sync_window() == can::Duration::zero()) {
+    // 1007h was set to 0 while TPDOs were held: no window any more, they all go.
+    for (; held_next_ < held_.size(); ++held_next_) {
+      frames_.push_back(held_[held_next_]);
+      ++stats_.tpdos_sent;
+    }
+    held_.clear();
+    held_next_ = 0;
+    in_flight_.reset();
+    return;
+  }
+  if (window_closed(now)) {
+    // 1007h: "If the synchronous window length expires all synchronous TPDOs shall be
+    // discarded": the ones not handed to the controller yet are not sent late.
+    stats_.sync_tpdos_discarded += held_.size() - held_next_;
+    held_.clear();
+    held_next_ = 0;
+    return;
+  }
+  in_flight_ = held_[held_next_++];
+  frames_.push_back(*in_flight_);
+  ++stats_.tpdos_sent;
+  if (held_next_ == held_.size()) {
+    held_.clear();
+    held_next_ = 0;
+  }
+}
+
+PdoOutput PdoService::on_sent(const can::Frame& frame, can::TimePoint now) {
+  begin_output();
+  if (!running_ || !in_flight_ || frame != *in_flight_) return output();
+  in_flight_.reset();
+  release_held(now);
+  return output();
+}
+
 PdoOutput PdoService::on_sync(std::optional<std::uint8_t> counter, can::TimePoint now) {
   begin_output();
   if (!running_) return output();
+  last_sync_ = now;
+  // What the last window did not send is gone ("discarded"), and so is the wait for its echo.
+  if (held_next_ < held_.size()) stats_.sync_tpdos_discarded += held_.size() - held_next_;
+  held_.clear();
+  held_next_ = 0;
+  in_flight_.reset();
   for (Rpdo& pdo : rpdos_) {
     if (!pdo.active || !pdo.pending || pdo.type > 240) continue;
     pdo.pending = false;
@@ -642,12 +711,23 @@ PdoOutput PdoService::on_sync(std::optional<std::uint8_t> counter, can::TimePoin
       pdo.sampled = true;
     }
   }
+  if (sync_window() > can::Duration::zero() && frames_.size() > 1) {
+    // A window: the TPDOs go to the controller one after the other (on_sent), each only while
+    // the window is open.
+    held_.assign(frames_.begin() + 1, frames_.end());
+    stats_.tpdos_sent -= held_.size();
+    frames_.resize(1);
+  }
+  if (sync_window() > can::Duration::zero() && !frames_.empty()) in_flight_ = frames_.front();
   return output();
 }
 
 PdoOutput PdoService::on_time(can::TimePoint now) {
   begin_output();
   if (!running_) return output();
+  if (held_next_ < held_.size() && (sync_window() == can::Duration::zero() || window_closed(now))) {
+    release_held(now);
+  }
   for (Rpdo& pdo : rpdos_) {
     if (!pdo.active || pdo.deadline > now) continue;
     pdo.deadline = can::kForever;
@@ -667,6 +747,9 @@ PdoOutput PdoService::on_time(can::TimePoint now) {
 can::TimePoint PdoService::next_deadline() const {
   can::TimePoint at = can::kForever;
   if (!running_) return at;
+  // The end of the window (or at once, 1007h having been set to 0 meanwhile): on_time then
+  // discards (or hands out) what is held.
+  if (held_next_ < held_.size() && last_sync_) at = *last_sync_ + sync_window();
   for (const Rpdo& pdo : rpdos_) {
     if (pdo.active) at = std::min(at, pdo.deadline);
   }

@@ -84,7 +84,28 @@
 //   RPDO deadline monitoring (event timer, sub 05h): armed by each reception; no RPDO within
 //     it -> EMCY 8250h "RPDO timeout", cleared by the next reception.
 //   A valid PDO with no mapped objects (sub 00h = 0) is neither sent nor received.
-//   The synchronous window (1007h) is not enforced: synchronous TPDOs are sent at the SYNC.
+//   Synchronous window 1007h (µs, 0 = none; read from the dictionary at each use, the value
+//     SyncConsumer has too). CiA 301 v4.2.0 §7.5.2, object 1007h: "If the synchronous window
+//     length expires all synchronous TPDOs shall be discarded and an EMCY message may be
+//     transmitted; all synchronous RPDOs may be discarded until the next SYNC message is
+//     received. Synchronous RPDO processing is resumed with the next SYNC message." (quoted
+//     from the standard as we know it; no copy is in shared/manuals to check it against).
+//     What PdoService does, the window being [SYNC, SYNC + 1007h), as SyncConsumer::in_window:
+//     - 1007h = 0: nothing changes; the synchronous TPDOs due at a SYNC all come out of
+//       on_sync at once.
+//     - 1007h ≠ 0, TPDOs of types 0..240: on_sync hands out the first TPDO due and holds the
+//       others; each following one is handed out by on_sent() (the owner reports the end of
+//       its previous synchronous TPDO on the wire, e.g. the loopback echo) while the window is
+//       still open. Those still held when the window closes (on_sent or on_time at or after
+//       SYNC + 1007h) are discarded, not sent late (statistics: sync_tpdos_discarded). A frame
+//       already handed to the controller is not recalled (a can::Bus has no abort): the last
+//       one handed out inside the window may end on the wire after it. No EMCY (a "may").
+//     - 1007h ≠ 0, RPDOs of types 0..240: data received at or after SYNC + 1007h (and before
+//       the next SYNC) is discarded: it does not take effect at the next SYNC (statistics:
+//       sync_rpdos_discarded); the length checks and deadline monitoring still see the frame.
+//       Before the first SYNC in Operational no window has expired: the data is kept.
+//     An owner that does not call on_sent gets only the first synchronous TPDO of each SYNC
+//     out while 1007h ≠ 0.
 //
 // Configuration is read from the object dictionary when PdoService is built, by reload(), and
 // for one PDO whenever one of its entries is written (write observers). The entries mapped
@@ -165,7 +186,9 @@ struct PdoStatistics {
   std::uint64_t rpdos_applied = 0;   // ... written to the dictionary
   std::uint64_t length_errors = 0;   // too short (not processed) or too long
   std::uint64_t rpdo_timeouts = 0;
-  std::uint64_t write_refusals = 0;  // mapped entries ObjectDictionary::write refused
+  std::uint64_t write_refusals = 0;        // mapped entries ObjectDictionary::write refused
+  std::uint64_t sync_tpdos_discarded = 0;  // synchronous TPDOs not sent: window 1007h closed
+  std::uint64_t sync_rpdos_discarded = 0;  // synchronous RPDOs received after window 1007h
 };
 
 class PdoService {
@@ -190,8 +213,13 @@ class PdoService {
   PdoOutput on_frame(const can::Frame& frame, can::TimePoint now);
   // A SYNC (counter: when 1019h ≠ 0).
   PdoOutput on_sync(std::optional<std::uint8_t> counter, can::TimePoint now);
-  // Time has passed: event timers, inhibit times, RPDO deadlines, and the change-of-state
-  // check of event-driven TPDOs.
+  // One of the owner's own frames has left the wire at `now` (its loopback echo, timestamp =
+  // end of frame): with a synchronous window (1007h ≠ 0), the end of a synchronous TPDO hands
+  // out the next one held, or discards those held once the window has closed. Other frames
+  // are ignored.
+  PdoOutput on_sent(const can::Frame& frame, can::TimePoint now);
+  // Time has passed: event timers, inhibit times, RPDO deadlines, the change-of-state check of
+  // event-driven TPDOs, and the end of the synchronous window.
   PdoOutput on_time(can::TimePoint now);
   // When on_time() must be called next at the latest (change-of-state needs the owner's
   // control cycle besides).
@@ -280,6 +308,14 @@ class PdoService {
   void bind();
   void unbind();
 
+  // 1007h in the dictionary (0 when it does not exist).
+  can::Duration sync_window() const;
+  // Whether the window of the last SYNC (if 1007h ≠ 0) has closed at `now`.
+  bool window_closed(can::TimePoint now) const;
+  // Hands out the next held synchronous TPDO, or discards the held ones when the window has
+  // closed.
+  void release_held(can::TimePoint now);
+
   ObjectDictionary& od_;
   const can::Clock& clock_;
   bool dummy_mapping_;
@@ -291,7 +327,12 @@ class PdoService {
   std::vector<PdoErrorChange> errors_;  // capacity reserved
   bool errors_delivered_ = false;       // errors_ went out: the next call starts afresh (changes
                                         // made by write observers between calls wait for it)
-  std::array<unsigned, 3> error_counts_{};  // 8210h, 8220h, 8250h: RPDOs with the error
+  std::array<unsigned, 3> error_counts_{};   // 8210h, 8220h, 8250h: RPDOs with the error
+  const Entry* window_entry_ = nullptr;      // 1007h sub 00h
+  std::optional<can::TimePoint> last_sync_;  // the last SYNC in Operational
+  std::vector<can::Frame> held_;             // synchronous TPDOs waiting (1007h ≠ 0), in order
+  std::size_t held_next_ = 0;                // next of held_ to hand out
+  std::optional<can::Frame> in_flight_;      // the synchronous TPDO handed out last
   PdoStatistics stats_;
 };
 

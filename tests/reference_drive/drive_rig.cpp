@@ -75,8 +75,8 @@ void TestApplication::on_cycle(ReferenceDrive&, can::TimePoint) {
   ++cycles;
 }
 
-DriveRig::DriveRig(std::uint8_t node, DriveConfig config)
-    : node_(node), bus_(can::SimBusConfig{.bitrate = 1'000'000}) {
+DriveRig::DriveRig(std::uint8_t node, DriveConfig config, std::uint32_t bitrate)
+    : node_(node), bus_(can::SimBusConfig{.bitrate = bitrate}) {
   tester_ = bus_.attach("tester");
   drive_port_ = bus_.attach(fmt::format("drive{}", node));
   tester_->set_frame_handler([this](const can::TimedFrame& frame) { seen_.push_back(frame); });

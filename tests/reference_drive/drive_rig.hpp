@@ -58,7 +58,9 @@ class DriveRig {
 
   // A drive at `node` with the test application and a memory storage, powered on, boot-up
   // seen (the tester's record is cleared after it).
-  explicit DriveRig(std::uint8_t node = 5, DriveConfig config = {});
+  // `bitrate`: of the simulated bus (bit/s).
+  explicit DriveRig(std::uint8_t node = 5, DriveConfig config = {},
+                    std::uint32_t bitrate = 1'000'000);
 
   can::SimBus& bus() { return bus_; }
   ReferenceDrive& drive() { return *drive_; }
