@@ -1,0 +1,130 @@
+// Fuzz target: candump text (protocol/can/frame.hpp, protocol/can/candump_log.hpp).
+//
+// Input: any text, read three ways: as a whole log (read_candump_log), line by line as log
+// records (parse_candump_log_line) and line by line as compact frames (parse_candump).
+// Oracles:
+//   - what parses prints (to_candump / to_candump_log) to text that parses to the same value,
+//     and printing that again gives the same text (the printed form is canonical);
+//   - the whole-log reader agrees with the line parser: a log that reads has one record per
+//     line that is neither blank nor a '#' comment, equal to that line's record; a log that
+//     does not read names a line that exists and that the line parser rejects too.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "fuzz/support/fuzz_check.hpp"
+#include "fuzz/support/fuzz_input.hpp"
+#include "protocol/can/candump_log.hpp"
+#include "protocol/can/frame.hpp"
+
+namespace {
+
+using namespace drivecheck;
+
+void check_frame_round_trip(std::string_view text) {
+  const auto frame = can::parse_candump(text);
+  if (!frame) return;
+  const std::string printed = can::to_candump(*frame);
+  const auto again = can::parse_candump(printed);
+  DRIVECHECK_FUZZ_CHECK_DETAIL(again.has_value(), "printed frame does not parse",
+                               printed + ": " + again.error());
+  DRIVECHECK_FUZZ_CHECK_EQ(*again, *frame, "frame changed in a print/parse round trip");
+  DRIVECHECK_FUZZ_CHECK_EQ(can::to_candump(*again), printed, "printed frame is not canonical");
+}
+
+void check_record_round_trip(std::string_view line) {
+  const auto record = can::parse_candump_log_line(line);
+  if (!record) return;
+  const std::string printed = can::to_candump_log(*record);
+  const auto again = can::parse_candump_log_line(printed);
+  DRIVECHECK_FUZZ_CHECK_DETAIL(again.has_value(), "printed log record does not parse",
+                               printed + ": " + again.error());
+  DRIVECHECK_FUZZ_CHECK_EQ(can::to_candump_log(*again), printed,
+                           "printed log record is not canonical");
+  DRIVECHECK_FUZZ_CHECK_EQ(again->frame, record->frame, "record's frame changed in a round trip");
+  DRIVECHECK_FUZZ_CHECK_EQ(again->interface, record->interface,
+                           "record's interface changed in a round trip");
+  // The text keeps microseconds (candump's resolution): below that the reader may keep more.
+  DRIVECHECK_FUZZ_CHECK_EQ(again->timestamp.count(), record->timestamp.count() / 1000 * 1000,
+                           "record's timestamp changed beyond microsecond truncation");
+  DRIVECHECK_FUZZ_CHECK(again->direction == record->direction,
+                        "record's direction changed in a round trip");
+}
+
+std::string_view trim_blanks(std::string_view text) {
+  const auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
+  while (!text.empty() && blank(text.front()))
+    text.remove_prefix(1);
+  while (!text.empty() && blank(text.back()))
+    text.remove_suffix(1);
+  return text;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string_view text = fuzz::as_text({data, size});
+
+  // Lines as the header defines them: '\n' ends a line; a UTF-8 BOM before the first is not
+  // part of it.
+  std::vector<std::string_view> lines;
+  {
+    std::string_view rest = text;
+    if (rest.substr(0, 3) == "\xEF\xBB\xBF") rest.remove_prefix(3);
+    while (!rest.empty()) {
+      const auto end = rest.find('\n');
+      lines.push_back(rest.substr(0, end));
+      rest.remove_prefix(end == std::string_view::npos ? rest.size() : end + 1);
+    }
+  }
+  for (const std::string_view line : lines) {
+    check_frame_round_trip(line);
+    if (trim_blanks(line).size() != line.size()) check_frame_round_trip(trim_blanks(line));
+    check_record_round_trip(line);
+  }
+
+  const auto log = can::read_candump_log(text, "fuzz.log");
+  if (log) {
+    std::size_t next = 0;
+    for (const std::string_view line : lines) {
+      const std::string_view content = trim_blanks(line);
+      if (content.empty() || content.front() == '#') continue;
+      DRIVECHECK_FUZZ_CHECK(next < log->size(), "log has fewer records than record lines");
+      const auto record = can::parse_candump_log_line(line);
+      DRIVECHECK_FUZZ_CHECK(record.has_value() && *record == (*log)[next],
+                            "log reader and line parser disagree on a line");
+      ++next;
+    }
+    DRIVECHECK_FUZZ_CHECK_EQ(next, log->size(), "log has more records than record lines");
+
+    std::string printed;
+    for (const can::LogRecord& record : *log) {
+      printed += can::to_candump_log(record);
+      printed += '\n';
+    }
+    const auto again = can::read_candump_log(printed, "printed.log");
+    DRIVECHECK_FUZZ_CHECK_DETAIL(again.has_value(), "printed log does not read",
+                                 again.error().to_string());
+    DRIVECHECK_FUZZ_CHECK_EQ(again->size(), log->size(), "printed log has another record count");
+    std::string reprinted;
+    for (const can::LogRecord& record : *again) {
+      reprinted += can::to_candump_log(record);
+      reprinted += '\n';
+    }
+    DRIVECHECK_FUZZ_CHECK_EQ(reprinted, printed, "printed log is not canonical");
+  } else {
+    const TextError& error = log.error();
+    DRIVECHECK_FUZZ_CHECK_DETAIL(
+        error.line >= 1 && static_cast<std::size_t>(error.line) <= lines.size(),
+        "log error names no line of the input", error.to_string());
+    const std::string_view line = lines[static_cast<std::size_t>(error.line) - 1];
+    DRIVECHECK_FUZZ_CHECK_DETAIL(!can::parse_candump_log_line(line).has_value(),
+                                 "log reader rejects a line the line parser accepts",
+                                 error.to_string());
+    DRIVECHECK_FUZZ_CHECK_DETAIL(error.to_string().starts_with("fuzz.log:"),
+                                 "log error does not name the file", error.to_string());
+  }
+  return 0;
+}
