@@ -113,7 +113,7 @@ std::uint16_t emcy_cob_id(std::uint8_t node) {
   return static_cast<std::uint16_t>(kEmcyBase + node);
 }
 
-can::Frame encode(const Emcy& message, std::uint32_t cob_id) {
+can::Frame encode(const Emcy& message, std::uint32_t cob_id, can::IdFormat format) {
   const std::uint8_t bytes[8] = {static_cast<std::uint8_t>(message.error_code),
                                  static_cast<std::uint8_t>(message.error_code >> 8),
                                  message.error_register,
@@ -122,8 +122,8 @@ can::Frame encode(const Emcy& message, std::uint32_t cob_id) {
                                  message.manufacturer[2],
                                  message.manufacturer[3],
                                  message.manufacturer[4]};
-  return cob_id > can::kMaxStandardId ? can::Frame::extended(cob_id, bytes)
-                                      : can::Frame::standard(cob_id, bytes);
+  return format == can::IdFormat::extended ? can::Frame::extended(cob_id, bytes)
+                                           : can::Frame::standard(cob_id, bytes);
 }
 
 Expected<Emcy, DecodeError> decode_emcy(const can::Frame& frame) {

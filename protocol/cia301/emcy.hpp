@@ -99,8 +99,10 @@ struct Emcy {
   friend bool operator==(const Emcy&, const Emcy&) = default;
 };
 
-// An EMCY frame on `cob_id` (use emcy_cob_id(node) for the default 80h + node).
-can::Frame encode(const Emcy& message, std::uint32_t cob_id);
+// An EMCY frame on `cob_id` (use emcy_cob_id(node) for the default 80h + node), in the frame
+// format 1014h bit 29 selects. Precondition: cob_id fits the format.
+can::Frame encode(const Emcy& message, std::uint32_t cob_id,
+                  can::IdFormat format = can::IdFormat::standard);
 // 80h + node. Precondition: node 1..127.
 std::uint16_t emcy_cob_id(std::uint8_t node);
 

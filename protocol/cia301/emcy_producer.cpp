@@ -101,9 +101,8 @@ std::optional<can::Frame> EmcyProducer::on_time(can::TimePoint now) {
   queue_.pop_front();
   last_sent_ = now;
   ++sent_;
-  can::Frame frame = encode(message, cob_id_.can_id);
-  if (cob_id_.extended) frame.format = can::IdFormat::extended;
-  return frame;
+  return encode(message, cob_id_.can_id,
+                cob_id_.extended ? can::IdFormat::extended : can::IdFormat::standard);
 }
 
 namespace {

@@ -41,6 +41,22 @@ TEST(EmcyCodec, FestoUndervoltageAndReset) {
   EXPECT_EQ(describe_error_register(0x05), "generic+voltage");
 }
 
+TEST(EmcyCodec, EncodesTheFrameFormatThatTheCobIdEntrySelects) {
+  // Given an EMCY whose 1014h entry selects a 29-bit frame (bit 29) with a small CAN-ID
+  // When it is encoded with the extended format
+  // Then the frame is a 29-bit frame with that id, and decoding it gives the EMCY back
+  const Emcy emcy{0x8611, 0x81, {1, 2, 3, 4, 5}};
+  const can::Frame frame = encode(emcy, 0x085, can::IdFormat::extended);
+  EXPECT_TRUE(frame.is_extended());
+  EXPECT_EQ(frame.id, 0x085u);
+  // error code 8611h LE, register 81h, manufacturer bytes 01..05
+  EXPECT_EQ(can::to_candump(frame), "00000085#1186810102030405");
+  const auto decoded = decode_emcy(frame);
+  ASSERT_TRUE(decoded) << decoded.error().reason;
+  EXPECT_EQ(*decoded, emcy);
+  EXPECT_FALSE(encode(emcy, 0x085).is_extended());
+}
+
 TEST(EmcyCodec, RejectsMalformedFrames) {
   // Given EMCY frames with DLC 0, 7 and an RTR
   // When decoded
