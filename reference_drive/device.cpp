@@ -65,7 +65,7 @@ Expected<void, std::string> ReferenceDrive::start() {
 }
 
 ReferenceDrive::~ReferenceDrive() {
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
+  timer_.disarm();
 }
 
 void ReferenceDrive::power_on() {
@@ -196,17 +196,7 @@ void ReferenceDrive::tick() {
 
 void ReferenceDrive::rearm() {
   if (in_tick_ || !powered_) return;
-  const can::TimePoint at = std::min(next_cycle_, pdos_->next_deadline());
-  if (at == armed_at_ && timer_ != can::kNoTimer) return;
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
-  timer_ = can::kNoTimer;
-  armed_at_ = at;
-  if (at == can::kForever) return;
-  timer_ = bus_.start_timer(at, [this] {
-    timer_ = can::kNoTimer;
-    armed_at_ = can::kForever;
-    tick();
-  });
+  timer_.arm(std::min(next_cycle_, pdos_->next_deadline()));
 }
 
 }  // namespace drivecheck::reference_drive

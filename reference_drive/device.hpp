@@ -36,6 +36,7 @@
 #include <string>
 
 #include "protocol/can/bus.hpp"
+#include "protocol/can/deadline_timer.hpp"
 #include "protocol/cia301/device_services.hpp"
 #include "protocol/cia301/object_dictionary.hpp"
 #include "protocol/cia301/pdo_service.hpp"
@@ -158,8 +159,7 @@ class ReferenceDrive {
   std::unique_ptr<cia301::DeviceServices> services_;
   bool powered_ = false;
   can::TimePoint next_cycle_ = can::kForever;
-  can::TimerId timer_ = can::kNoTimer;
-  can::TimePoint armed_at_ = can::kForever;
+  can::DeadlineTimer timer_{bus_, [this] { tick(); }};
   bool in_tick_ = false;
   DriveStatistics stats_;
 };

@@ -72,7 +72,7 @@ DeviceServices::DeviceServices(can::Bus& bus, ObjectDictionary& od, DeviceServic
 
 DeviceServices::~DeviceServices() {
   unbind_objects();
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
+  timer_.disarm();
   if (attached_) bus_.set_frame_handler({});
 }
 
@@ -394,16 +394,7 @@ void DeviceServices::rearm() {
     }
   }
   at = std::min(at, emcy_.next_deadline());
-  if (at == armed_at_ && timer_ != can::kNoTimer) return;
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
-  timer_ = can::kNoTimer;
-  armed_at_ = at;
-  if (at == can::kForever) return;
-  timer_ = bus_.start_timer(at, [this] {
-    timer_ = can::kNoTimer;
-    armed_at_ = can::kForever;
-    service(bus_.now());
-  });
+  timer_.arm(at);
 }
 
 // ---------------------------------------------------------------------------------------------

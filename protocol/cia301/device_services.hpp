@@ -50,6 +50,7 @@
 #include <vector>
 
 #include "protocol/can/bus.hpp"
+#include "protocol/can/deadline_timer.hpp"
 #include "protocol/cia301/emcy_producer.hpp"
 #include "protocol/cia301/guarding_slave.hpp"
 #include "protocol/cia301/heartbeat_consumer.hpp"
@@ -207,8 +208,7 @@ class DeviceServices {
   bool attached_ = false;
   bool in_service_ = false;
   bool service_again_ = false;
-  can::TimerId timer_ = can::kNoTimer;
-  can::TimePoint armed_at_ = can::kForever;
+  can::DeadlineTimer timer_{bus_, [this] { service(bus_.now()); }};
   std::error_code last_send_error_;
 };
 

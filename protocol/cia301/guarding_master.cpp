@@ -185,10 +185,6 @@ std::optional<NmtState> GuardingMaster::state(std::uint8_t node) const {
 GuardingMasterPort::GuardingMasterPort(can::Bus& bus, EventHandler on_event)
     : bus_(bus), on_event_(std::move(on_event)) {}
 
-GuardingMasterPort::~GuardingMasterPort() {
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
-}
-
 Expected<void, std::string> GuardingMasterPort::guard(std::uint8_t node,
                                                       const GuardingConfig& config) {
   auto result = master_.guard(node, config, bus_.now());
@@ -209,18 +205,10 @@ void GuardingMasterPort::handle(const can::TimedFrame& frame) {
 }
 
 void GuardingMasterPort::rearm() {
-  const can::TimePoint next = master_.next_deadline();
-  if (next == armed_at_ && timer_ != can::kNoTimer) return;
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
-  timer_ = can::kNoTimer;
-  armed_at_ = next;
-  if (next == can::kForever) return;
-  timer_ = bus_.start_timer(next, [this] { on_timer(); });
+  timer_.arm(master_.next_deadline());
 }
 
 void GuardingMasterPort::on_timer() {
-  timer_ = can::kNoTimer;
-  armed_at_ = can::kForever;
   GuardingMaster::Output out = master_.on_time(bus_.now());
   for (const can::Frame& request : out.requests) {
     if (auto error = bus_.send(request)) last_send_error_ = error;

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "protocol/can/bus.hpp"
+#include "protocol/can/deadline_timer.hpp"
 #include "protocol/cia301/nmt.hpp"
 #include "protocol/common/expected.hpp"
 
@@ -111,7 +112,6 @@ class GuardingMasterPort {
   using EventHandler = std::function<void(const GuardingEvent&)>;
 
   GuardingMasterPort(can::Bus& bus, EventHandler on_event);
-  ~GuardingMasterPort();
   GuardingMasterPort(const GuardingMasterPort&) = delete;
   GuardingMasterPort& operator=(const GuardingMasterPort&) = delete;
 
@@ -132,8 +132,7 @@ class GuardingMasterPort {
   can::Bus& bus_;
   EventHandler on_event_;
   GuardingMaster master_;
-  can::TimerId timer_ = can::kNoTimer;
-  can::TimePoint armed_at_ = can::kForever;
+  can::DeadlineTimer timer_{bus_, [this] { on_timer(); }};
   std::error_code last_send_error_;
 };
 

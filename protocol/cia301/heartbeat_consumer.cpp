@@ -136,10 +136,6 @@ std::optional<can::TimePoint> HeartbeatConsumer::last_heartbeat(std::uint8_t nod
 HeartbeatConsumerPort::HeartbeatConsumerPort(can::Bus& bus, EventHandler on_event)
     : bus_(bus), on_event_(std::move(on_event)) {}
 
-HeartbeatConsumerPort::~HeartbeatConsumerPort() {
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
-}
-
 void HeartbeatConsumerPort::monitor(std::uint8_t node, can::Duration consumer_time) {
   consumer_.monitor(node, consumer_time);
   rearm();
@@ -158,18 +154,10 @@ void HeartbeatConsumerPort::handle(const can::TimedFrame& frame) {
 }
 
 void HeartbeatConsumerPort::rearm() {
-  const can::TimePoint next = consumer_.next_deadline();
-  if (next == armed_at_) return;
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
-  timer_ = can::kNoTimer;
-  armed_at_ = next;
-  if (next == can::kForever) return;
-  timer_ = bus_.start_timer(next, [this] { on_timer(); });
+  timer_.arm(consumer_.next_deadline());
 }
 
 void HeartbeatConsumerPort::on_timer() {
-  timer_ = can::kNoTimer;
-  armed_at_ = can::kForever;
   for (const HeartbeatEvent& event : consumer_.on_time(bus_.now())) {
     if (on_event_) on_event_(event);
   }

@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "protocol/can/bus.hpp"
+#include "protocol/can/deadline_timer.hpp"
 #include "protocol/cia301/decode_error.hpp"
 #include "protocol/cia301/nmt.hpp"
 #include "protocol/common/expected.hpp"
@@ -107,7 +108,6 @@ class HeartbeatConsumerPort {
   using EventHandler = std::function<void(const HeartbeatEvent&)>;
 
   HeartbeatConsumerPort(can::Bus& bus, EventHandler on_event);
-  ~HeartbeatConsumerPort();
   HeartbeatConsumerPort(const HeartbeatConsumerPort&) = delete;
   HeartbeatConsumerPort& operator=(const HeartbeatConsumerPort&) = delete;
 
@@ -124,8 +124,7 @@ class HeartbeatConsumerPort {
   can::Bus& bus_;
   EventHandler on_event_;
   HeartbeatConsumer consumer_;
-  can::TimerId timer_ = can::kNoTimer;
-  can::TimePoint armed_at_ = can::kForever;
+  can::DeadlineTimer timer_{bus_, [this] { on_timer(); }};
 };
 
 }  // namespace drivecheck::cia301

@@ -473,9 +473,7 @@ void SdoServerRunner::attach() {
 }
 
 void SdoServerRunner::detach() {
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
-  timer_ = can::kNoTimer;
-  timer_at_ = can::kForever;
+  timer_.disarm();
   if (attached_) {
     bus_.set_frame_handler({});
     bus_.set_filters({});
@@ -499,17 +497,7 @@ void SdoServerRunner::transmit(std::span<const can::Frame> frames) {
 }
 
 void SdoServerRunner::rearm() {
-  const can::TimePoint deadline = server_.next_deadline();
-  if (deadline == timer_at_) return;
-  if (timer_ != can::kNoTimer) bus_.cancel_timer(timer_);
-  timer_ = can::kNoTimer;
-  timer_at_ = deadline;
-  if (deadline == can::kForever) return;
-  timer_ = bus_.start_timer(deadline, [this] {
-    timer_ = can::kNoTimer;
-    timer_at_ = can::kForever;
-    transmit(server_.on_time(bus_.now()));
-  });
+  timer_.arm(server_.next_deadline());
 }
 
 }  // namespace drivecheck::cia301

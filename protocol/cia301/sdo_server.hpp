@@ -96,6 +96,7 @@
 #include <vector>
 
 #include "protocol/can/bus.hpp"
+#include "protocol/can/deadline_timer.hpp"
 #include "protocol/can/frame.hpp"
 #include "protocol/cia301/object_dictionary.hpp"
 #include "protocol/cia301/sdo_abort.hpp"
@@ -274,8 +275,7 @@ class SdoServerRunner {
   can::Bus& bus_;
   SdoServer& server_;
   bool attached_ = false;
-  can::TimerId timer_ = can::kNoTimer;
-  can::TimePoint timer_at_ = can::kForever;
+  can::DeadlineTimer timer_{bus_, [this] { transmit(server_.on_time(bus_.now())); }};
   std::uint64_t send_errors_ = 0;
   std::error_code last_send_error_;
 };
