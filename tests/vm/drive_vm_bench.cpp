@@ -38,22 +38,8 @@ constexpr const char* kInterface = "vcan0";
 constexpr std::uint8_t kNode = 5;
 constexpr std::uint32_t kEchoRequest = 0x611;  // answered with 612h by the raw-echo peer
 
-struct Round {
-  double per_second = 0;
-  double p50_us = 0;
-  double p99_us = 0;
-};
-
-Round summarize(std::vector<double>& latencies_us, Clock::duration elapsed) {
-  Round round;
-  if (latencies_us.empty()) return round;
-  std::sort(latencies_us.begin(), latencies_us.end());
-  round.per_second =
-      static_cast<double>(latencies_us.size()) / std::chrono::duration<double>(elapsed).count();
-  round.p50_us = latencies_us[latencies_us.size() / 2];
-  round.p99_us = latencies_us[latencies_us.size() * 99 / 100];
-  return round;
-}
+using Round = drivecheck::vm::RoundTrips;
+using drivecheck::vm::summarize;
 
 // Round trips of `one` (false: failed) for `length`.
 std::optional<Round> timed_round(Clock::duration length, const std::function<bool()>& one) {

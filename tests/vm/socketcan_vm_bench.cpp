@@ -38,22 +38,8 @@ constexpr std::uint32_t kRawRequest = 0x611;   // answered with 612h by the raw-
 constexpr std::uint32_t kPollRequest = 0x621;  // answered with 622h by the polling raw peer
 constexpr double kTarget = 0.90;
 
-struct Round {
-  double per_second = 0;
-  double p50_us = 0;
-  double p99_us = 0;
-};
-
-Round summarize(std::vector<double>& latencies_us, Clock::duration elapsed) {
-  Round round;
-  if (latencies_us.empty()) return round;
-  std::sort(latencies_us.begin(), latencies_us.end());
-  round.per_second =
-      static_cast<double>(latencies_us.size()) / std::chrono::duration<double>(elapsed).count();
-  round.p50_us = latencies_us[latencies_us.size() / 2];
-  round.p99_us = latencies_us[latencies_us.size() * 99 / 100];
-  return round;
-}
+using Round = drivecheck::vm::RoundTrips;
+using drivecheck::vm::summarize;
 
 Frame request(std::uint32_t id, std::uint32_t sequence) {
   // data: ccs=2 upload request (40h), index 1000h sub 0, then the sequence number

@@ -15,7 +15,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -377,6 +379,18 @@ int run_peer_if_asked(int argc, char** argv) {
   }
   fmt::print(stderr, "peer: unknown role '{}'\n", role);
   return 2;
+}
+
+RoundTrips summarize(std::vector<double>& latencies_us,
+                     std::chrono::steady_clock::duration elapsed) {
+  RoundTrips round;
+  if (latencies_us.empty()) return round;
+  std::sort(latencies_us.begin(), latencies_us.end());
+  round.per_second =
+      static_cast<double>(latencies_us.size()) / std::chrono::duration<double>(elapsed).count();
+  round.p50_us = latencies_us[latencies_us.size() / 2];
+  round.p99_us = latencies_us[latencies_us.size() * 99 / 100];
+  return round;
 }
 
 }  // namespace drivecheck::vm

@@ -81,4 +81,14 @@ class PollingRawSocket {
   int timer_fd_;
 };
 
+// Round trips measured in one run of a benchmark: rate and latency percentiles.
+struct RoundTrips {
+  double per_second = 0;
+  double p50_us = 0;
+  double p99_us = 0;
+};
+// Summarises round-trip latencies (sorted in place) measured over `elapsed`.
+RoundTrips summarize(std::vector<double>& latencies_us,
+                     std::chrono::steady_clock::duration elapsed);
+
 }  // namespace drivecheck::vm
