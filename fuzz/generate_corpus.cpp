@@ -593,6 +593,122 @@ void frame_stream_corpora(Output& out,
   }
 }
 
+// sdo_server: header (block transfer + CRC, 1024 ms timeout, blksize 127) and operations
+// (fuzz/sdo_server_fuzzer.cpp): 0 raw request (DLC, 8 bytes), 2 time step (u16 ms).
+Bytes sdo_server_seed(const std::vector<can::Frame>& requests, std::uint16_t final_wait_ms = 0) {
+  Bytes seed = {0x03, 10, 127};
+  for (const can::Frame& request : requests) {
+    seed.push_back(0);
+    seed.push_back(request.dlc);
+    seed.insert(seed.end(), request.data.begin(), request.data.end());
+  }
+  if (final_wait_ms != 0) {
+    seed.insert(seed.end(), {2, static_cast<std::uint8_t>(final_wait_ms & 0xFF),
+                             static_cast<std::uint8_t>(final_wait_ms >> 8)});
+  }
+  return seed;
+}
+
+// One seed per unit-test file with SDO requests (600h..67Fh, any node: the target puts them on
+// its own request COB-ID), and the transfers of CiA 301 §7.2.4 one by one.
+void sdo_server_corpus(Output& out, const std::map<std::string, std::vector<can::Frame>>& tests) {
+  for (const auto& [name, frames] : tests) {
+    std::vector<can::Frame> requests;
+    for (const can::Frame& f : frames) {
+      if (f.id > 0x600 && f.id <= 0x67F && !f.is_remote()) requests.push_back(f);
+    }
+    if (!requests.empty()) out.seed("sdo_server", "unit-test-" + name, sdo_server_seed(requests));
+  }
+  // clang-format off
+  out.seed("sdo_server", "expedited-read-write-read", sdo_server_seed({
+      frame("605#4017100000000000"),     // ccs=2: upload 1017h:00
+      frame("605#2B17100064000000"),     // ccs=1 e=1 s=1 n=2: 1017h:00 := 0064h
+      frame("605#4017100000000000")}));  // read it back
+  out.seed("sdo_server", "segmented-upload-device-name", sdo_server_seed({
+      frame("605#4008100000000000"),     // upload 1008h:00 (long string: segmented)
+      frame("605#6000000000000000"), frame("605#7000000000000000"),   // toggle 0, 1, ...
+      frame("605#6000000000000000"), frame("605#7000000000000000"),
+      frame("605#6000000000000000"), frame("605#7000000000000000"),
+      frame("605#6000000000000000"), frame("605#7000000000000000"),
+      frame("605#6000000000000000"), frame("605#7000000000000000"),
+      frame("605#6000000000000000"), frame("605#7000000000000000")}));
+  out.seed("sdo_server", "segmented-download-1017", sdo_server_seed({
+      frame("605#2117100002000000"),     // ccs=1 e=0 s=1: 1017h:00, 2 bytes
+      frame("605#0BE8030000000000")}));  // t=0 n=5 c=1: E8 03 (1000 ms)
+  out.seed("sdo_server", "block-upload-device-name", sdo_server_seed({
+      frame("605#A40810007F000000"),     // ccs=5 cs=0 cc=1: block upload 1008h:00, blksize 127
+      frame("605#A300000000000000"),     // start
+      frame("605#A20C7F0000000000"),     // ackseq 12, blksize 127
+      frame("605#A100000000000000")}));  // end response
+  out.seed("sdo_server", "block-download-1017", sdo_server_seed({
+      frame("605#C617100002000000"),     // ccs=6 cc=1 s=1: block download 1017h:00, 2 bytes
+      frame("605#81E8030000000000"),     // c=1 seqno 1
+      frame("605#D500000000000000")}));  // ccs=6 cs=1 n=5 (crc 0000h: wrong, aborts)
+  out.seed("sdo_server", "segmented-upload-times-out", sdo_server_seed({
+      frame("605#4008100000000000"),     // upload 1008h:00, then silence
+      frame("605#6000000000000000")}, 2000));
+  out.seed("sdo_server", "client-abort-mid-transfer", sdo_server_seed({
+      frame("605#4008100000000000"),
+      frame("605#8008100000000008")}));  // the client aborts: 08000000h general error
+  out.seed("sdo_server", "write-read-only-and-unknown", sdo_server_seed({
+      frame("605#2300100000000000"),     // write 1000h:00 (ro): 06010002h
+      frame("605#4000200000000000"),     // read 2000h:00 (absent): 06020000h
+      frame("605#4018100500000000")}));  // read 1018h:05 (absent sub): 06090011h
+  // clang-format on
+}
+
+// nmt_error_control (fuzz/nmt_error_control_fuzzer.cpp): header (1017h choice), operations.
+namespace nmt_seed {
+constexpr std::uint8_t kNmt = 0, kGuard = 2, kSync = 3, kSdo = 4, kTime = 5, kHeartbeat = 6;
+constexpr std::uint8_t kStart = 0, kStop = 1, kPreOp = 2, kResetNode = 3, kResetComm = 4;
+constexpr std::uint8_t kToDrive = 0, kToAll = 1, kToOther = 2;
+Bytes time(std::uint16_t ms) {
+  return {kTime, static_cast<std::uint8_t>(ms & 0xFF), static_cast<std::uint8_t>(ms >> 8)};
+}
+Bytes sdo(std::uint8_t target, std::uint32_t value) {
+  return {kSdo,
+          target,
+          static_cast<std::uint8_t>(value),
+          static_cast<std::uint8_t>(value >> 8),
+          static_cast<std::uint8_t>(value >> 16),
+          static_cast<std::uint8_t>(value >> 24)};
+}
+Bytes join(std::initializer_list<Bytes> parts) {
+  Bytes out;
+  for (const Bytes& part : parts)
+    out.insert(out.end(), part.begin(), part.end());
+  return out;
+}
+}  // namespace nmt_seed
+
+void nmt_error_control_corpus(Output& out) {
+  using namespace nmt_seed;
+  // clang-format off
+  out.seed("nmt_error_control", "every-command-to-the-drive", join({{0},
+      {kNmt, kStart, kToDrive}, {kNmt, kStop, kToDrive}, {kNmt, kPreOp, kToDrive},
+      {kNmt, kStart, kToDrive}, {kNmt, kResetComm, kToDrive}, {kNmt, kStop, kToDrive},
+      {kNmt, kResetNode, kToDrive}, time(100)}));
+  out.seed("nmt_error_control", "broadcast-and-other-nodes", join({{0},
+      {kNmt, kStart, kToAll}, {kNmt, kStop, kToOther, 6}, {kNmt, kResetNode, kToOther, 127},
+      {kNmt, kStop, kToAll}, {kNmt, kResetComm, kToAll}, time(100)}));
+  out.seed("nmt_error_control", "undefined-command", join({{0},
+      {kNmt, 5, 0x03, kToDrive}, {kNmt, 5, 0x7F, kToAll}, time(10)}));
+  out.seed("nmt_error_control", "heartbeat-producer-100ms", join({{2},
+      {kNmt, kStart, kToDrive}, time(550), {kNmt, kStop, kToDrive}, time(250)}));
+  out.seed("nmt_error_control", "life-guarding-lost", join({{0},
+      sdo(1, 100), sdo(2, 3), {kNmt, kStart, kToDrive},
+      {kGuard}, time(90), {kGuard}, time(90), {kGuard}, time(1000)}));
+  out.seed("nmt_error_control", "heartbeat-consumer-timeout", join({{0},
+      sdo(3, (6u << 16) | 200u), {kNmt, kStart, kToDrive},
+      {kHeartbeat, 5, 0x05}, time(150), {kHeartbeat, 5, 0x05}, time(500)}));
+  out.seed("nmt_error_control", "error-behaviour-stop", join({{0},
+      sdo(5, 2), sdo(3, (7u << 16) | 50u), {kNmt, kStart, kToDrive},
+      {kHeartbeat, 6, 0x05}, time(200), {kNmt, kResetComm, kToDrive}, time(100)}));
+  out.seed("nmt_error_control", "sync-counter", join({{1},
+      sdo(7, 1000), {kSync, 0x03}, {kSync, 0x05}, {kSync, 0x00}, time(20)}));
+  // clang-format on
+}
+
 // One seed per exchange of the SDO client unit tests (tests/cia301/sdo_client_transfer_test.cpp),
 // in the sdo_client target's own input format.
 void sdo_client_corpus(Output& out) {
@@ -886,6 +1002,38 @@ void dictionaries(Output& out) {
     text += token("crc_check", Bytes{0xC3, 0x31});
     out.dictionary("sdo_client", text);
   }
+  // sdo_server: operations, SDO command bytes, abort codes.
+  {
+    std::string text(kBanner);
+    text += comment(
+        "sdo_server operations (fuzz/sdo_server_fuzzer.cpp): raw request with DLC 8, entry "
+        "request, time step of 1 s, RTR on the request COB-ID");
+    text += token("op_request", Bytes{0x00, 0x08});
+    text += token("op_entry_request", Bytes{0x01});
+    text += token("op_time_1s", Bytes{0x02, 0xE8, 0x03});
+    text += token("op_rtr", Bytes{0x04});
+    text += sdo_command_tokens();
+    text += cia301::sdo_abort_fuzz_dictionary();
+    out.dictionary("sdo_server", text);
+  }
+  // nmt_error_control: operations and the NMT/error-control byte values.
+  {
+    std::string text(kBanner);
+    text += comment("nmt_error_control operations (fuzz/nmt_error_control_fuzzer.cpp)");
+    text += token("op_nmt_start_drive", Bytes{0x00, 0x00, 0x00});
+    text += token("op_nmt_reset_all", Bytes{0x00, 0x03, 0x01});
+    text += token("op_guarding_rtr", Bytes{0x02});
+    text += token("op_time_100ms", Bytes{0x05, 0x64, 0x00});
+    text += comment("NMT command specifiers (CiA 301 §7.2.8.3.1)");
+    for (const std::uint8_t cs : {0x01, 0x02, 0x80, 0x81, 0x82}) {
+      text += token(fmt::format("nmt_cs_{:02X}", cs), Bytes{cs});
+    }
+    text += comment("NMT states in heartbeat/guarding (CiA 301 §7.2.8.3.2): 00 04 05 7F");
+    for (const std::uint8_t state : {0x00, 0x04, 0x05, 0x7F, 0x85, 0xFF}) {
+      text += token(fmt::format("nmt_state_{:02X}", state), Bytes{state});
+    }
+    out.dictionary("nmt_error_control", text);
+  }
   // emcy and dissector: frame-record heads, EMCY codes, SDO bytes, NMT and CiA 402 values.
   {
     std::string text(kBanner);
@@ -960,6 +1108,8 @@ int main(int argc, char** argv) {
   eds_corpus(out, root);
   frame_stream_corpora(out, by_test);
   sdo_client_corpus(out);
+  sdo_server_corpus(out, by_test);
+  nmt_error_control_corpus(out);
   dictionaries(out);
   out.write();
   return 0;
