@@ -709,6 +709,84 @@ void nmt_error_control_corpus(Output& out) {
   // clang-format on
 }
 
+// pdo_mapping (fuzz/pdo_mapping_fuzzer.cpp): operations only.
+namespace pdo_seed {
+constexpr std::uint8_t kRpdoComm = 0, kRpdoMap = 1, kTpdoComm = 2, kTpdoMap = 3, kApp = 4;
+constexpr std::uint8_t kRaw = 0, kAppEntry = 1, kCobId = 2, kSmall = 3;
+Bytes write(std::uint8_t group, std::uint8_t number, std::uint8_t sub, std::uint8_t kind,
+            std::uint32_t value) {
+  return {0,
+          group,
+          number,
+          sub,
+          kind,
+          static_cast<std::uint8_t>(value),
+          static_cast<std::uint8_t>(value >> 8),
+          static_cast<std::uint8_t>(value >> 16),
+          static_cast<std::uint8_t>(value >> 24)};
+}
+Bytes nmt_start() {
+  return {1, 0};
+}
+Bytes sync() {
+  return {2, 0};
+}
+Bytes time(std::uint16_t ms) {
+  return {5, static_cast<std::uint8_t>(ms & 0xFF), static_cast<std::uint8_t>(ms >> 8)};
+}
+// Disable, clear, map `objects` (kAppObjects positions), count, enable.
+Bytes remap(std::uint8_t comm, std::uint8_t map, std::uint8_t number,
+            std::initializer_list<std::uint8_t> objects) {
+  Bytes out = write(comm, number, 1, kCobId, 0x80000000u);
+  const Bytes clear = write(map, number, 0, kSmall, 0);
+  out.insert(out.end(), clear.begin(), clear.end());
+  std::uint8_t sub = 1;
+  for (const std::uint8_t object : objects) {
+    const Bytes entry = write(map, number, sub++, kAppEntry, object);
+    out.insert(out.end(), entry.begin(), entry.end());
+  }
+  const Bytes count = write(map, number, 0, kSmall, static_cast<std::uint32_t>(objects.size()));
+  out.insert(out.end(), count.begin(), count.end());
+  const Bytes enable = write(comm, number, 1, kCobId, 0);
+  out.insert(out.end(), enable.begin(), enable.end());
+  return out;
+}
+}  // namespace pdo_seed
+
+void pdo_mapping_corpus(Output& out) {
+  using namespace pdo_seed;
+  using nmt_seed::join;
+  // clang-format off
+  out.seed("pdo_mapping", "tpdo1-sync-2000h-2001h", join({
+      remap(kTpdoComm, kTpdoMap, 0, {0, 1}), write(kTpdoComm, 0, 2, kSmall, 1),
+      nmt_start(), write(kApp, 0, 0, kRaw, 0x1234), sync(), sync(), time(10)}));
+  out.seed("pdo_mapping", "rpdo1-async-2000h-200Ah", join({
+      remap(kRpdoComm, kRpdoMap, 0, {0, 7}), nmt_start(),
+      {3, 0, 4, 0x34, 0x12, 0xFF, 0x7F, 0, 0, 0, 0},    // RPDO1, DLC 4
+      {3, 0, 2, 0x34, 0x12, 0, 0, 0, 0, 0, 0},          // too short: 8210h
+      {3, 0, 8, 1, 2, 3, 4, 5, 6, 7, 8}, time(10)}));    // too long: 8220h
+  out.seed("pdo_mapping", "rpdo-sync-applies-at-sync", join({
+      remap(kRpdoComm, kRpdoMap, 1, {2}), write(kRpdoComm, 1, 2, kSmall, 1), nmt_start(),
+      {3, 1, 1, 0x5A, 0, 0, 0, 0, 0, 0, 0}, time(5), sync(), time(5)}));
+  out.seed("pdo_mapping", "mapping-refused", join({
+      write(kTpdoMap, 0, 1, kAppEntry, 3),             // while valid: refused
+      write(kTpdoComm, 0, 1, kCobId, 0x80000000u),
+      write(kTpdoMap, 0, 0, kSmall, 0),
+      write(kTpdoMap, 0, 1, kAppEntry, 5),             // 2005h not mappable
+      write(kTpdoMap, 0, 1, kAppEntry, 4),             // 2004h write-only in a TPDO
+      write(kTpdoMap, 0, 1, kAppEntry, 6), write(kTpdoMap, 0, 2, kAppEntry, 1),
+      write(kTpdoMap, 0, 0, kSmall, 2),                // 96 bits: too long
+      write(kTpdoMap, 0, 0, kSmall, 9),                // more than 8 entries
+      write(kTpdoComm, 0, 1, kCobId, 0), time(5)}));
+  out.seed("pdo_mapping", "event-timer-and-rtr", join({
+      remap(kTpdoComm, kTpdoMap, 2, {3, 8}), write(kTpdoComm, 2, 2, kSmall, 254),
+      write(kTpdoComm, 2, 5, kRaw, 10), nmt_start(), {6, 3, 0x22, 0x11}, time(50),
+      {4, 2}, time(5), write(kTpdoComm, 2, 2, kSmall, 253), {4, 2}, time(5)}));
+  out.seed("pdo_mapping", "reset-communication-restores", join({
+      remap(kTpdoComm, kTpdoMap, 3, {0}), nmt_start(), {1, 3}, time(5), sync(), time(5)}));
+  // clang-format on
+}
+
 // One seed per exchange of the SDO client unit tests (tests/cia301/sdo_client_transfer_test.cpp),
 // in the sdo_client target's own input format.
 void sdo_client_corpus(Output& out) {
@@ -1034,6 +1112,25 @@ void dictionaries(Output& out) {
     }
     out.dictionary("nmt_error_control", text);
   }
+  // pdo_mapping: operations, mapping entries, COB-ID bits, transmission types.
+  {
+    std::string text(kBanner);
+    text += comment("pdo_mapping operations (fuzz/pdo_mapping_fuzzer.cpp)");
+    text += token("op_nmt_start", Bytes{0x01, 0x00});
+    text += token("op_sync", Bytes{0x02, 0x00});
+    text += token("op_time_10ms", Bytes{0x05, 0x0A, 0x00});
+    text += comment("COB-ID bit 31 (PDO not valid), CiA 301 §7.5.2.35 Table 71");
+    text += token("cob_id_invalid", Bytes{0x00, 0x00, 0x00, 0x80});
+    text += comment("mapping entries of the target's objects (index, sub, bits)");
+    text += token("map_2000h_16", Bytes{0x10, 0x00, 0x00, 0x20});
+    text += token("map_2001h_32", Bytes{0x20, 0x00, 0x01, 0x20});
+    text += token("map_2009h_64", Bytes{0x40, 0x00, 0x09, 0x20});
+    text += comment("transmission types (CiA 301 §7.5.2.35 Table 72): 0, 1, 240, 252-255");
+    for (const std::uint8_t type : {0, 1, 240, 252, 253, 254, 255}) {
+      text += token(fmt::format("transmission_{}", type), Bytes{type});
+    }
+    out.dictionary("pdo_mapping", text);
+  }
   // emcy and dissector: frame-record heads, EMCY codes, SDO bytes, NMT and CiA 402 values.
   {
     std::string text(kBanner);
@@ -1110,6 +1207,7 @@ int main(int argc, char** argv) {
   sdo_client_corpus(out);
   sdo_server_corpus(out, by_test);
   nmt_error_control_corpus(out);
+  pdo_mapping_corpus(out);
   dictionaries(out);
   out.write();
   return 0;

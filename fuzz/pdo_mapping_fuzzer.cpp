@@ -1,0 +1,430 @@
+// Fuzz target: PDO communication and mapping parameters written in any order (SDO), with NMT,
+// SYNC, RPDO and RTR frames and time, into a whole reference drive (node 5) whose application
+// has a few mappable objects.
+//
+// Input (fuzz/support/fuzz_input.hpp reads past the end as zeros): operations, one byte each
+// (op % 7) and their operands; a frame is followed by bus time until it was on the wire (at
+// most 100 ms) plus 1 ms:
+//   0 SDO write       u8 target group {RPDO comm 1400h, RPDO mapping 1600h, TPDO comm 1800h,
+//                     TPDO mapping 1A00h, application 2000h} by % 5, u8 PDO number (% 4), u8
+//                     sub-index, u8 value kind, u32 value: kind % 4 = 0 the value as given,
+//                     1 a mapping entry of an application object (value % 9 picks it), 2 a
+//                     COB-ID of that PDO (bit 31 from the value), 3 a small number (value % 16)
+//   1 NMT             u8 {start, pre-operational, stop, reset communication} by % 4
+//   2 SYNC            u8: bit 0 with a counter byte, the rest the counter
+//   3 RPDO            u8 PDO number (% 4), u8 DLC (% 9), 8 data bytes, on its current COB-ID
+//   4 RTR             u8 TPDO number (% 4), on its current COB-ID
+//   5 time step       u16 % 1000 milliseconds
+//   6 application     u8 object (% 4): the application changes that input (TPDO sources)
+//
+// Oracles (CiA 301 §7.2.2 PDO, §7.5.2.35-38 mapping procedure):
+//   - a PDO whose COB-ID is valid (bit 31 = 0) has a consistent mapping: at most 8 entries of
+//     at most 64 bits together, each an existing, PDO-mappable entry of exactly that length,
+//     readable for a TPDO, writable (or a dummy 0002h-0007h) for an RPDO;
+//   - a TPDO on the wire carries exactly the mapped objects' bytes (DLC = mapped length), when
+//     neither the mapping nor those objects changed in the 5 ms before;
+//   - the application objects change only by an SDO write to that object or through an RPDO
+//     that maps them (RPDOs write only mapped objects).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "fuzz/support/fuzz_check.hpp"
+#include "fuzz/support/fuzz_input.hpp"
+#include "protocol/can/sim_bus.hpp"
+#include "protocol/cia301/object_dictionary.hpp"
+#include "reference_drive/device.hpp"
+
+namespace {
+
+using namespace drivecheck;
+using namespace std::chrono_literals;
+using cia301::AccessType;
+using cia301::DataType;
+using cia301::EntryDefinition;
+using cia301::ObjectCode;
+using cia301::ObjectDictionary;
+using drivecheck::fuzz::FuzzInput;
+
+constexpr std::uint8_t kNode = 5;
+constexpr can::Duration kQuiet = 5ms;
+
+struct AppObject {
+  std::uint16_t index;
+  std::uint8_t sub;
+  DataType type;
+  AccessType access;
+  bool mappable;
+  std::uint8_t bits;
+};
+// 2003h is an input only the application changes (operation 6); 2005h is not mappable.
+constexpr std::array<AppObject, 9> kAppObjects{{
+    {0x2000, 0, DataType::unsigned16, AccessType::rw, true, 16},
+    {0x2001, 0, DataType::unsigned32, AccessType::rw, true, 32},
+    {0x2002, 0, DataType::unsigned8, AccessType::rw, true, 8},
+    {0x2003, 0, DataType::unsigned16, AccessType::ro, true, 16},
+    {0x2004, 0, DataType::unsigned16, AccessType::wo, true, 16},
+    {0x2005, 0, DataType::unsigned16, AccessType::rw, false, 16},
+    {0x2009, 0, DataType::unsigned64, AccessType::rw, true, 64},
+    {0x200A, 1, DataType::integer16, AccessType::rw, true, 16},
+    {0x200A, 2, DataType::integer16, AccessType::rw, true, 16},
+}};
+
+class FuzzApplication final : public reference_drive::DriveApplication {
+ public:
+  Expected<void, std::string> add_objects(ObjectDictionary& od) override {
+    for (const AppObject& object : kAppObjects) {
+      if (object.sub != 0) continue;
+      auto added = od.add_object({object.index, "app", ObjectCode::var, {entry(object, 0)}});
+      if (!added) return Unexpected(added.error());
+    }
+    EntryDefinition count = EntryDefinition::unsigned_entry(0, "Highest sub-index supported",
+                                                            DataType::unsigned8, AccessType::ro, 2);
+    auto added =
+        od.add_object({0x200A,
+                       "pair",
+                       ObjectCode::array,
+                       {std::move(count), entry(kAppObjects[7], 1), entry(kAppObjects[8], 2)}});
+    if (!added) return Unexpected(added.error());
+    return {};
+  }
+
+ private:
+  static EntryDefinition entry(const AppObject& object, std::uint8_t sub) {
+    EntryDefinition e;
+    e.sub_index = sub;
+    e.name = "app";
+    e.type = object.type;
+    e.access = object.access;
+    e.pdo_mappable = object.mappable;
+    return e;
+  }
+};
+
+struct Mapped {
+  std::uint16_t index;
+  std::uint8_t sub;
+  std::uint8_t bits;
+};
+
+class Harness {
+ public:
+  Harness()
+      : bus_(can::SimBusConfig{.bitrate = 1'000'000}),
+        drive_port_(bus_.attach("drive")),
+        tester_(bus_.attach("tester")) {
+    reference_drive::DriveConfig config;
+    config.dictionary.node_id = kNode;
+    config.application = &application_;
+    auto drive = reference_drive::ReferenceDrive::create(*drive_port_, config);
+    DRIVECHECK_FUZZ_CHECK(drive.has_value(), "the reference drive could not be created");
+    drive_ = std::move(*drive);
+    tester_->set_loopback(true);
+    tester_->set_frame_handler([this](const can::TimedFrame& seen) {
+      if (seen.own) ++delivered_;
+    });
+    bus_.add_monitor([this](const can::TimedFrame& seen) { on_wire(seen); });
+    drive_->power_on();
+    run(1ms);
+  }
+
+  ObjectDictionary& od() { return drive_->dictionary(); }
+
+  // A frame from the tester, the bus run until it was on the wire (at most 100 ms) + 1 ms.
+  void send(const can::Frame& frame, std::set<std::pair<std::uint16_t, std::uint8_t>> may_change) {
+    const auto before = app_values();
+    const auto rpdo_before = rpdo_mapped();
+    const std::uint64_t sent = delivered_;
+    if (!tester_->send(frame)) {
+      for (int waited = 0; delivered_ == sent && waited < 100; ++waited)
+        bus_.run_for(1ms);
+      bus_.run_for(1ms);
+    }
+    after_step(before, rpdo_before, std::move(may_change));
+  }
+
+  void run(can::Duration duration) {
+    const auto before = app_values();
+    const auto rpdo_before = rpdo_mapped();
+    bus_.run_for(duration);
+    after_step(before, rpdo_before, {});
+  }
+
+  void sdo_write(std::uint16_t index, std::uint8_t sub, std::uint32_t value) {
+    const cia301::Entry* entry = od().find(index, sub);
+    std::size_t size = entry != nullptr ? entry->bytes().size() : 4;
+    if (size == 0 || size > 4) size = 4;
+    const auto command = static_cast<std::uint8_t>(0x23 | ((4 - size) << 2));
+    const std::array<std::uint8_t, 8> bytes{command,
+                                            static_cast<std::uint8_t>(index),
+                                            static_cast<std::uint8_t>(index >> 8),
+                                            sub,
+                                            static_cast<std::uint8_t>(value),
+                                            static_cast<std::uint8_t>(value >> 8),
+                                            static_cast<std::uint8_t>(value >> 16),
+                                            static_cast<std::uint8_t>(value >> 24)};
+    if (index >= 0x1400 && index < 0x1C00)
+      last_config_change_ = bus_.now();
+    else
+      last_value_change_ = bus_.now();
+    send(can::Frame::standard(0x600 + kNode, bytes), {{index, sub}});
+    if (index >= 0x1400 && index < 0x1C00)
+      last_config_change_ = bus_.now();
+    else
+      last_value_change_ = bus_.now();
+  }
+
+  void pdo_frame(const can::Frame& frame) {
+    last_value_change_ = bus_.now();
+    send(frame, {});
+    last_value_change_ = bus_.now();
+  }
+
+  void application_changes(std::size_t which, std::uint16_t value) {
+    const AppObject& object = kAppObjects[which];
+    cia301::Entry* entry = od().find(object.index, object.sub);
+    if (entry == nullptr) return;
+    last_value_change_ = bus_.now();
+    entry->assign_unsigned(value);
+    drive_->trigger_tpdo(1);
+  }
+
+  std::uint32_t cob_id(std::uint16_t comm_index) {
+    const cia301::Entry* entry = od().find(comm_index, 1);
+    return entry != nullptr ? static_cast<std::uint32_t>(entry->as_unsigned()) : 0x80000000u;
+  }
+
+  void note_config_change() { last_config_change_ = bus_.now(); }
+
+ private:
+  using Key = std::pair<std::uint16_t, std::uint8_t>;
+
+  std::vector<std::uint64_t> app_values() {
+    std::vector<std::uint64_t> out;
+    for (const AppObject& object : kAppObjects) {
+      const cia301::Entry* entry = od().find(object.index, object.sub);
+      out.push_back(entry != nullptr ? entry->as_unsigned() : 0);
+    }
+    return out;
+  }
+
+  // The mapping of PDO `mapping_index`, or empty when its COB-ID is not valid.
+  std::vector<Mapped> mapping_of(std::uint16_t comm_index, std::uint16_t mapping_index,
+                                 bool* valid = nullptr) {
+    std::vector<Mapped> out;
+    const bool is_valid = (cob_id(comm_index) & 0x80000000u) == 0;
+    if (valid != nullptr) *valid = is_valid;
+    const cia301::Entry* count = od().find(mapping_index, 0);
+    if (count == nullptr) return out;
+    const auto n = static_cast<std::uint8_t>(count->as_unsigned());
+    for (std::uint8_t sub = 1; sub <= n; ++sub) {
+      const cia301::Entry* e = od().find(mapping_index, sub);
+      if (e == nullptr) break;
+      const auto word = static_cast<std::uint32_t>(e->as_unsigned());
+      out.push_back({static_cast<std::uint16_t>(word >> 16), static_cast<std::uint8_t>(word >> 8),
+                     static_cast<std::uint8_t>(word)});
+    }
+    return out;
+  }
+
+  std::set<Key> rpdo_mapped() {
+    std::set<Key> out;
+    for (std::uint16_t n = 0; n < 4; ++n) {
+      bool valid = false;
+      for (const Mapped& m : mapping_of(0x1400 + n, 0x1600 + n, &valid)) {
+        if (valid) out.insert({m.index, m.sub});
+      }
+    }
+    return out;
+  }
+
+  void check_consistent(std::uint16_t comm_index, std::uint16_t mapping_index, bool tpdo) {
+    bool valid = false;
+    const std::vector<Mapped> mapping = mapping_of(comm_index, mapping_index, &valid);
+    if (!valid) return;
+    const std::string where =
+        fmt::format("{:04X}h (valid) mapped by {:04X}h", comm_index, mapping_index);
+    DRIVECHECK_FUZZ_CHECK_DETAIL(mapping.size() <= 8, "more than 8 mapping entries", where);
+    unsigned total = 0;
+    for (const Mapped& m : mapping) {
+      total += m.bits;
+      const bool dummy = m.index >= 0x0002 && m.index <= 0x0007 && m.sub == 0;
+      if (dummy) {
+        DRIVECHECK_FUZZ_CHECK_DETAIL(!tpdo, "a TPDO maps a dummy entry", where);
+        continue;
+      }
+      const cia301::Entry* entry = od().find(m.index, m.sub);
+      DRIVECHECK_FUZZ_CHECK_DETAIL(entry != nullptr,
+                                   "a valid PDO maps an entry that does not exist",
+                                   fmt::format("{}: {:04X}h sub {}", where, m.index, m.sub));
+      DRIVECHECK_FUZZ_CHECK_DETAIL(entry->pdo_mappable(), "a valid PDO maps a non-mappable entry",
+                                   fmt::format("{}: {:04X}h sub {}", where, m.index, m.sub));
+      DRIVECHECK_FUZZ_CHECK_DETAIL(entry->bytes().size() * 8 == m.bits,
+                                   "a valid PDO maps an entry with another length",
+                                   fmt::format("{}: {:04X}h sub {} {} bits, entry {} bits", where,
+                                               m.index, m.sub, m.bits, entry->bytes().size() * 8));
+      const AccessType access = entry->access();
+      if (tpdo) {
+        DRIVECHECK_FUZZ_CHECK_DETAIL(access != AccessType::wo, "a TPDO maps a write-only entry",
+                                     where);
+      } else {
+        DRIVECHECK_FUZZ_CHECK_DETAIL(
+            access == AccessType::rw || access == AccessType::wo || access == AccessType::rww,
+            "an RPDO maps an entry that cannot be written", where);
+      }
+    }
+    DRIVECHECK_FUZZ_CHECK_DETAIL(total <= 64, "a valid PDO maps more than 64 bits", where);
+  }
+
+  void after_step(const std::vector<std::uint64_t>& before, const std::set<Key>& rpdo_before,
+                  std::set<Key> may_change) {
+    for (std::uint16_t n = 0; n < 4; ++n) {
+      check_consistent(0x1400 + n, 0x1600 + n, false);
+      check_consistent(0x1800 + n, 0x1A00 + n, true);
+    }
+    const auto after = app_values();
+    std::set<Key> allowed = std::move(may_change);
+    allowed.insert(rpdo_before.begin(), rpdo_before.end());
+    const std::set<Key> rpdo_after = rpdo_mapped();
+    allowed.insert(rpdo_after.begin(), rpdo_after.end());
+    for (std::size_t i = 0; i < kAppObjects.size(); ++i) {
+      if (before[i] == after[i]) continue;
+      const Key key{kAppObjects[i].index, kAppObjects[i].sub};
+      DRIVECHECK_FUZZ_CHECK_DETAIL(allowed.count(key) != 0,
+                                   "an object changed that no write and no RPDO maps",
+                                   fmt::format("{:04X}h sub {}: {:X}h -> {:X}h", key.first,
+                                               key.second, before[i], after[i]));
+    }
+  }
+
+  void on_wire(const can::TimedFrame& seen) {
+    const can::Frame& frame = seen.frame;
+    if (seen.own || frame.is_remote() || frame.is_error()) return;
+    if (seen.timestamp - last_config_change_ < kQuiet ||
+        seen.timestamp - last_value_change_ < kQuiet)
+      return;
+    for (std::uint16_t n = 0; n < 4; ++n) {
+      const std::uint32_t cob = cob_id(0x1800 + n);
+      if ((cob & 0x80000000u) != 0) continue;
+      const bool extended = (cob & 0x20000000u) != 0;
+      if (frame.is_extended() != extended || frame.id != (cob & 0x1FFFFFFFu)) continue;
+      std::vector<std::uint8_t> expected;
+      for (const Mapped& m : mapping_of(0x1800 + n, 0x1A00 + n)) {
+        const cia301::Entry* entry = od().find(m.index, m.sub);
+        if (entry == nullptr) return;  // caught by check_consistent
+        expected.insert(expected.end(), entry->bytes().begin(), entry->bytes().end());
+      }
+      const auto payload = frame.payload();
+      DRIVECHECK_FUZZ_CHECK_DETAIL(
+          std::equal(payload.begin(), payload.end(), expected.begin(), expected.end()),
+          "a TPDO does not carry its mapped objects",
+          fmt::format("TPDO {} {} , expected {} bytes {:02X}", n + 1, frame, expected.size(),
+                      fmt::join(expected, " ")));
+      return;
+    }
+  }
+
+  FuzzApplication application_;
+  can::SimBus bus_;
+  std::unique_ptr<can::SimPort> drive_port_;
+  std::unique_ptr<can::SimPort> tester_;
+  std::unique_ptr<reference_drive::ReferenceDrive> drive_;
+  std::uint64_t delivered_ = 0;
+  can::TimePoint last_config_change_{};
+  can::TimePoint last_value_change_{};
+};
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  FuzzInput in(data, size);
+  Harness harness;
+  int operations = 0;
+  while (!in.empty() && ++operations <= 256) {
+    switch (in.u8() % 7) {
+      case 0: {
+        static constexpr std::array<std::uint16_t, 5> kGroups{0x1400, 0x1600, 0x1800, 0x1A00,
+                                                              0x2000};
+        const std::uint16_t group = kGroups[in.u8() % kGroups.size()];
+        const std::uint8_t number = in.u8() % 4;
+        std::uint8_t sub = in.u8();
+        const std::uint8_t kind = in.u8() % 4;
+        std::uint32_t value = in.u32();
+        std::uint16_t index = static_cast<std::uint16_t>(group + number);
+        if (group == 0x2000) {
+          const AppObject& object = kAppObjects[sub % kAppObjects.size()];
+          index = object.index;
+          sub = object.sub;
+        } else {
+          sub = static_cast<std::uint8_t>(sub % 9);
+        }
+        if (kind == 1) {
+          const AppObject& object = kAppObjects[value % kAppObjects.size()];
+          value =
+              (std::uint32_t{object.index} << 16) | (std::uint32_t{object.sub} << 8) | object.bits;
+        } else if (kind == 2) {
+          const bool rpdo = group == 0x1400 || group == 0x1600;
+          const std::uint32_t base = rpdo ? 0x200u : 0x180u;
+          value = (value & 0x80000000u) | (base + 0x100u * number + kNode);
+        } else if (kind == 3) {
+          value %= 16;
+        }
+        harness.sdo_write(index, sub, value);
+        break;
+      }
+      case 1: {
+        static constexpr std::array<std::uint8_t, 4> kCommands{0x01, 0x80, 0x02, 0x82};
+        harness.note_config_change();  // reset communication restores the PDO defaults
+        harness.send(can::Frame::standard(0x000, {kCommands[in.u8() % 4], kNode}), {});
+        harness.note_config_change();
+        break;
+      }
+      case 2: {
+        const std::uint8_t sync = in.u8();
+        harness.send((sync & 1) != 0
+                         ? can::Frame::standard(0x080, {static_cast<std::uint8_t>(sync >> 1)})
+                         : can::Frame::standard(0x080, {}),
+                     {});
+        break;
+      }
+      case 3: {
+        const std::uint32_t cob = harness.cob_id(static_cast<std::uint16_t>(0x1400 + in.u8() % 4));
+        const std::uint8_t dlc = static_cast<std::uint8_t>(in.u8() % 9);
+        const auto bytes = in.bytes(8);
+        if ((cob & 0x80000000u) != 0 || (cob & 0x20000000u) != 0 || (cob & 0x1FFFFFFFu) > 0x7FF)
+          break;
+        can::Frame frame = can::Frame::standard(
+            cob & 0x7FFu, bytes.first(std::min<std::size_t>(dlc, bytes.size())));
+        frame.dlc = dlc;
+        harness.pdo_frame(frame);
+        break;
+      }
+      case 4: {
+        const std::uint32_t cob = harness.cob_id(static_cast<std::uint16_t>(0x1800 + in.u8() % 4));
+        if ((cob & 0x80000000u) != 0 || (cob & 0x20000000u) != 0 || (cob & 0x1FFFFFFFu) > 0x7FF)
+          break;
+        harness.send(can::Frame::remote(cob & 0x7FFu, 0), {});
+        break;
+      }
+      case 5:
+        harness.run(std::chrono::milliseconds(in.u16() % 1000));
+        break;
+      default: {
+        const std::size_t which = in.u8() % 4;
+        harness.application_changes(which, in.u16());
+        break;
+      }
+    }
+  }
+  harness.run(100ms);
+  return 0;
+}
