@@ -755,8 +755,13 @@ can::TimePoint PdoService::next_deadline() const {
   }
   for (const Tpdo& pdo : tpdos_) {
     if (!pdo.active || pdo.type < 254) continue;
-    at = std::min(at, pdo.event_due);
-    if (pdo.event) at = std::min(at, std::max(pdo.inhibit_until, can::TimePoint{}));
+    // A pending event waits only for the inhibit time; its event timer has already fired (an
+    // event timer shorter than the inhibit time must not wake the owner at a past instant).
+    if (pdo.event) {
+      at = std::min(at, std::max(pdo.inhibit_until, can::TimePoint{}));
+    } else {
+      at = std::min(at, pdo.event_due);
+    }
   }
   return at;
 }

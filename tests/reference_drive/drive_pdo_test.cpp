@@ -459,6 +459,25 @@ TEST(PdoTransmission, EventTimerSendsPeriodically) {
   }
 }
 
+TEST(PdoTransmission, EventTimerShorterThanInhibitTimeWaitsForTheInhibitTime) {
+  // Given TPDO1 type 255 with event timer 20 ms and inhibit time 1000 (100 ms)
+  // When the drive runs 350 ms in Operational
+  // Then TPDO1 is sent every 100 ms (the inhibit time wins; CiA 301 §7.2.2.2), and the drive
+  // does not wake up at the event timer's past instant over and over (simulated time goes on)
+  DriveRig rig;
+  ASSERT_EQ(rig.write(0x1800, 3, 1000, 2), 0u);
+  ASSERT_EQ(rig.write(0x1800, 5, 20, 2), 0u);
+  map_tpdo(rig, 1, {0x20020008}, 255);
+  rig.nmt(kStart);
+  rig.take();
+  rig.bus().run_for(350ms);
+  const auto frames = rig.take();
+  ASSERT_EQ(frames.size(), 3u);
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    EXPECT_EQ(frames[i].timestamp - frames[i - 1].timestamp, 100ms);
+  }
+}
+
 TEST(PdoTransmission, FourTpdosOnOneSync) {
   // Given TPDO1..4 synchronous (type 1) with different objects
   // When a SYNC comes
