@@ -1,0 +1,1173 @@
+#include "protocol/profile/drive_profile.hpp"
+
+#include <fmt/format.h>
+#include <yaml-cpp/depthguard.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <system_error>
+#include <utility>
+
+namespace drivecheck::profile {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Internal unwinding only: every public function catches it (and yaml-cpp's exceptions) and
+// returns the TextError as a value.
+struct Failure {
+  TextError error;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+  const std::string& file() const { return file_; }
+
+  [[noreturn]] void fail(const YAML::Node& node, std::string message) const {
+    throw Failure{TextError{file_, line_of(node), std::move(message)}};
+  }
+  [[noreturn]] void fail_at(int line, std::string message) const {
+    throw Failure{TextError{file_, line, std::move(message)}};
+  }
+  static int line_of(const YAML::Node& node) {
+    if (!node.IsDefined()) return 0;
+    const int line = node.Mark().line;
+    return line >= 0 ? line + 1 : 0;
+  }
+
+ private:
+  std::string file_;
+};
+
+// A checked YAML map: keys are scalars from an allowed set, none repeated.
+class MapView {
+ public:
+  MapView(const Reader& reader, const YAML::Node& node, std::string_view what,
+          std::initializer_list<std::string_view> allowed)
+      : reader_(reader), node_(node) {
+    if (!node.IsMap()) reader.fail(node, fmt::format("{} must be a map", what));
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      const YAML::Node key = it->first;
+      if (!key.IsScalar()) reader.fail(key, fmt::format("{}: a key must be a plain name", what));
+      const std::string& name = key.Scalar();
+      if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
+        std::string known;
+        for (std::string_view a : allowed)
+          known += (known.empty() ? "" : ", ") + std::string(a);
+        reader.fail(key, fmt::format("{}: unknown key '{}' (known: {})", what, name, known));
+      }
+      for (const auto& [seen, unused] : entries_) {
+        (void)unused;
+        if (seen == name) reader.fail(key, fmt::format("{}: duplicate key '{}'", what, name));
+      }
+      entries_.emplace_back(name, it->second);
+    }
+  }
+
+  std::optional<YAML::Node> get(std::string_view name) const {
+    for (const auto& [key, value] : entries_)
+      if (key == name) return value;
+    return std::nullopt;
+  }
+  YAML::Node require(std::string_view name, std::string_view what) const {
+    auto value = get(name);
+    if (!value) reader_.fail(node_, fmt::format("{}: missing required key '{}'", what, name));
+    return *value;
+  }
+  const YAML::Node& node() const { return node_; }
+
+ private:
+  const Reader& reader_;
+  YAML::Node node_;
+  std::vector<std::pair<std::string, YAML::Node>> entries_;
+};
+
+std::optional<std::int64_t> parse_integer_text(std::string_view text) {
+  bool negative = false;
+  if (!text.empty() && text.front() == '-') {
+    negative = true;
+    text.remove_prefix(1);
+  }
+  int base = 10;
+  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) {
+    base = 16;
+    text.remove_prefix(2);
+  }
+  if (text.empty()) return std::nullopt;
+  std::uint64_t magnitude = 0;
+  auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), magnitude, base);
+  if (ec != std::errc{} || ptr != text.data() + text.size()) return std::nullopt;
+  constexpr auto kMax = static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max());
+  if (negative) {
+    if (magnitude > kMax + 1) return std::nullopt;
+    return magnitude == kMax + 1 ? std::numeric_limits<std::int64_t>::min()
+                                 : -static_cast<std::int64_t>(magnitude);
+  }
+  if (magnitude > kMax) return std::nullopt;
+  return static_cast<std::int64_t>(magnitude);
+}
+
+// The 1-based line of the first byte that is not well-formed UTF-8 (RFC 3629: no overlongs, no
+// surrogates, nothing above U+10FFFF); 0 when the text is valid. YAML text is UTF-8, and
+// yaml-cpp does not check: a bad byte would be changed on the way back out (to_yaml).
+int first_invalid_utf8_line(std::string_view text) {
+  int line = 1;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c == '\n') ++line;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    std::size_t length = 0;
+    unsigned min_second = 0x80;
+    unsigned max_second = 0xBF;
+    if (c >= 0xC2 && c <= 0xDF) {
+      length = 2;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      length = 3;
+      if (c == 0xE0) min_second = 0xA0;  // no overlong
+      if (c == 0xED) max_second = 0x9F;  // no surrogate
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      length = 4;
+      if (c == 0xF0) min_second = 0x90;  // no overlong
+      if (c == 0xF4) max_second = 0x8F;  // not above U+10FFFF
+    } else {
+      return line;
+    }
+    if (i + length > text.size()) return line;
+    for (std::size_t k = 1; k < length; ++k) {
+      const auto b = static_cast<unsigned char>(text[i + k]);
+      const unsigned lo = k == 1 ? min_second : 0x80;
+      const unsigned hi = k == 1 ? max_second : 0xBF;
+      if (b < lo || b > hi) return line;
+    }
+    i += length;
+  }
+  return 0;
+}
+
+std::string scalar(const Reader& r, const YAML::Node& node, std::string_view what) {
+  if (!node.IsScalar()) r.fail(node, fmt::format("{} must be a text value", what));
+  return node.Scalar();
+}
+
+std::string nonempty_scalar(const Reader& r, const YAML::Node& node, std::string_view what) {
+  std::string text = scalar(r, node, what);
+  if (text.empty()) r.fail(node, fmt::format("{} must not be empty", what));
+  return text;
+}
+
+std::int64_t integer(const Reader& r, const YAML::Node& node, std::string_view what,
+                     std::int64_t min, std::int64_t max) {
+  if (!node.IsScalar()) r.fail(node, fmt::format("{} must be an integer", what));
+  const auto value = parse_integer_text(node.Scalar());
+  if (!value) {
+    r.fail(node,
+           fmt::format("{}: '{}' is not an integer (decimal or 0x hex)", what, node.Scalar()));
+  }
+  if (*value < min || *value > max) {
+    r.fail(node, fmt::format("{}: {} is out of range {}..{}", what, node.Scalar(), min, max));
+  }
+  return *value;
+}
+
+bool boolean(const Reader& r, const YAML::Node& node, std::string_view what) {
+  if (node.IsScalar() && node.Scalar() == "true") return true;
+  if (node.IsScalar() && node.Scalar() == "false") return false;
+  r.fail(node, fmt::format("{} must be true or false", what));
+}
+
+void require_sequence(const Reader& r, const YAML::Node& node, std::string_view what) {
+  if (!node.IsSequence()) r.fail(node, fmt::format("{} must be a list", what));
+}
+
+std::vector<int> int_list(const Reader& r, const YAML::Node& node, std::string_view what, int min,
+                          int max) {
+  require_sequence(r, node, what);
+  std::vector<int> values;
+  for (const auto& item : node) {
+    const int value = static_cast<int>(integer(r, item, what, min, max));
+    if (std::find(values.begin(), values.end(), value) != values.end()) {
+      r.fail(item, fmt::format("{}: {} is listed twice", what, value));
+    }
+    values.push_back(value);
+  }
+  return values;
+}
+
+std::vector<std::string> sources(const Reader& r, const YAML::Node& node, std::string_view what) {
+  std::vector<std::string> out;
+  if (node.IsSequence()) {
+    for (const auto& item : node)
+      out.push_back(nonempty_scalar(r, item, what));
+    if (out.empty()) r.fail(node, fmt::format("{} must name at least one source", what));
+    return out;
+  }
+  out.push_back(nonempty_scalar(r, node, what));
+  return out;
+}
+
+can::Duration duration(const Reader& r, const YAML::Node& node, std::string_view what) {
+  const std::string text = scalar(r, node, what);
+  auto value = parse_duration(text);
+  if (!value) r.fail(node, fmt::format("{}: {}", what, value.error()));
+  return *value;
+}
+
+cia301::DataType data_type(const Reader& r, const YAML::Node& node, std::string_view what) {
+  const std::string text = scalar(r, node, what);
+  for (const auto& row : cia301::data_type_table())
+    if (row.name == text) return row.type;
+  r.fail(node,
+         fmt::format("{}: unknown data type '{}' (CiA 301 names, e.g. UNSIGNED16)", what, text));
+}
+
+bool is_lower_name(std::string_view text, bool allow_dot) {
+  return !text.empty() && std::all_of(text.begin(), text.end(), [allow_dot](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_' ||
+           (allow_dot && c == '.');
+  });
+}
+
+// --- sections ----------------------------------------------------------------------------------
+
+Identity read_identity(const Reader& r, const YAML::Node& node, std::string_view what) {
+  const MapView map(r, node, what,
+                    {"device_type", "vendor_id", "product_code", "revision_number", "serial_number",
+                     "device_name", "hardware_version", "software_version"});
+  Identity id;
+  auto u32 = [&](std::string_view key, std::optional<std::uint32_t>& out) {
+    if (auto v = map.get(key)) {
+      out = static_cast<std::uint32_t>(
+          integer(r, *v, fmt::format("{}.{}", what, key), 0, 0xFFFFFFFF));
+    }
+  };
+  auto text = [&](std::string_view key, std::optional<std::string>& out) {
+    if (auto v = map.get(key)) out = scalar(r, *v, fmt::format("{}.{}", what, key));
+  };
+  u32("device_type", id.device_type);
+  u32("vendor_id", id.vendor_id);
+  u32("product_code", id.product_code);
+  u32("revision_number", id.revision_number);
+  u32("serial_number", id.serial_number);
+  text("device_name", id.device_name);
+  text("hardware_version", id.hardware_version);
+  text("software_version", id.software_version);
+  return id;
+}
+
+std::map<OptionCode, std::vector<int>> read_option_codes(const Reader& r, const YAML::Node& node,
+                                                         std::string_view what) {
+  const MapView map(r, node, what,
+                    {"quick-stop", "shutdown", "disable-operation", "halt", "fault-reaction",
+                     "abort-connection"});
+  std::map<OptionCode, std::vector<int>> out;
+  for (const auto& row : option_code_table()) {
+    if (auto v = map.get(row.name)) {
+      out[row.code] = int_list(r, *v, fmt::format("{}.{}", what, row.name), -32768, 32767);
+    }
+  }
+  return out;
+}
+
+ObjectSpec read_object(const Reader& r, const YAML::Node& node) {
+  const MapView map(
+      r, node, "objects entry",
+      {"index", "sub", "type", "access", "pdo", "default", "min", "max", "name", "source"});
+  ObjectSpec o;
+  o.index = static_cast<std::uint16_t>(
+      integer(r, map.require("index", "objects entry"), "objects.index", 0x0001, 0xFFFF));
+  if (auto v = map.get("sub")) {
+    o.sub = static_cast<std::uint8_t>(integer(r, *v, "objects.sub", 0, 255));
+  }
+  o.type = data_type(r, map.require("type", "objects entry"), "objects.type");
+  const YAML::Node access_node = map.require("access", "objects entry");
+  const auto access = cia301::parse_access_type(scalar(r, access_node, "objects.access"));
+  if (!access) {
+    r.fail(access_node, fmt::format("objects.access: '{}' is not one of ro wo rw rwr rww const",
+                                    access_node.Scalar()));
+  }
+  o.access = *access;
+  if (auto v = map.get("pdo")) o.pdo = boolean(r, *v, "objects.pdo");
+  const bool integral = cia301::is_integer(o.type);
+  constexpr auto kMin = std::numeric_limits<std::int64_t>::min();
+  constexpr auto kMax = std::numeric_limits<std::int64_t>::max();
+  if (auto v = map.get("default")) {
+    if (integral)
+      o.default_value = integer(r, *v, "objects.default", kMin, kMax);
+    else
+      o.default_text = scalar(r, *v, "objects.default");
+  }
+  if (auto v = map.get("min")) {
+    if (!integral) r.fail(*v, "objects.min: only integer types have limits here");
+    o.min = integer(r, *v, "objects.min", kMin, kMax);
+  }
+  if (auto v = map.get("max")) {
+    if (!integral) r.fail(*v, "objects.max: only integer types have limits here");
+    o.max = integer(r, *v, "objects.max", kMin, kMax);
+  }
+  if (o.min && o.max && *o.min > *o.max) r.fail(node, "objects entry: min is above max");
+  if (auto v = map.get("name")) o.name = scalar(r, *v, "objects.name");
+  o.sources = sources(r, map.require("source", "objects entry"), "objects.source");
+  return o;
+}
+
+EmcyCodeSpec read_emcy_code(const Reader& r, const YAML::Node& node) {
+  const MapView map(r, node, "emcy_codes entry",
+                    {"code", "text", "source", "register", "diagnostic"});
+  EmcyCodeSpec e;
+  e.code = static_cast<std::uint16_t>(
+      integer(r, map.require("code", "emcy_codes entry"), "emcy_codes.code", 0, 0xFFFF));
+  e.text = nonempty_scalar(r, map.require("text", "emcy_codes entry"), "emcy_codes.text");
+  if (auto v = map.get("register")) {
+    e.error_register = static_cast<std::uint8_t>(integer(r, *v, "emcy_codes.register", 0, 0xFF));
+  }
+  if (auto v = map.get("diagnostic")) e.diagnostic = scalar(r, *v, "emcy_codes.diagnostic");
+  e.sources = sources(r, map.require("source", "emcy_codes entry"), "emcy_codes.source");
+  return e;
+}
+
+PdoDefault read_pdo_default(const Reader& r, const YAML::Node& node) {
+  const MapView map(
+      r, node, "pdo_defaults entry",
+      {"pdo", "cob_id", "transmission", "inhibit_time", "event_timer", "mapping", "source"});
+  PdoDefault p;
+  const YAML::Node pdo_node = map.require("pdo", "pdo_defaults entry");
+  const std::string pdo = scalar(r, pdo_node, "pdo_defaults.pdo");
+  std::string_view number_text;
+  if (pdo.starts_with("rpdo")) {
+    p.kind = PdoKind::rpdo;
+    number_text = std::string_view(pdo).substr(4);
+  } else if (pdo.starts_with("tpdo")) {
+    p.kind = PdoKind::tpdo;
+    number_text = std::string_view(pdo).substr(4);
+  }
+  const auto number = parse_integer_text(number_text);
+  if (!number || *number < 1 || *number > 512 || number_text.front() == '0' ||
+      number_text.find_first_not_of("0123456789") != std::string_view::npos) {
+    r.fail(pdo_node,
+           fmt::format("pdo_defaults.pdo: '{}' is not rpdo1..rpdo512 or tpdo1..tpdo512", pdo));
+  }
+  p.number = static_cast<std::uint16_t>(*number);
+  const YAML::Node cob_node = map.require("cob_id", "pdo_defaults entry");
+  auto cob = parse_cob_id_spec(scalar(r, cob_node, "pdo_defaults.cob_id"));
+  if (!cob) r.fail(cob_node, fmt::format("pdo_defaults.cob_id: {}", cob.error()));
+  p.cob_id = *cob;
+  if (auto v = map.get("transmission")) {
+    p.transmission = static_cast<std::uint8_t>(integer(r, *v, "pdo_defaults.transmission", 0, 255));
+  }
+  if (auto v = map.get("inhibit_time")) {
+    p.inhibit_time =
+        static_cast<std::uint16_t>(integer(r, *v, "pdo_defaults.inhibit_time", 0, 0xFFFF));
+  }
+  if (auto v = map.get("event_timer")) {
+    p.event_timer =
+        static_cast<std::uint16_t>(integer(r, *v, "pdo_defaults.event_timer", 0, 0xFFFF));
+  }
+  const YAML::Node mapping = map.require("mapping", "pdo_defaults entry");
+  require_sequence(r, mapping, "pdo_defaults.mapping");
+  unsigned bits = 0;
+  for (const auto& item : mapping) {
+    const auto entry =
+        static_cast<std::uint32_t>(integer(r, item, "pdo_defaults.mapping", 0, 0xFFFFFFFF));
+    bits += entry & 0xFFU;
+    if (bits > 64) r.fail(item, "pdo_defaults.mapping: more than 64 bits mapped");
+    p.mapping.push_back(entry);
+  }
+  p.sources = sources(r, map.require("source", "pdo_defaults entry"), "pdo_defaults.source");
+  return p;
+}
+
+Deviation read_deviation(const Reader& r, const YAML::Node& node) {
+  const MapView map(r, node, "deviations entry",
+                    {"id", "vectors", "source", "description", "contradiction"});
+  Deviation d;
+  const YAML::Node id_node = map.require("id", "deviations entry");
+  d.id = scalar(r, id_node, "deviations.id");
+  if (!is_lower_name(d.id, true)) {
+    r.fail(id_node, fmt::format("deviations.id: '{}' must be [a-z0-9._-]+", d.id));
+  }
+  const YAML::Node vectors = map.require("vectors", "deviations entry");
+  require_sequence(r, vectors, "deviations.vectors");
+  for (const auto& item : vectors) {
+    std::string glob = scalar(r, item, "deviations.vectors");
+    if (!is_valid_glob(glob)) {
+      r.fail(item, fmt::format("deviations.vectors: '{}' is not a glob of vector ids "
+                               "([a-z0-9/._-], * and ?)",
+                               glob));
+    }
+    d.vectors.push_back(std::move(glob));
+  }
+  if (d.vectors.empty()) r.fail(vectors, "deviations.vectors must name at least one vector glob");
+  d.sources = sources(r, map.require("source", "deviations entry"), "deviations.source");
+  d.description =
+      nonempty_scalar(r, map.require("description", "deviations entry"), "deviations.description");
+  if (auto v = map.get("contradiction"))
+    d.contradiction = scalar(r, *v, "deviations.contradiction");
+  return d;
+}
+
+Personality read_personality(const Reader& r, const YAML::Node& node) {
+  const MapView map(r, node, "personality",
+                    {"identity",
+                     "modes",
+                     "manufacturer_modes",
+                     "option_codes",
+                     "option_defaults",
+                     "hardware_enable",
+                     "emcy_follow_up",
+                     "error_code_format",
+                     "homing",
+                     "manufacturer_homing",
+                     "homing_default_method",
+                     "homing_halt_sets_error",
+                     "object_types",
+                     "guarding_loss",
+                     "ack_latency_cycles",
+                     "control_cycle",
+                     "sdo_dlc",
+                     "sdo_short_requests",
+                     "heartbeat_time_ms",
+                     "guard_time_ms",
+                     "life_time_factor",
+                     "note"});
+  Personality p;
+  if (auto v = map.get("identity")) p.identity = read_identity(r, *v, "personality.identity");
+  if (auto v = map.get("modes")) p.modes = int_list(r, *v, "personality.modes", -128, 127);
+  if (auto v = map.get("manufacturer_modes")) {
+    require_sequence(r, *v, "personality.manufacturer_modes");
+    for (const auto& item : *v) {
+      const MapView m(r, item, "personality.manufacturer_modes entry",
+                      {"value", "behaves_as", "name"});
+      ManufacturerMode mode;
+      mode.value = static_cast<int>(integer(r, m.require("value", "manufacturer_modes entry"),
+                                            "manufacturer_modes.value", -128, -1));
+      if (auto b = m.get("behaves_as")) {
+        mode.behaves_as = static_cast<int>(integer(r, *b, "manufacturer_modes.behaves_as", 0, 10));
+        if (mode.behaves_as != 0 && !mode_feature(mode.behaves_as)) {
+          r.fail(*b, fmt::format("manufacturer_modes.behaves_as: {} is not a CiA 402 mode",
+                                 mode.behaves_as));
+        }
+      }
+      if (auto n = m.get("name")) mode.name = scalar(r, *n, "manufacturer_modes.name");
+      for (const auto& seen : p.manufacturer_modes) {
+        if (seen.value == mode.value) {
+          r.fail(item, fmt::format("manufacturer_modes: {} is listed twice", mode.value));
+        }
+      }
+      p.manufacturer_modes.push_back(std::move(mode));
+    }
+  }
+  if (auto v = map.get("option_codes")) {
+    p.option_codes = read_option_codes(r, *v, "personality.option_codes");
+  }
+  if (auto v = map.get("option_defaults")) {
+    const MapView m(r, *v, "personality.option_defaults",
+                    {"quick-stop", "shutdown", "disable-operation", "halt", "fault-reaction",
+                     "abort-connection"});
+    for (const auto& row : option_code_table()) {
+      if (auto d = m.get(row.name)) {
+        p.option_defaults[row.code] = static_cast<int>(
+            integer(r, *d, fmt::format("personality.option_defaults.{}", row.name), -32768, 32767));
+      }
+    }
+  }
+  if (auto v = map.get("emcy_follow_up")) {
+    p.emcy_follow_up = boolean(r, *v, "personality.emcy_follow_up");
+  }
+  auto choice = [&](std::string_view key, auto& out, auto... options) {
+    auto v = map.get(key);
+    if (!v) return;
+    const std::string text = scalar(r, *v, fmt::format("personality.{}", key));
+    std::string known;
+    bool found = false;
+    (
+        [&](auto option) {
+          known += (known.empty() ? "" : ", ") + std::string(to_string(option));
+          if (!found && to_string(option) == text) {
+            out = option;
+            found = true;
+          }
+        }(options),
+        ...);
+    if (!found) {
+      r.fail(*v, fmt::format("personality.{}: '{}' is not one of {}", key, text, known));
+    }
+  };
+  choice("error_code_format", p.error_code_format, ErrorCodeFormat::standard,
+         ErrorCodeFormat::error_number);
+  choice("homing", p.homing, HomingStyle::standard, HomingStyle::set_position);
+  choice("hardware_enable", p.hardware_enable, HardwareEnable::none, HardwareEnable::transition_2,
+         HardwareEnable::transition_3);
+  choice("manufacturer_homing", p.manufacturer_homing, HomingTable::none, HomingTable::festo,
+         HomingTable::kollmorgen, HomingTable::irtsa);
+  if (auto v = map.get("homing_default_method")) {
+    p.homing_default_method =
+        static_cast<int>(integer(r, *v, "personality.homing_default_method", -128, 127));
+  }
+  if (auto v = map.get("homing_halt_sets_error")) {
+    p.homing_halt_sets_error = boolean(r, *v, "personality.homing_halt_sets_error");
+  }
+  choice("guarding_loss", p.guarding_loss, GuardingLoss::error_behaviour,
+         GuardingLoss::pre_operational, GuardingLoss::no_nmt_change);
+  choice("sdo_dlc", p.sdo_dlc, SdoDlc::always_8, SdoDlc::minimal);
+  choice("sdo_short_requests", p.sdo_short_requests, SdoShortRequests::ignore,
+         SdoShortRequests::pad);
+  if (auto v = map.get("object_types")) {
+    require_sequence(r, *v, "personality.object_types");
+    for (const auto& item : *v) {
+      const MapView m(r, item, "personality.object_types entry", {"index", "sub", "type"});
+      ObjectType t;
+      t.index = static_cast<std::uint16_t>(integer(r, m.require("index", "object_types entry"),
+                                                   "object_types.index", 0x0001, 0xFFFF));
+      if (auto s = m.get("sub")) {
+        t.sub = static_cast<std::uint8_t>(integer(r, *s, "object_types.sub", 0, 255));
+      }
+      t.type = data_type(r, m.require("type", "object_types entry"), "object_types.type");
+      if (!cia301::is_integer(t.type) || cia301::info(t.type).size > 4) {
+        r.fail(item, "object_types: only integer types of 1..4 bytes can be substituted");
+      }
+      for (const auto& seen : p.object_types) {
+        if (seen.index == t.index && seen.sub == t.sub) {
+          r.fail(item, "object_types: the same index and sub-index is listed twice");
+        }
+      }
+      p.object_types.push_back(t);
+    }
+  }
+  if (auto v = map.get("ack_latency_cycles")) {
+    p.ack_latency_cycles =
+        static_cast<unsigned>(integer(r, *v, "personality.ack_latency_cycles", 0, 1000));
+  }
+  if (auto v = map.get("control_cycle")) {
+    p.control_cycle = duration(r, *v, "personality.control_cycle");
+    if (*p.control_cycle < std::chrono::microseconds(50) ||
+        *p.control_cycle > std::chrono::seconds(1)) {
+      r.fail(*v, "personality.control_cycle must be within 50us..1s");
+    }
+  }
+  if (auto v = map.get("heartbeat_time_ms")) {
+    p.heartbeat_time_ms =
+        static_cast<std::uint16_t>(integer(r, *v, "personality.heartbeat_time_ms", 0, 0xFFFF));
+  }
+  if (auto v = map.get("guard_time_ms")) {
+    p.guard_time_ms =
+        static_cast<std::uint16_t>(integer(r, *v, "personality.guard_time_ms", 0, 0xFFFF));
+  }
+  if (auto v = map.get("life_time_factor")) {
+    p.life_time_factor =
+        static_cast<std::uint8_t>(integer(r, *v, "personality.life_time_factor", 0, 0xFF));
+  }
+  if (auto v = map.get("note")) p.note = scalar(r, *v, "personality.note");
+  return p;
+}
+
+// An item of a list section with where it was written (for duplicate errors).
+template <class Item>
+struct Located {
+  Item item;
+  std::string file;
+  int line = 0;
+};
+
+// A list section given inline, or as the name of a file next to the profile holding the list.
+template <class Item, class ReadItem>
+std::vector<Located<Item>> read_list_section(const Reader& r, const YAML::Node& node,
+                                             std::string_view key, const ParseOptions& options,
+                                             ReadItem read_item) {
+  std::vector<Located<Item>> items;
+  if (node.IsScalar()) {
+    const std::string name = node.Scalar();
+    if (!options.base_dir) {
+      r.fail(node, fmt::format("{}: '{}' names a file, but this text has no directory", key, name));
+    }
+    const fs::path relative(name);
+    if (name.empty() || relative.is_absolute() ||
+        std::any_of(relative.begin(), relative.end(),
+                    [](const fs::path& part) { return part == ".."; })) {
+      r.fail(node, fmt::format("{}: '{}' must be a relative path without '..'", key, name));
+    }
+    const fs::path path = *options.base_dir / relative;
+    std::ifstream in(path, std::ios::binary);
+    std::error_code ec;
+    if (!in || fs::is_directory(path, ec)) {
+      r.fail(node, fmt::format("{}: cannot read '{}'", key, path.string()));
+    }
+    std::ostringstream text;
+    text << in.rdbuf();
+    const Reader inner(path.string());
+    if (const int bad = first_invalid_utf8_line(text.str()); bad != 0) {
+      inner.fail_at(bad, "the text is not valid UTF-8");
+    }
+    YAML::Node root;
+    try {
+      root = YAML::Load(text.str());
+    } catch (const YAML::Exception& e) {
+      inner.fail_at(e.mark.line >= 0 ? e.mark.line + 1 : 0, e.msg);
+    }
+    if (!root.IsSequence()) inner.fail(root, fmt::format("{} file must hold a YAML list", key));
+    for (const auto& item : root)
+      items.push_back({read_item(inner, item), inner.file(), Reader::line_of(item)});
+    return items;
+  }
+  require_sequence(r, node, key);
+  for (const auto& item : node)
+    items.push_back({read_item(r, item), r.file(), Reader::line_of(item)});
+  return items;
+}
+
+// The items of a list section, refusing two with the same key (`same`).
+template <class Item, class Same, class Describe>
+std::vector<Item> unique_items(std::vector<Located<Item>> located, std::string_view section,
+                               Same same, Describe describe) {
+  std::vector<Item> items;
+  for (std::size_t i = 0; i < located.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (same(located[i].item, located[j].item)) {
+        throw Failure{TextError{located[i].file, located[i].line,
+                                fmt::format("{}: {} is listed twice (first on line {})", section,
+                                            describe(located[i].item), located[j].line)}};
+      }
+    }
+    items.push_back(std::move(located[i].item));
+  }
+  return items;
+}
+
+DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOptions& options) {
+  if (!root.IsDefined() || root.IsNull()) r.fail_at(0, "the profile is empty");
+  const MapView map(
+      r, root, "profile",
+      {"name", "title", "manual", "identity", "features", "modes", "homing_methods", "option_codes",
+       "timing", "objects", "emcy_codes", "pdo_defaults", "deviations", "personality"});
+  DriveProfile p;
+  const YAML::Node name_node = map.require("name", "profile");
+  p.name = scalar(r, name_node, "name");
+  if (!is_lower_name(p.name, false)) {
+    r.fail(name_node, fmt::format("name: '{}' must be [a-z0-9_-]+", p.name));
+  }
+  if (options.check_name && !options.file_name.empty()) {
+    const std::string stem = fs::path(options.file_name).stem().string();
+    if (stem != p.name) {
+      r.fail(name_node, fmt::format("name: '{}' is not the file name '{}'", p.name, stem));
+    }
+  }
+  p.title = nonempty_scalar(r, map.require("title", "profile"), "title");
+  if (auto v = map.get("manual")) p.manual = nonempty_scalar(r, *v, "manual");
+  if (auto v = map.get("identity")) p.identity = read_identity(r, *v, "identity");
+  if (auto v = map.get("modes")) p.modes = int_list(r, *v, "modes", -128, 127);
+  if (auto v = map.get("homing_methods")) {
+    p.homing_methods = int_list(r, *v, "homing_methods", -128, 127);
+  }
+  if (auto v = map.get("option_codes")) p.option_codes = read_option_codes(r, *v, "option_codes");
+
+  // Features: the closed vocabulary, consistent with the lists above, which imply theirs.
+  const YAML::Node features = map.require("features", "profile");
+  require_sequence(r, features, "features");
+  std::set<std::string> implied;
+  for (int mode : p.modes)
+    if (auto f = mode_feature(mode)) implied.emplace(*f);
+  for (int method : p.homing_methods)
+    implied.insert(homing_method_feature(method));
+  for (const auto& [code, values] : p.option_codes)
+    for (int value : values)
+      implied.insert(option_feature(code, value));
+  for (const auto& item : features) {
+    const std::string f = scalar(r, item, "features");
+    if (!is_known_feature(f)) {
+      r.fail(item,
+             fmt::format("features: unknown feature '{}' (vectors/FORMAT.md \"Features\")", f));
+    }
+    if (p.features.contains(f)) r.fail(item, fmt::format("features: '{}' is listed twice", f));
+    const bool family =
+        f.starts_with("mode.") || f.starts_with("homing.method.") || f.starts_with("option.");
+    if (family && !implied.contains(f)) {
+      r.fail(item, fmt::format("features: '{}' needs its value in modes, homing_methods or "
+                               "option_codes",
+                               f));
+    }
+    p.features.insert(f);
+  }
+  p.features.insert(implied.begin(), implied.end());
+
+  if (auto v = map.get("timing")) {
+    const YAML::Node& timing = *v;
+    if (!timing.IsMap()) r.fail(timing, "timing must be a map");
+    std::set<std::string> seen;
+    for (auto it = timing.begin(); it != timing.end(); ++it) {
+      const std::string key = scalar(r, it->first, "timing key");
+      if (!find_timing(key)) {
+        std::string known;
+        for (const auto& row : timing_table())
+          known += (known.empty() ? "" : ", ") + std::string(row.name);
+        r.fail(it->first, fmt::format("timing: unknown name '{}' (known: {})", key, known));
+      }
+      if (!seen.insert(key).second)
+        r.fail(it->first, fmt::format("timing: duplicate key '{}'", key));
+      p.timing[key] = duration(r, it->second, fmt::format("timing.{}", key));
+    }
+  }
+  if (auto v = map.get("objects")) {
+    p.objects = unique_items(
+        read_list_section<ObjectSpec>(r, *v, "objects", options, read_object), "objects",
+        [](const ObjectSpec& x, const ObjectSpec& y) {
+          return x.index == y.index && x.sub == y.sub;
+        },
+        [](const ObjectSpec& x) { return fmt::format("{:04X}h sub {}", x.index, x.sub); });
+  }
+  if (auto v = map.get("emcy_codes")) {
+    p.emcy_codes = unique_items(
+        read_list_section<EmcyCodeSpec>(r, *v, "emcy_codes", options, read_emcy_code), "emcy_codes",
+        [](const EmcyCodeSpec& x, const EmcyCodeSpec& y) { return x.code == y.code; },
+        [](const EmcyCodeSpec& x) { return fmt::format("{:04X}h", x.code); });
+  }
+  if (auto v = map.get("pdo_defaults")) {
+    p.pdo_defaults = unique_items(
+        read_list_section<PdoDefault>(r, *v, "pdo_defaults", options, read_pdo_default),
+        "pdo_defaults",
+        [](const PdoDefault& x, const PdoDefault& y) {
+          return x.kind == y.kind && x.number == y.number;
+        },
+        [](const PdoDefault& x) {
+          return fmt::format("{}{}", x.kind == PdoKind::rpdo ? "rpdo" : "tpdo", x.number);
+        });
+  }
+  if (auto v = map.get("deviations")) {
+    require_sequence(r, *v, "deviations");
+    for (const auto& item : *v) {
+      Deviation d = read_deviation(r, item);
+      for (const auto& seen : p.deviations) {
+        if (seen.id == d.id) r.fail(item, fmt::format("deviations: id '{}' is used twice", d.id));
+      }
+      p.deviations.push_back(std::move(d));
+    }
+  }
+  if (auto v = map.get("personality")) {
+    p.personality = read_personality(r, *v);
+    // The personality must be able to do what it says with the profile's lists.
+    const Personality effective = p.effective_personality();
+    const std::vector<int>& modes = *effective.modes;
+    for (const auto& m : effective.manufacturer_modes) {
+      if (std::find(modes.begin(), modes.end(), m.value) == modes.end()) {
+        r.fail(*v,
+               fmt::format("personality.manufacturer_modes: {} is not in the modes list", m.value));
+      }
+    }
+    for (const auto& [code, value] : effective.option_defaults) {
+      const auto& accepted = *effective.option_codes;
+      const auto it = accepted.find(code);
+      if (it != accepted.end() &&
+          std::find(it->second.begin(), it->second.end(), value) == it->second.end()) {
+        r.fail(*v, fmt::format("personality.option_defaults.{}: {} is not an accepted value",
+                               to_string(code), value));
+      }
+    }
+  }
+  return p;
+}
+
+// --- serialisation -----------------------------------------------------------------------------
+
+void emit_sources(YAML::Emitter& out, const std::vector<std::string>& sources) {
+  out << YAML::Key << "source";
+  if (sources.size() == 1) {
+    out << YAML::Value << YAML::DoubleQuoted << sources.front();
+  } else {
+    out << YAML::Value << YAML::BeginSeq;
+    for (const auto& s : sources)
+      out << YAML::DoubleQuoted << s;
+    out << YAML::EndSeq;
+  }
+}
+
+std::string hex(std::uint64_t value, int digits) {
+  return fmt::format("0x{:0{}X}", value, digits);
+}
+
+void emit_int_list(YAML::Emitter& out, const std::vector<int>& values) {
+  out << YAML::Flow << YAML::BeginSeq;
+  for (int v : values)
+    out << v;
+  out << YAML::EndSeq;
+}
+
+void emit_identity(YAML::Emitter& out, const Identity& id) {
+  out << YAML::BeginMap;
+  auto u32 = [&](std::string_view key, const std::optional<std::uint32_t>& v) {
+    if (v) out << YAML::Key << std::string(key) << YAML::Value << hex(*v, 8);
+  };
+  auto text = [&](std::string_view key, const std::optional<std::string>& v) {
+    if (v) out << YAML::Key << std::string(key) << YAML::Value << YAML::DoubleQuoted << *v;
+  };
+  u32("device_type", id.device_type);
+  u32("vendor_id", id.vendor_id);
+  u32("product_code", id.product_code);
+  u32("revision_number", id.revision_number);
+  u32("serial_number", id.serial_number);
+  text("device_name", id.device_name);
+  text("hardware_version", id.hardware_version);
+  text("software_version", id.software_version);
+  out << YAML::EndMap;
+}
+
+void emit_option_codes(YAML::Emitter& out, const std::map<OptionCode, std::vector<int>>& codes) {
+  out << YAML::BeginMap;
+  for (const auto& [code, values] : codes) {
+    out << YAML::Key << std::string(to_string(code)) << YAML::Value;
+    emit_int_list(out, values);
+  }
+  out << YAML::EndMap;
+}
+
+void emit_personality(YAML::Emitter& out, const Personality& p) {
+  out << YAML::BeginMap;
+  if (p.identity) {
+    out << YAML::Key << "identity" << YAML::Value;
+    emit_identity(out, *p.identity);
+  }
+  if (p.modes) {
+    out << YAML::Key << "modes" << YAML::Value;
+    emit_int_list(out, *p.modes);
+  }
+  if (!p.manufacturer_modes.empty()) {
+    out << YAML::Key << "manufacturer_modes" << YAML::Value << YAML::BeginSeq;
+    for (const auto& m : p.manufacturer_modes) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value << m.value
+          << YAML::Key << "behaves_as" << YAML::Value << m.behaves_as << YAML::Key << "name"
+          << YAML::Value << YAML::DoubleQuoted << m.name << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  if (p.option_codes) {
+    out << YAML::Key << "option_codes" << YAML::Value;
+    emit_option_codes(out, *p.option_codes);
+  }
+  if (!p.option_defaults.empty()) {
+    out << YAML::Key << "option_defaults" << YAML::Value << YAML::BeginMap;
+    for (const auto& [code, value] : p.option_defaults)
+      out << YAML::Key << std::string(to_string(code)) << YAML::Value << value;
+    out << YAML::EndMap;
+  }
+  out << YAML::Key << "hardware_enable" << YAML::Value << std::string(to_string(p.hardware_enable));
+  out << YAML::Key << "emcy_follow_up" << YAML::Value << (p.emcy_follow_up ? "true" : "false");
+  out << YAML::Key << "error_code_format" << YAML::Value
+      << std::string(to_string(p.error_code_format));
+  out << YAML::Key << "homing" << YAML::Value << std::string(to_string(p.homing));
+  out << YAML::Key << "manufacturer_homing" << YAML::Value
+      << std::string(to_string(p.manufacturer_homing));
+  if (p.homing_default_method) {
+    out << YAML::Key << "homing_default_method" << YAML::Value << *p.homing_default_method;
+  }
+  out << YAML::Key << "homing_halt_sets_error" << YAML::Value
+      << (p.homing_halt_sets_error ? "true" : "false");
+  if (!p.object_types.empty()) {
+    out << YAML::Key << "object_types" << YAML::Value << YAML::BeginSeq;
+    for (const auto& t : p.object_types) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "index" << YAML::Value << hex(t.index, 4)
+          << YAML::Key << "sub" << YAML::Value << static_cast<int>(t.sub) << YAML::Key << "type"
+          << YAML::Value << std::string(cia301::info(t.type).name) << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  out << YAML::Key << "guarding_loss" << YAML::Value << std::string(to_string(p.guarding_loss));
+  out << YAML::Key << "ack_latency_cycles" << YAML::Value << p.ack_latency_cycles;
+  if (p.control_cycle) {
+    out << YAML::Key << "control_cycle" << YAML::Value << format_duration(*p.control_cycle);
+  }
+  out << YAML::Key << "sdo_dlc" << YAML::Value << std::string(to_string(p.sdo_dlc));
+  out << YAML::Key << "sdo_short_requests" << YAML::Value
+      << std::string(to_string(p.sdo_short_requests));
+  if (p.heartbeat_time_ms) {
+    out << YAML::Key << "heartbeat_time_ms" << YAML::Value << *p.heartbeat_time_ms;
+  }
+  if (p.guard_time_ms) out << YAML::Key << "guard_time_ms" << YAML::Value << *p.guard_time_ms;
+  if (p.life_time_factor) {
+    out << YAML::Key << "life_time_factor" << YAML::Value << static_cast<int>(*p.life_time_factor);
+  }
+  if (!p.note.empty()) out << YAML::Key << "note" << YAML::Value << YAML::DoubleQuoted << p.note;
+  out << YAML::EndMap;
+}
+
+}  // namespace
+
+std::string to_string(const CobIdSpec& cob_id) {
+  return cob_id.plus_node ? fmt::format("{:03X}+N", cob_id.base)
+                          : fmt::format("{:03X}", cob_id.base);
+}
+
+Expected<CobIdSpec, std::string> parse_cob_id_spec(std::string_view text) {
+  CobIdSpec spec;
+  std::string_view body = text;
+  if (body.ends_with("+N")) {
+    spec.plus_node = true;
+    body.remove_suffix(2);
+  }
+  if (body.starts_with("0x") || body.starts_with("0X")) body.remove_prefix(2);
+  std::uint64_t value = 0;
+  auto [ptr, ec] = std::from_chars(body.data(), body.data() + body.size(), value, 16);
+  if (body.empty() || ec != std::errc{} || ptr != body.data() + body.size() || body.size() > 8) {
+    return Unexpected(fmt::format("'{}' is not a COB-ID (hex, optionally +N: 180+N)", text));
+  }
+  if (value > 0xFFFFFFFF) return Unexpected(fmt::format("'{}': COB-ID out of range", text));
+  spec.base = static_cast<std::uint32_t>(value);
+  return spec;
+}
+
+bool Deviation::matches(std::string_view vector_id) const {
+  return std::any_of(vectors.begin(), vectors.end(),
+                     [&](const std::string& glob) { return glob_match(glob, vector_id); });
+}
+
+std::optional<can::Duration> DriveProfile::timing_value(std::string_view key) const {
+  if (auto it = timing.find(std::string(key)); it != timing.end()) return it->second;
+  if (const TimingName* row = find_timing(key)) return row->default_value;
+  return std::nullopt;
+}
+
+const Deviation* DriveProfile::deviation_for(std::string_view vector_id) const {
+  for (const auto& d : deviations)
+    if (d.matches(vector_id)) return &d;
+  return nullptr;
+}
+
+Personality DriveProfile::effective_personality() const {
+  Personality p = personality;
+  if (!p.identity) p.identity = identity;
+  if (!p.modes) p.modes = modes;
+  if (!p.option_codes) p.option_codes = option_codes;
+  return p;
+}
+
+std::string_view to_string(HardwareEnable enable) {
+  switch (enable) {
+    case HardwareEnable::none:
+      return "none";
+    case HardwareEnable::transition_2:
+      return "transition-2";
+    case HardwareEnable::transition_3:
+      return "transition-3";
+  }
+  return "none";
+}
+std::string_view to_string(HomingTable table) {
+  switch (table) {
+    case HomingTable::none:
+      return "none";
+    case HomingTable::festo:
+      return "festo";
+    case HomingTable::kollmorgen:
+      return "kollmorgen";
+    case HomingTable::irtsa:
+      return "irtsa";
+  }
+  return "none";
+}
+std::string_view to_string(ErrorCodeFormat format) {
+  return format == ErrorCodeFormat::standard ? "standard" : "error-number";
+}
+std::string_view to_string(HomingStyle style) {
+  return style == HomingStyle::standard ? "standard" : "set-position";
+}
+std::string_view to_string(SdoShortRequests policy) {
+  return policy == SdoShortRequests::ignore ? "ignore" : "pad";
+}
+std::string_view to_string(SdoDlc dlc) {
+  return dlc == SdoDlc::always_8 ? "always-8" : "minimal";
+}
+std::string_view to_string(GuardingLoss loss) {
+  switch (loss) {
+    case GuardingLoss::error_behaviour:
+      return "error-behaviour";
+    case GuardingLoss::pre_operational:
+      return "pre-operational";
+    case GuardingLoss::no_nmt_change:
+      return "no-nmt-change";
+  }
+  return "error-behaviour";
+}
+
+Expected<DriveProfile, TextError> parse_profile(std::string_view text,
+                                                const ParseOptions& options) {
+  const Reader reader(options.file_name);
+  if (const int bad = first_invalid_utf8_line(text); bad != 0) {
+    return Unexpected(TextError{options.file_name, bad, "the text is not valid UTF-8"});
+  }
+  try {
+    const YAML::Node root = YAML::Load(std::string(text));
+    return read_profile(reader, root, options);
+  } catch (const Failure& failure) {
+    return Unexpected(failure.error);
+  } catch (const YAML::DeepRecursion& e) {
+    return Unexpected(TextError{options.file_name, e.mark.line >= 0 ? e.mark.line + 1 : 0,
+                                "the YAML is nested too deeply"});
+  } catch (const YAML::Exception& e) {
+    return Unexpected(TextError{options.file_name, e.mark.line >= 0 ? e.mark.line + 1 : 0, e.msg});
+  } catch (const std::exception& e) {
+    return Unexpected(TextError{options.file_name, 0, e.what()});
+  }
+}
+
+Expected<DriveProfile, TextError> load_profile(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    return Unexpected(TextError{path.string(), 0, "is a directory, not a profile"});
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Unexpected(TextError{path.string(), 0, "cannot read the file"});
+  std::ostringstream text;
+  text << in.rdbuf();
+  ParseOptions options;
+  options.file_name = path.string();
+  options.base_dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  auto profile = parse_profile(text.str(), options);
+  if (profile) profile->path = path;
+  return profile;
+}
+
+std::vector<std::string> list_profiles(const std::filesystem::path& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const fs::path& p = it->path();
+    if (p.extension() != ".yaml") continue;
+    // List files included by profiles live next to them; a profile is a map with `name:`,
+    // so only files whose name is a profile name qualify (no '.' in the stem).
+    const std::string stem = p.stem().string();
+    if (is_lower_name(stem, false)) names.push_back(stem);
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+Expected<DriveProfile, TextError> find_profile(std::string_view name_or_path,
+                                               const std::filesystem::path& dir) {
+  const std::string text(name_or_path);
+  if (text.find('/') != std::string::npos || text.ends_with(".yaml")) return load_profile(text);
+  if (!is_lower_name(text, false)) {
+    return Unexpected(TextError{"", 0, fmt::format("'{}' is not a profile name", text)});
+  }
+  const fs::path path = dir / (text + ".yaml");
+  std::error_code ec;
+  if (!fs::exists(path, ec)) {
+    const auto known = list_profiles(dir);
+    return Unexpected(
+        TextError{"", 0,
+                  fmt::format("no profile '{}' in {} (known: {})", text, dir.string(),
+                              known.empty() ? std::string("none")
+                                            : fmt::format("{}", fmt::join(known, ", ")))});
+  }
+  return load_profile(path);
+}
+
+std::string to_yaml(const DriveProfile& p) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << YAML::DoubleQuoted << p.name;
+  out << YAML::Key << "title" << YAML::Value << YAML::DoubleQuoted << p.title;
+  if (!p.manual.empty())
+    out << YAML::Key << "manual" << YAML::Value << YAML::DoubleQuoted << p.manual;
+  if (p.identity != Identity{}) {
+    out << YAML::Key << "identity" << YAML::Value;
+    emit_identity(out, p.identity);
+  }
+  out << YAML::Key << "features" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (const auto& f : p.features)
+    out << f;
+  out << YAML::EndSeq;
+  out << YAML::Key << "modes" << YAML::Value;
+  emit_int_list(out, p.modes);
+  out << YAML::Key << "homing_methods" << YAML::Value;
+  emit_int_list(out, p.homing_methods);
+  out << YAML::Key << "option_codes" << YAML::Value;
+  emit_option_codes(out, p.option_codes);
+  out << YAML::Key << "timing" << YAML::Value << YAML::BeginMap;
+  for (const auto& [key, value] : p.timing)
+    out << YAML::Key << key << YAML::Value << format_duration(value);
+  out << YAML::EndMap;
+
+  out << YAML::Key << "objects" << YAML::Value << YAML::BeginSeq;
+  for (const auto& o : p.objects) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "index" << YAML::Value << hex(o.index, 4);
+    out << YAML::Key << "sub" << YAML::Value << static_cast<int>(o.sub);
+    out << YAML::Key << "type" << YAML::Value << std::string(cia301::info(o.type).name);
+    out << YAML::Key << "access" << YAML::Value << std::string(cia301::to_string(o.access));
+    out << YAML::Key << "pdo" << YAML::Value << (o.pdo ? "true" : "false");
+    if (o.default_value) out << YAML::Key << "default" << YAML::Value << *o.default_value;
+    if (o.default_text) {
+      out << YAML::Key << "default" << YAML::Value << YAML::DoubleQuoted << *o.default_text;
+    }
+    if (o.min) out << YAML::Key << "min" << YAML::Value << *o.min;
+    if (o.max) out << YAML::Key << "max" << YAML::Value << *o.max;
+    if (!o.name.empty()) out << YAML::Key << "name" << YAML::Value << YAML::DoubleQuoted << o.name;
+    emit_sources(out, o.sources);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+
+  out << YAML::Key << "emcy_codes" << YAML::Value << YAML::BeginSeq;
+  for (const auto& e : p.emcy_codes) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "code" << YAML::Value << hex(e.code, 4);
+    out << YAML::Key << "text" << YAML::Value << YAML::DoubleQuoted << e.text;
+    if (e.error_register) {
+      out << YAML::Key << "register" << YAML::Value << hex(*e.error_register, 2);
+    }
+    if (!e.diagnostic.empty()) {
+      out << YAML::Key << "diagnostic" << YAML::Value << YAML::DoubleQuoted << e.diagnostic;
+    }
+    emit_sources(out, e.sources);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+
+  out << YAML::Key << "pdo_defaults" << YAML::Value << YAML::BeginSeq;
+  for (const auto& d : p.pdo_defaults) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "pdo" << YAML::Value
+        << fmt::format("{}{}", d.kind == PdoKind::rpdo ? "rpdo" : "tpdo", d.number);
+    out << YAML::Key << "cob_id" << YAML::Value << to_string(d.cob_id);
+    out << YAML::Key << "transmission" << YAML::Value << static_cast<int>(d.transmission);
+    if (d.inhibit_time) out << YAML::Key << "inhibit_time" << YAML::Value << *d.inhibit_time;
+    if (d.event_timer) out << YAML::Key << "event_timer" << YAML::Value << *d.event_timer;
+    out << YAML::Key << "mapping" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (std::uint32_t m : d.mapping)
+      out << hex(m, 8);
+    out << YAML::EndSeq;
+    emit_sources(out, d.sources);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+
+  out << YAML::Key << "deviations" << YAML::Value << YAML::BeginSeq;
+  for (const auto& d : p.deviations) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "id" << YAML::Value << YAML::DoubleQuoted << d.id;
+    out << YAML::Key << "vectors" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const auto& g : d.vectors)
+      out << YAML::DoubleQuoted << g;
+    out << YAML::EndSeq;
+    emit_sources(out, d.sources);
+    out << YAML::Key << "description" << YAML::Value << YAML::DoubleQuoted << d.description;
+    if (!d.contradiction.empty()) {
+      out << YAML::Key << "contradiction" << YAML::Value << YAML::DoubleQuoted << d.contradiction;
+    }
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+
+  out << YAML::Key << "personality" << YAML::Value;
+  emit_personality(out, p.personality);
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace drivecheck::profile

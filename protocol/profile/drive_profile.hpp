@@ -1,0 +1,182 @@
+// A drive profile (vectors/drives/<name>.yaml, format in vectors/FORMAT.md): what one drive
+// supports, what its manual documents where it deviates from CiA 301/402, and the personality
+// the reference drive takes to impersonate it.
+//
+//   name: festo-cmmp                       = the file name without .yaml (required)
+//   title: "Festo CMMP-AS-...-M3/-M0"      (required)
+//   manual: 000_33c1d912b8b6010a.txt       (optional: the standard profile has none)
+//   identity: {device_type, vendor_id, product_code, revision_number, serial_number,
+//              device_name, hardware_version, software_version}      every key optional
+//   features: [...]                        closed vocabulary (vocabulary.hpp); the loader adds
+//                                          mode.* of `modes`, homing.method.<n> of
+//                                          `homing_methods` and option.<object>.<v> of
+//                                          `option_codes`; a listed mode.*, homing.method.* or
+//                                          option.* feature that those lists lack is an error
+//   modes: [1, 3, 6, -1]                   6060h values, -128..127, no duplicates
+//   homing_methods: [1, 2, 35, -1]         -128..127, no duplicates
+//   option_codes: {quick-stop: [0, 1, 2]}  object name -> accepted values (-32768..32767)
+//   timing: {response: 100ms}              overrides of the timing table, durations
+//   objects: [...] or "file.yaml"          the manual's object list (below)
+//   emcy_codes: [...] or "file.yaml"       the manual's EMCY table (below)
+//   pdo_defaults: [...] or "file.yaml"     the default PDO configuration (below)
+//   deviations: [...]                      (below); ids unique
+//   personality: {...}                     personality.hpp / reference_drive/personality.hpp
+//
+// objects[i]: {index, sub (default 0), type (CiA 301 name, e.g. UNSIGNED16), access (ro wo rw
+//   rwr rww const), pdo (bool, default false), default, min, max (integers; `default` may be a
+//   string for string types), name, source}; index+sub unique.
+// emcy_codes[i]: {code (0..FFFFh), text, source, register (0..FFh), diagnostic (the manual's
+//   own error number, text)}; code unique.
+// pdo_defaults[i]: {pdo (rpdo1..rpdo512, tpdo1..tpdo512), cob_id ("180+N", "0x180+N", "201",
+//   or an integer), transmission (0..255), inhibit_time (100 us units), event_timer (ms),
+//   mapping: [0x60410010, ...] (index << 16 | sub << 8 | bits), source}; pdo unique.
+// deviations[i]: {id ([a-z0-9._-]+), vectors: [globs], source (text or list), description,
+//   contradiction}; id, vectors, source and description required.
+//
+// A string for objects/emcy_codes/pdo_defaults names a YAML file relative to the profile (no
+// "..") that holds the list; its errors carry its own file:line. Keep such files in
+// vectors/drives/<name>/: list_profiles() takes only the *.yaml files of drives/ itself.
+//
+// Every error is a TextError with the file and 1-based line of the offending node: unknown and
+// duplicate keys, wrong types, values out of range, unknown features and timing names, bad
+// durations, globs and frames, missing required keys, a name that is not the file name.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "protocol/can/bus.hpp"
+#include "protocol/cia301/data_type.hpp"
+#include "protocol/common/expected.hpp"
+#include "protocol/profile/personality.hpp"
+#include "protocol/profile/vocabulary.hpp"
+
+namespace drivecheck::profile {
+
+// A COB-ID of the profile: a base plus the node-ID or a fixed value.
+struct CobIdSpec {
+  std::uint32_t base = 0;
+  bool plus_node = false;  // "<hex>+N"
+  std::uint32_t resolve(std::uint8_t node_id) const { return plus_node ? base + node_id : base; }
+  friend bool operator==(const CobIdSpec&, const CobIdSpec&) = default;
+};
+std::string to_string(const CobIdSpec& cob_id);  // "180+N", "080"
+// "180+N", "0x180+N", "180", "0x080"; hex digits only.
+Expected<CobIdSpec, std::string> parse_cob_id_spec(std::string_view text);
+
+struct ObjectSpec {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  cia301::DataType type = cia301::DataType::unsigned8;
+  cia301::AccessType access = cia301::AccessType::ro;
+  bool pdo = false;
+  std::optional<std::int64_t> default_value;
+  std::optional<std::string> default_text;  // string types
+  std::optional<std::int64_t> min;
+  std::optional<std::int64_t> max;
+  std::string name;
+  std::vector<std::string> sources;
+  friend bool operator==(const ObjectSpec&, const ObjectSpec&) = default;
+};
+
+struct EmcyCodeSpec {
+  std::uint16_t code = 0;
+  std::string text;
+  std::optional<std::uint8_t> error_register;
+  std::string diagnostic;
+  std::vector<std::string> sources;
+  friend bool operator==(const EmcyCodeSpec&, const EmcyCodeSpec&) = default;
+};
+
+enum class PdoKind : std::uint8_t { rpdo, tpdo };
+struct PdoDefault {
+  PdoKind kind = PdoKind::tpdo;
+  std::uint16_t number = 1;  // 1..512
+  CobIdSpec cob_id;
+  std::uint8_t transmission = 255;
+  std::optional<std::uint16_t> inhibit_time;  // 100 us units
+  std::optional<std::uint16_t> event_timer;   // ms
+  std::vector<std::uint32_t> mapping;
+  std::vector<std::string> sources;
+  friend bool operator==(const PdoDefault&, const PdoDefault&) = default;
+};
+
+struct Deviation {
+  std::string id;
+  std::vector<std::string> vectors;  // globs of vector ids
+  std::vector<std::string> sources;
+  std::string description;
+  std::string contradiction;  // both readings and the one chosen; empty if none
+  bool matches(std::string_view vector_id) const;
+  friend bool operator==(const Deviation&, const Deviation&) = default;
+};
+
+struct DriveProfile {
+  std::string name;
+  std::string title;
+  std::string manual;
+  Identity identity;
+  std::set<std::string> features;  // with the features implied by modes/homing/option codes
+  std::vector<int> modes;
+  std::vector<int> homing_methods;
+  std::map<OptionCode, std::vector<int>> option_codes;
+  std::map<std::string, can::Duration> timing;  // overrides only
+  std::vector<ObjectSpec> objects;
+  std::vector<EmcyCodeSpec> emcy_codes;
+  std::vector<PdoDefault> pdo_defaults;
+  std::vector<Deviation> deviations;
+  Personality personality;
+
+  // The file it was loaded from (empty for parsed text; not serialised, not compared).
+  std::filesystem::path path;
+
+  bool supports(std::string_view feature) const { return features.contains(std::string(feature)); }
+  // The profile's value of a timing name, else its default; nullopt for an unknown name.
+  std::optional<can::Duration> timing_value(std::string_view name) const;
+  // The first deviation with a glob matching `vector_id`; nullptr if none.
+  const Deviation* deviation_for(std::string_view vector_id) const;
+  // The personality with its defaults resolved from the profile (identity, modes, option codes).
+  Personality effective_personality() const;
+
+  friend bool operator==(const DriveProfile& a, const DriveProfile& b) {
+    return a.name == b.name && a.title == b.title && a.manual == b.manual &&
+           a.identity == b.identity && a.features == b.features && a.modes == b.modes &&
+           a.homing_methods == b.homing_methods && a.option_codes == b.option_codes &&
+           a.timing == b.timing && a.objects == b.objects && a.emcy_codes == b.emcy_codes &&
+           a.pdo_defaults == b.pdo_defaults && a.deviations == b.deviations &&
+           a.personality == b.personality;
+  }
+};
+
+struct ParseOptions {
+  // For error messages; also `name` must equal its stem when set (and check_name is true).
+  std::string file_name;
+  // Where list files named by a string are looked up; nullopt: such strings are errors
+  // (in-memory text, the fuzzer).
+  std::optional<std::filesystem::path> base_dir;
+  bool check_name = true;
+};
+
+// Parses profile text. Never throws, never crashes on any input.
+Expected<DriveProfile, TextError> parse_profile(std::string_view text,
+                                                const ParseOptions& options = {});
+// Reads and parses vectors/drives/<name>.yaml (or any path).
+Expected<DriveProfile, TextError> load_profile(const std::filesystem::path& path);
+// `name_or_path`: a path (contains '/' or ends with .yaml) is loaded as is; a name is looked up
+// as <dir>/<name>.yaml. Error: no such profile (the message lists the known names).
+Expected<DriveProfile, TextError> find_profile(std::string_view name_or_path,
+                                               const std::filesystem::path& dir);
+// The names of the profiles in `dir` (sorted).
+std::vector<std::string> list_profiles(const std::filesystem::path& dir);
+
+// The profile as YAML that parse_profile reads back to an equal DriveProfile (lists inline,
+// implied features included, `path` not kept).
+std::string to_yaml(const DriveProfile& profile);
+
+}  // namespace drivecheck::profile

@@ -1,0 +1,117 @@
+// A personality: how the reference drive impersonates one manual's drive. The `personality:`
+// section of a drive profile parses into this (drive_profile.hpp); what each key does to the
+// drive is documented, key by key, in reference_drive/personality.hpp, which applies it. The
+// engine never reads a personality (it learns about a drive only from the bus).
+//
+// Keys not given take the standard value (the CiA 301/402 reading); `identity`, `modes` and
+// `option_codes` default to the profile's own sections of the same name.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "protocol/can/bus.hpp"
+#include "protocol/cia301/data_type.hpp"
+#include "protocol/profile/vocabulary.hpp"
+
+namespace drivecheck::profile {
+
+// 1000h, 1008h-100Ah, 1018h. Every field optional: a profile says what it knows.
+struct Identity {
+  std::optional<std::uint32_t> device_type;      // 1000h
+  std::optional<std::uint32_t> vendor_id;        // 1018h:01
+  std::optional<std::uint32_t> product_code;     // 1018h:02
+  std::optional<std::uint32_t> revision_number;  // 1018h:03
+  std::optional<std::uint32_t> serial_number;    // 1018h:04
+  std::optional<std::string> device_name;        // 1008h
+  std::optional<std::string> hardware_version;   // 1009h
+  std::optional<std::string> software_version;   // 100Ah
+  friend bool operator==(const Identity&, const Identity&) = default;
+};
+
+// A manufacturer-specific mode of operation (6060h value < 0) the drive accepts.
+struct ManufacturerMode {
+  int value = 0;       // -128..-1
+  int behaves_as = 0;  // the standard mode it moves like (1..10), 0: none (no motion)
+  std::string name;    // the manual's name for it
+  friend bool operator==(const ManufacturerMode&, const ManufacturerMode&) = default;
+};
+
+// 603Fh error code format. standard: the CiA 402 / CiA 301 EMCY error code (e.g. 2310h).
+// error-number: the manufacturer's error number n as n * 256 + 80h (IRTSA: error 5 -> 0580h).
+enum class ErrorCodeFormat : std::uint8_t { standard, error_number };
+// Which input the drive needs before it can be switched on. none: no hardware enable input
+// (or it is ignored). transition-2: SWITCH ON DISABLED -> READY TO SWITCH ON needs it (Festo,
+// DIN4/DIN5). transition-3: READY TO SWITCH ON -> SWITCHED ON needs it (Kollmorgen).
+enum class HardwareEnable : std::uint8_t { none, transition_2, transition_3 };
+// Whose manufacturer homing methods (6098h < 0) the drive runs; none: CiA 402 methods only.
+enum class HomingTable : std::uint8_t { none, festo, kollmorgen, irtsa };
+// How homing works. standard: 6098h methods run on the axis. set-position: no homing run; a
+// homing start sets the actual position to the home offset at once (IRTSA).
+enum class HomingStyle : std::uint8_t { standard, set_position };
+// DLC of the SDO server's responses. always-8: every response 8 bytes (CiA 301). minimal: an
+// expedited upload response carries 4 + n bytes, download/abort responses 8 (Festo prints only
+// the significant bytes and leaves it open).
+enum class SdoDlc : std::uint8_t { always_8, minimal };
+// SDO requests with fewer than 8 data bytes. ignore: no SDO frame (CiA 301). pad: the missing
+// bytes read as 00h (Festo's examples print only the significant bytes, L744-756).
+enum class SdoShortRequests : std::uint8_t { ignore, pad };
+// What a node guarding (life guarding) or heartbeat consumer event does to the NMT state.
+// error-behaviour: what 1029h:01 says (CiA 301 default: Operational -> Pre-operational).
+// pre-operational: always Pre-operational (ESR), also from Stopped. no-nmt-change: the NMT state
+// stays (Kollmorgen: warning N04 and a quick stop instead; 1029h:01 = 1).
+enum class GuardingLoss : std::uint8_t { error_behaviour, pre_operational, no_nmt_change };
+
+// An object whose type differs from CiA 402 (ESR 6060h/6061h are INTEGER16).
+struct ObjectType {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  cia301::DataType type = cia301::DataType::integer8;
+  friend bool operator==(const ObjectType&, const ObjectType&) = default;
+};
+
+struct Personality {
+  std::optional<Identity> identity;       // none: the profile's identity
+  std::optional<std::vector<int>> modes;  // none: the profile's modes
+  std::vector<ManufacturerMode> manufacturer_modes;
+  std::optional<std::map<OptionCode, std::vector<int>>> option_codes;  // none: the profile's
+  std::map<OptionCode, int> option_defaults;  // the default value of each option-code object
+  HardwareEnable hardware_enable = HardwareEnable::none;
+  bool emcy_follow_up = false;  // Kollmorgen: each EMCY followed by an error-state EMCY
+  ErrorCodeFormat error_code_format = ErrorCodeFormat::standard;
+  HomingStyle homing = HomingStyle::standard;
+  HomingTable manufacturer_homing = HomingTable::none;
+  std::optional<int> homing_default_method;  // 6098h default; none: the drive's (17)
+  bool homing_halt_sets_error = false;       // halt ends homing with bit 13 (Festo)
+  std::vector<ObjectType> object_types;
+  GuardingLoss guarding_loss = GuardingLoss::error_behaviour;
+  unsigned ack_latency_cycles = 1;  // pp: control cycles from new set-point to acknowledge
+  std::optional<can::Duration> control_cycle;  // none: the drive's default (1 ms)
+  SdoDlc sdo_dlc = SdoDlc::always_8;
+  SdoShortRequests sdo_short_requests = SdoShortRequests::ignore;
+  std::optional<std::uint16_t> heartbeat_time_ms;  // 1017h default
+  std::optional<std::uint16_t> guard_time_ms;      // 100Ch default
+  std::optional<std::uint8_t> life_time_factor;    // 100Dh default
+  std::string note;                                // free text (why these values)
+
+  friend bool operator==(const Personality&, const Personality&) = default;
+};
+
+std::string_view to_string(HardwareEnable enable);    // "none", "transition-2", "transition-3"
+std::string_view to_string(HomingTable table);        // "none", "festo", "kollmorgen", "irtsa"
+std::string_view to_string(ErrorCodeFormat format);   // "standard", "error-number"
+std::string_view to_string(HomingStyle style);        // "standard", "set-position"
+std::string_view to_string(SdoDlc dlc);               // "always-8", "minimal"
+std::string_view to_string(SdoShortRequests policy);  // "ignore", "pad"
+std::string_view to_string(
+    GuardingLoss loss);  // "error-behaviour", "pre-operational", "no-nmt-change"
+
+// 603Fh of a manufacturer error number in the error-number format: n * 256 + 80h.
+constexpr std::uint16_t error_number_code(std::uint8_t number) {
+  return static_cast<std::uint16_t>(number * 256U + 0x80U);
+}
+
+}  // namespace drivecheck::profile

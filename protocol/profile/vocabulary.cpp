@@ -1,0 +1,258 @@
+#include "protocol/profile/vocabulary.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <chrono>
+#include <limits>
+
+namespace drivecheck::profile {
+namespace {
+
+using namespace std::chrono_literals;
+
+// CiA 402-2 §8.4: the option-code objects.
+constexpr std::array<OptionCodeInfo, kOptionCodeCount> kOptionCodes{{
+    {OptionCode::quick_stop, "quick-stop", 0x605A},
+    {OptionCode::shutdown, "shutdown", 0x605B},
+    {OptionCode::disable_operation, "disable-operation", 0x605C},
+    {OptionCode::halt, "halt", 0x605D},
+    {OptionCode::fault_reaction, "fault-reaction", 0x605E},
+    {OptionCode::abort_connection, "abort-connection", 0x6007},
+}};
+
+constexpr std::array<std::string_view, 35> kFixedFeatures{
+    "sdo.segmented",
+    "sdo.block",
+    "sdo.expedited",
+    "nmt.guarding",
+    "heartbeat.producer",
+    "heartbeat.consumer",
+    "emcy",
+    "emcy.inhibit",
+    "emcy.history",
+    "sync",
+    "sync.producer",
+    "sync.counter",
+    "time",
+    "pdo",
+    "pdo.dynamic-mapping",
+    "pdo.rtr",
+    "pdo.event-timer",
+    "pdo.inhibit",
+    "pdo.sync-window",
+    "store",
+    "restore",
+    "cia402",
+    "hardware-enable",
+    "mode.pp",
+    "mode.vl",
+    "mode.pv",
+    "mode.tq",
+    "mode.hm",
+    "mode.ip",
+    "mode.csp",
+    "mode.csv",
+    "mode.cst",
+    "transition.16",
+    "simulation",
+    "motion",
+};
+
+// FORMAT.md "Timing names".
+const std::array<TimingName, 9> kTimings{{
+    {"response", 100ms, "SDO/NMT reaction of any frame the vector waits for"},
+    {"sdo_response", 100ms, "SDO response after the request"},
+    {"bootup", 2s, "reset command to boot-up message"},
+    {"state_change", 200ms, "402 command to the new state shown in 6041h"},
+    {"poll", 5ms, "polling period for expect_state, expect_statusword, poll"},
+    {"ack_latency", 10ms, "pp: new set-point edge to set-point acknowledge"},
+    {"heartbeat_tolerance", 10ms, "heartbeat period accuracy"},
+    {"sync_response", 5ms, "SYNC to synchronous TPDO"},
+    {"homing", 30s, "homing start to attained/error"},
+}};
+
+template <class T>
+std::optional<T> parse_decimal(std::string_view text) {
+  if (text.empty()) return std::nullopt;
+  T value{};
+  const char* first = text.data();
+  const char* last = text.data() + text.size();
+  // from_chars accepts a leading '-' for signed types only; no '+', no spaces.
+  auto [ptr, ec] = std::from_chars(first, last, value, 10);
+  if (ec != std::errc{} || ptr != last) return std::nullopt;
+  return value;
+}
+
+}  // namespace
+
+std::span<const OptionCodeInfo> option_code_table() {
+  return kOptionCodes;
+}
+const OptionCodeInfo& info(OptionCode code) {
+  return kOptionCodes[static_cast<std::size_t>(code)];
+}
+std::string_view to_string(OptionCode code) {
+  return info(code).name;
+}
+std::optional<OptionCode> parse_option_code(std::string_view name) {
+  for (const auto& row : kOptionCodes)
+    if (row.name == name) return row.code;
+  return std::nullopt;
+}
+
+std::span<const std::string_view> fixed_features() {
+  return kFixedFeatures;
+}
+
+bool is_known_feature(std::string_view name) {
+  for (std::string_view fixed : fixed_features())
+    if (fixed == name) return true;
+  constexpr std::string_view kHoming = "homing.method.";
+  if (name.starts_with(kHoming)) {
+    const auto value = parse_decimal<int>(name.substr(kHoming.size()));
+    // Canonical spelling only: "homing.method.07" would never match a requires entry.
+    return value && *value >= -128 && *value <= 127 && homing_method_feature(*value) == name;
+  }
+  constexpr std::string_view kOption = "option.";
+  if (name.starts_with(kOption)) {
+    const std::string_view rest = name.substr(kOption.size());
+    const auto dot = rest.rfind('.');
+    if (dot == std::string_view::npos) return false;
+    const auto code = parse_option_code(rest.substr(0, dot));
+    const auto value = parse_decimal<int>(rest.substr(dot + 1));
+    return code && value && *value >= -32768 && *value <= 32767 &&
+           option_feature(*code, *value) == name;
+  }
+  return false;
+}
+
+std::optional<std::string_view> mode_feature(int mode) {
+  switch (mode) {
+    case 1:
+      return "mode.pp";
+    case 2:
+      return "mode.vl";
+    case 3:
+      return "mode.pv";
+    case 4:
+      return "mode.tq";
+    case 6:
+      return "mode.hm";
+    case 7:
+      return "mode.ip";
+    case 8:
+      return "mode.csp";
+    case 9:
+      return "mode.csv";
+    case 10:
+      return "mode.cst";
+    default:
+      return std::nullopt;
+  }
+}
+
+std::string homing_method_feature(int method) {
+  return fmt::format("homing.method.{}", method);
+}
+std::string option_feature(OptionCode code, int value) {
+  return fmt::format("option.{}.{}", to_string(code), value);
+}
+
+std::span<const TimingName> timing_table() {
+  return kTimings;
+}
+const TimingName* find_timing(std::string_view name) {
+  for (const auto& row : kTimings)
+    if (row.name == name) return &row;
+  return nullptr;
+}
+
+Expected<can::Duration, std::string> parse_duration(std::string_view text) {
+  std::size_t digits = 0;
+  while (digits < text.size() && text[digits] >= '0' && text[digits] <= '9')
+    ++digits;
+  if (digits == 0) {
+    return Unexpected(fmt::format(
+        "'{}' is not a duration: expected an integer and a unit (ns us ms s min), e.g. 100ms",
+        text));
+  }
+  const std::string_view unit = text.substr(digits);
+  const auto count = parse_decimal<std::uint64_t>(text.substr(0, digits));
+  std::uint64_t scale = 0;
+  if (unit == "ns")
+    scale = 1;
+  else if (unit == "us")
+    scale = 1'000;
+  else if (unit == "ms")
+    scale = 1'000'000;
+  else if (unit == "s")
+    scale = 1'000'000'000;
+  else if (unit == "min")
+    scale = 60'000'000'000;
+  if (scale == 0) {
+    return Unexpected(fmt::format("'{}': unknown duration unit '{}' (ns us ms s min)", text, unit));
+  }
+  constexpr auto kMax = static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max());
+  if (!count || *count > kMax / scale) {
+    return Unexpected(fmt::format("'{}': duration too large", text));
+  }
+  return can::Duration(static_cast<std::int64_t>(*count * scale));
+}
+
+std::string format_duration(can::Duration duration) {
+  const std::int64_t ns = duration.count();
+  struct Unit {
+    std::int64_t scale;
+    std::string_view name;
+  };
+  constexpr std::array<Unit, 5> kUnits{
+      {{60'000'000'000, "min"}, {1'000'000'000, "s"}, {1'000'000, "ms"}, {1'000, "us"}, {1, "ns"}}};
+  if (ns == 0) return "0ms";
+  for (const auto& unit : kUnits)
+    if (ns % unit.scale == 0) return fmt::format("{}{}", ns / unit.scale, unit.name);
+  return fmt::format("{}ns", ns);
+}
+
+bool glob_match(std::string_view glob, std::string_view id) {
+  std::size_t g = 0;
+  std::size_t i = 0;
+  std::size_t star = std::string_view::npos;  // position of the last '*' in glob
+  std::size_t resume = 0;                     // where in id that '*' match resumes
+  while (i < id.size()) {
+    if (g < glob.size() && (glob[g] == '?' || glob[g] == id[i])) {
+      ++g;
+      ++i;
+    } else if (g < glob.size() && glob[g] == '*') {
+      star = g++;
+      resume = i;
+    } else if (star != std::string_view::npos) {
+      g = star + 1;
+      i = ++resume;
+    } else {
+      return false;
+    }
+  }
+  while (g < glob.size() && glob[g] == '*')
+    ++g;
+  return g == glob.size();
+}
+
+namespace {
+bool is_id_char(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '/' || c == '.' || c == '_' ||
+         c == '-';
+}
+}  // namespace
+
+bool is_valid_glob(std::string_view glob) {
+  return !glob.empty() && std::all_of(glob.begin(), glob.end(),
+                                      [](char c) { return is_id_char(c) || c == '*' || c == '?'; });
+}
+bool is_valid_vector_id(std::string_view id) {
+  return !id.empty() && std::all_of(id.begin(), id.end(), is_id_char);
+}
+
+}  // namespace drivecheck::profile

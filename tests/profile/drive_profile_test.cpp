@@ -1,0 +1,462 @@
+#include "protocol/profile/drive_profile.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <random>
+#include <string>
+
+#include "tests/support/temp_dir.hpp"
+
+namespace drivecheck::profile {
+namespace {
+
+using namespace std::chrono_literals;
+using test_support::TempDir;
+
+// A small valid profile; tests append or replace lines to make it wrong.
+constexpr std::string_view kMinimal = R"(name: test-drive
+title: "A test drive"
+features: [sdo.segmented, emcy, cia402]
+modes: [1, 6, -3]
+homing_methods: [1, 35, -1]
+option_codes: {quick-stop: [0, 2], halt: [1]}
+)";
+
+Expected<DriveProfile, TextError> parse(std::string_view text,
+                                        std::string file = "test-drive.yaml") {
+  ParseOptions options;
+  options.file_name = std::move(file);
+  return parse_profile(text, options);
+}
+
+// The error of parsing `text` (fails the test if it parsed).
+TextError error_of(std::string_view text) {
+  auto result = parse(text);
+  EXPECT_FALSE(result.has_value()) << "parsed, but should not have:\n" << text;
+  return result ? TextError{} : result.error();
+}
+
+TEST(DriveProfileLoad, MinimalProfileParses) {
+  // Given a minimal profile / When parsed / Then its sections are typed
+  auto p = parse(kMinimal);
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_EQ(p->name, "test-drive");
+  EXPECT_EQ(p->modes, (std::vector<int>{1, 6, -3}));
+  EXPECT_EQ(p->option_codes.at(OptionCode::quick_stop), (std::vector<int>{0, 2}));
+  EXPECT_TRUE(p->deviations.empty());
+}
+
+TEST(DriveProfileLoad, ListsImplyTheirFeatures) {
+  // Given modes, homing methods and option codes / When parsed / Then their features are added
+  auto p = parse(kMinimal);
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_TRUE(p->supports("mode.pp"));
+  EXPECT_TRUE(p->supports("mode.hm"));
+  EXPECT_FALSE(p->supports("mode.csp"));
+  EXPECT_TRUE(p->supports("homing.method.35"));
+  EXPECT_TRUE(p->supports("homing.method.-1"));
+  EXPECT_TRUE(p->supports("option.quick-stop.2"));
+  EXPECT_TRUE(p->supports("option.halt.1"));
+  EXPECT_FALSE(p->supports("option.quick-stop.6"));
+  EXPECT_TRUE(p->supports("emcy"));
+}
+
+TEST(DriveProfileLoad, TimingOverridesAndDefaults) {
+  // Given a timing override / When looked up / Then the override wins, others keep defaults
+  auto p = parse(std::string(kMinimal) + "timing: {ack_latency: 4ms, homing: 1min}\n");
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_EQ(*p->timing_value("ack_latency"), 4ms);
+  EXPECT_EQ(*p->timing_value("homing"), 60s);
+  EXPECT_EQ(*p->timing_value("response"), 100ms);
+  EXPECT_FALSE(p->timing_value("unknown").has_value());
+}
+
+TEST(DriveProfileLoad, DeviationForMatchesGlob) {
+  // Given a deviation with globs / When a vector id is looked up / Then the glob decides
+  auto p = parse(std::string(kMinimal) + R"(deviations:
+  - id: no-transition-16
+    vectors: ["cia402/fsa/transition-16*", "cia402/option/quick-stop-6"]
+    source: "000_33c1d912b8b6010a.txt §6.1.6 L5841-5922"
+    description: "605Ah fixed"
+)");
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  ASSERT_NE(p->deviation_for("cia402/fsa/transition-16/x"), nullptr);
+  EXPECT_EQ(p->deviation_for("cia402/fsa/transition-16/x")->id, "no-transition-16");
+  EXPECT_NE(p->deviation_for("cia402/option/quick-stop-6"), nullptr);
+  EXPECT_EQ(p->deviation_for("cia402/fsa/transition-15"), nullptr);
+}
+
+struct ErrorCase {
+  const char* name;
+  std::string text;
+  int line;
+  const char* message_part;
+};
+
+class DriveProfileErrors : public ::testing::TestWithParam<ErrorCase> {};
+
+TEST_P(DriveProfileErrors, NamesFileLineAndCause) {
+  // Given a broken profile / When parsed / Then the error names file, line and the cause
+  const ErrorCase& c = GetParam();
+  const TextError e = error_of(c.text);
+  EXPECT_EQ(e.file, "test-drive.yaml");
+  EXPECT_EQ(e.line, c.line) << e.to_string();
+  EXPECT_NE(e.message.find(c.message_part), std::string::npos) << e.to_string();
+}
+
+std::string with(std::string_view extra) {
+  return std::string(kMinimal) + std::string(extra);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    EveryErrorClass, DriveProfileErrors,
+    ::testing::Values(
+        ErrorCase{"YamlSyntax", with("modes: [1, 2\n"), 8, ""},
+        ErrorCase{"NotAMap", "- a\n- b\n", 1, "must be a map"}, ErrorCase{"Empty", "", 0, "empty"},
+        ErrorCase{"UnknownTopKey", with("featurez: []\n"), 7, "unknown key 'featurez'"},
+        ErrorCase{"DuplicateKey", with("title: again\n"), 7, "duplicate key 'title'"},
+        ErrorCase{"MissingFeatures", "name: test-drive\ntitle: t\n", 1,
+                  "missing required key 'features'"},
+        ErrorCase{"MissingTitle", "name: test-drive\nfeatures: []\n", 1,
+                  "missing required key 'title'"},
+        ErrorCase{"NameNotFileName", "name: other\ntitle: t\nfeatures: []\n", 1,
+                  "not the file name"},
+        ErrorCase{"NameBadCharacters", "name: Test Drive\ntitle: t\nfeatures: []\n", 1,
+                  "must be [a-z0-9_-]+"},
+        ErrorCase{"UnknownFeature",
+                  "name: test-drive\ntitle: t\nfeatures:\n  - emcy\n  - sdo.blocks\n", 5,
+                  "unknown feature 'sdo.blocks'"},
+        ErrorCase{"FeatureTwice", "name: test-drive\ntitle: t\nfeatures: [emcy, emcy]\n", 3,
+                  "listed twice"},
+        ErrorCase{"FamilyFeatureWithoutList",
+                  "name: test-drive\ntitle: t\nfeatures: [mode.csp]\nmodes: [1]\n", 3,
+                  "needs its value"},
+        ErrorCase{"ModeOutOfRange", "name: test-drive\ntitle: t\nfeatures: []\nmodes: [1, 300]\n",
+                  4, "out of range"},
+        ErrorCase{"ModeNotInteger", "name: test-drive\ntitle: t\nfeatures: []\nmodes: [pp]\n", 4,
+                  "not an integer"},
+        ErrorCase{"ModeTwice", "name: test-drive\ntitle: t\nfeatures: []\nmodes: [1, 1]\n", 4,
+                  "listed twice"},
+        ErrorCase{"UnknownOptionObject",
+                  with("timing: {}\n") + "personality:\n  option_codes: {quickstop: [1]}\n", 9,
+                  "unknown key 'quickstop'"},
+        ErrorCase{"UnknownTimingName", with("timing:\n  ack: 5ms\n"), 8, "unknown name 'ack'"},
+        ErrorCase{"BadDuration", with("timing:\n  ack_latency: 5 ms\n"), 8,
+                  "unknown duration unit"},
+        ErrorCase{"BadDataType",
+                  with("objects:\n  - {index: 0x6041, type: UINT16, access: ro, source: s}\n"), 8,
+                  "unknown data type 'UINT16'"},
+        ErrorCase{"BadAccess",
+                  with("objects:\n  - {index: 0x6041, type: UNSIGNED16, access: r, source: s}\n"),
+                  8, "not one of ro wo rw"},
+        ErrorCase{"ObjectMissingSource",
+                  with("objects:\n  - {index: 0x6041, type: UNSIGNED16, access: ro}\n"), 8,
+                  "missing required key 'source'"},
+        ErrorCase{"ObjectMinAboveMax",
+                  with("objects:\n  - {index: 0x6060, type: INTEGER8, access: rw, min: 5, max: 1, "
+                       "source: s}\n"),
+                  8, "min is above max"},
+        ErrorCase{"ObjectTwice",
+                  with("objects:\n  - {index: 0x6041, type: UNSIGNED16, access: ro, source: s}\n"
+                       "  - {index: 0x6041, type: UNSIGNED16, access: ro, source: s}\n"),
+                  9, "listed twice"},
+        ErrorCase{"EmcyCodeTooLarge",
+                  with("emcy_codes:\n  - {code: 0x12345, text: t, source: s}\n"), 8,
+                  "out of range"},
+        ErrorCase{"EmcyCodeTwice",
+                  with("emcy_codes:\n  - {code: 0x2320, text: t, source: s}\n"
+                       "  - {code: 0x2320, text: u, source: s}\n"),
+                  9, "listed twice"},
+        ErrorCase{"PdoBadName",
+                  with("pdo_defaults:\n  - {pdo: tpdo0, cob_id: 180+N, mapping: [], source: s}\n"),
+                  8, "tpdo1..tpdo512"},
+        ErrorCase{"PdoBadCobId",
+                  with("pdo_defaults:\n  - {pdo: tpdo1, cob_id: 18G+N, mapping: [], source: s}\n"),
+                  8, "not a COB-ID"},
+        ErrorCase{"PdoMappingOver64Bits",
+                  with("pdo_defaults:\n  - {pdo: tpdo1, cob_id: 180+N, mapping: [0x60640020, "
+                       "0x606C0020, 0x60410010], source: s}\n"),
+                  8, "more than 64 bits"},
+        ErrorCase{"DeviationBadGlob",
+                  with("deviations:\n  - id: x\n    vectors: [\"CiA402/*\"]\n    source: s\n"
+                       "    description: d\n"),
+                  9, "not a glob"},
+        ErrorCase{"DeviationNoDescription",
+                  with("deviations:\n  - id: x\n    vectors: [\"cia402/*\"]\n    source: s\n"), 8,
+                  "missing required key 'description'"},
+        ErrorCase{"DeviationIdTwice",
+                  with("deviations:\n  - {id: x, vectors: [a], source: s, description: d}\n"
+                       "  - {id: x, vectors: [b], source: s, description: d}\n"),
+                  9, "used twice"},
+        ErrorCase{"DeviationUnknownKey",
+                  with("deviations:\n  - {id: x, vectors: [a], source: s, description: d, "
+                       "severity: low}\n"),
+                  8, "unknown key 'severity'"},
+        ErrorCase{"PersonalityUnknownKey", with("personality:\n  emcy_twice: true\n"), 8,
+                  "unknown key 'emcy_twice'"},
+        ErrorCase{"PersonalityBadChoice", with("personality:\n  homing: fast\n"), 8,
+                  "not one of standard, set-position"},
+        ErrorCase{"PersonalityBadBool", with("personality:\n  emcy_follow_up: yes\n"), 8,
+                  "true or false"},
+        ErrorCase{"ManufacturerModeNotListed",
+                  with("personality:\n  manufacturer_modes: [{value: -7, behaves_as: 1}]\n"), 8,
+                  "not in the modes list"},
+        ErrorCase{"ManufacturerModeBadBehaviour",
+                  with("personality:\n  manufacturer_modes: [{value: -3, behaves_as: 5}]\n"), 8,
+                  "not a CiA 402 mode"},
+        ErrorCase{"OptionDefaultNotAccepted",
+                  with("personality:\n  option_defaults: {quick-stop: 6}\n"), 8,
+                  "not an accepted value"},
+        ErrorCase{"ObjectTypeNotInteger",
+                  with("personality:\n  object_types: [{index: 0x6060, type: REAL32}]\n"), 8,
+                  "only integer types"},
+        ErrorCase{"ListFileWithoutDirectory", with("objects: objects.yaml\n"), 7,
+                  "has no directory"},
+        ErrorCase{"InvalidUtf8", with("manual: \"a\xC3(b\"\n"), 7, "not valid UTF-8"},
+        ErrorCase{"Utf8Surrogate", with("manual: \"\xED\xA0\x80\"\n"), 7, "not valid UTF-8"}),
+    [](const ::testing::TestParamInfo<ErrorCase>& param_info) {
+      return std::string(param_info.param.name);
+    });
+
+TEST(DriveProfileLoad, DeepNestingIsAnErrorNotACrash) {
+  // Given 100000 nested flow sequences / When parsed / Then an error, no stack overflow
+  const TextError e = error_of(std::string(100000, '[') + "\n");
+  EXPECT_NE(e.message.find("nested too deeply"), std::string::npos) << e.to_string();
+}
+
+TEST(DriveProfileFiles, ListSectionFromFileNextToProfile) {
+  // Given a profile naming its object list file / When loaded / Then the list is read from it
+  TempDir dir;
+  dir.write("objects-x.yaml",
+            "- {index: 0x6041, type: UNSIGNED16, access: ro, pdo: true, source: s}\n");
+  const auto path = dir.write("test-drive.yaml", with("objects: objects-x.yaml\n"));
+  auto p = load_profile(path);
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  ASSERT_EQ(p->objects.size(), 1U);
+  EXPECT_EQ(p->objects[0].index, 0x6041);
+  EXPECT_TRUE(p->objects[0].pdo);
+}
+
+TEST(DriveProfileFiles, ErrorInListFileNamesThatFile) {
+  // Given a list file with a bad entry on line 2 / When loaded / Then the error names that file:2
+  TempDir dir;
+  const auto list = dir.write(
+      "emcy-x.yaml", "- {code: 0x2320, text: t, source: s}\n- {code: zz, text: t, source: s}\n");
+  const auto path = dir.write("test-drive.yaml", with("emcy_codes: emcy-x.yaml\n"));
+  auto p = load_profile(path);
+  ASSERT_FALSE(p.has_value());
+  EXPECT_EQ(p.error().file, list.string());
+  EXPECT_EQ(p.error().line, 2);
+}
+
+TEST(DriveProfileFiles, MissingListFileIsAnError) {
+  // Given a profile naming a list file that does not exist / When loaded / Then file:line error
+  TempDir dir;
+  const auto path = dir.write("test-drive.yaml", with("pdo_defaults: nope.yaml\n"));
+  auto p = load_profile(path);
+  ASSERT_FALSE(p.has_value());
+  EXPECT_EQ(p.error().file, path.string());
+  EXPECT_EQ(p.error().line, 7);
+  EXPECT_NE(p.error().message.find("cannot read"), std::string::npos);
+}
+
+TEST(DriveProfileFiles, ListFileOutsideDirectoryRefused) {
+  // Given a list file path with '..' / When loaded / Then it is refused
+  TempDir dir;
+  const auto path = dir.write("test-drive.yaml", with("objects: ../x.yaml\n"));
+  auto p = load_profile(path);
+  ASSERT_FALSE(p.has_value());
+  EXPECT_NE(p.error().message.find("without '..'"), std::string::npos);
+}
+
+TEST(DriveProfileFiles, FindProfileByNameAndUnknownName) {
+  // Given a directory with one profile / When found by name / Then it loads; unknown lists names
+  TempDir dir;
+  dir.write("test-drive.yaml", kMinimal);
+  auto p = find_profile("test-drive", dir.path());
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_EQ(p->path, dir / "test-drive.yaml");
+  auto missing = find_profile("festo", dir.path());
+  ASSERT_FALSE(missing.has_value());
+  EXPECT_NE(missing.error().message.find("known: test-drive"), std::string::npos)
+      << missing.error().message;
+}
+
+TEST(DriveProfileFiles, UnreadableFileIsAnError) {
+  // Given a path that does not exist / When loaded / Then the error names the file
+  auto p = load_profile("/nonexistent/x.yaml");
+  ASSERT_FALSE(p.has_value());
+  EXPECT_EQ(p.error().file, "/nonexistent/x.yaml");
+}
+
+TEST(DriveProfileYaml, SerialiseParseRoundTrip) {
+  // Given a profile using every section / When serialised and parsed / Then it is equal
+  auto p = parse(with(R"(manual: 000_33c1d912b8b6010a.txt
+identity: {vendor_id: 0x1D, device_name: "CMMP: AS", software_version: "null"}
+timing: {ack_latency: 4ms}
+objects:
+  - {index: 0x6041, type: UNSIGNED16, access: ro, pdo: true, default: 0, name: "statusword", source: s}
+  - {index: 0x1008, type: VISIBLE_STRING, access: const, default: "yes", source: [a, b]}
+  - {index: 0x6060, type: INTEGER8, access: rw, min: -3, max: 10, source: s}
+emcy_codes:
+  - {code: 0x2320, text: "Short: circuit", register: 0x03, diagnostic: "06-0", source: s}
+pdo_defaults:
+  - {pdo: tpdo1, cob_id: 0x180+N, transmission: 255, event_timer: 10, mapping: [0x60410010], source: s}
+  - {pdo: rpdo2, cob_id: "301", transmission: 1, inhibit_time: 5, mapping: [], source: s}
+deviations:
+  - {id: x, vectors: ["a/*", "b?"], source: [s, t], description: "d: e", contradiction: "c"}
+personality:
+  identity: {product_code: 7}
+  manufacturer_modes: [{value: -3, behaves_as: 3, name: "user velocity"}]
+  option_defaults: {quick-stop: 2}
+  hardware_enable: transition-3
+  manufacturer_homing: irtsa
+  homing_default_method: -127
+  homing_halt_sets_error: true
+  emcy_follow_up: true
+  error_code_format: error-number
+  homing: set-position
+  object_types: [{index: 0x6060, type: INTEGER16}]
+  guarding_loss: pre-operational
+  ack_latency_cycles: 3
+  control_cycle: 250us
+  sdo_dlc: minimal
+  sdo_short_requests: pad
+  heartbeat_time_ms: 100
+  guard_time_ms: 50
+  life_time_factor: 3
+  note: "why"
+)"));
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  const std::string yaml = to_yaml(*p);
+  auto again = parse(yaml);
+  ASSERT_TRUE(again.has_value()) << again.error().to_string() << "\n" << yaml;
+  EXPECT_EQ(*again, *p) << yaml;
+  EXPECT_EQ(to_yaml(*again), yaml);
+}
+
+TEST(DriveProfilePersonality, DefaultsComeFromTheProfile) {
+  // Given a personality without identity, modes, option codes / When resolved / Then profile's
+  auto p =
+      parse(with("identity: {vendor_id: 0x1D}\npersonality: {hardware_enable: transition-2}\n"));
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  const Personality e = p->effective_personality();
+  ASSERT_TRUE(e.identity.has_value());
+  EXPECT_EQ(e.identity->vendor_id, 0x1DU);
+  EXPECT_EQ(*e.modes, p->modes);
+  EXPECT_EQ(*e.option_codes, p->option_codes);
+  EXPECT_EQ(e.hardware_enable, HardwareEnable::transition_2);
+}
+
+TEST(DriveProfilePersonality, ErrorNumberCode) {
+  // Given an IRTSA error number / When encoded / Then n * 256 + 80h
+  EXPECT_EQ(error_number_code(5), 0x0580);
+  EXPECT_EQ(error_number_code(0), 0x0080);
+  EXPECT_EQ(error_number_code(255), 0xFF80);
+}
+
+}  // namespace
+}  // namespace drivecheck::profile
+
+namespace drivecheck::profile {
+namespace {
+
+const std::filesystem::path kDrives =
+    std::filesystem::path(DRIVECHECK_SOURCE_DIR) / "vectors/drives";
+
+class ShippedProfile : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(ShippedProfile, LoadsAndRoundTrips) {
+  // Given a profile in vectors/drives / When loaded, serialised, parsed / Then equal, no errors
+  auto p = find_profile(GetParam(), kDrives);
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_EQ(p->name, GetParam());
+  EXPECT_TRUE(p->supports("cia402"));
+  auto again = parse(to_yaml(*p), std::string(GetParam()) + ".yaml");
+  ASSERT_TRUE(again.has_value()) << again.error().to_string();
+  EXPECT_EQ(*again, *p);
+}
+
+TEST_P(ShippedProfile, DeviationsCiteTheirManual) {
+  // Given a manual's profile / When its deviations are read / Then each cites that manual
+  auto p = find_profile(GetParam(), kDrives);
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  for (const auto& d : p->deviations) {
+    ASSERT_FALSE(d.sources.empty()) << d.id;
+    EXPECT_NE(d.sources.front().find(p->manual), std::string::npos) << d.id;
+    EXPECT_FALSE(p->manual.empty()) << d.id;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(VectorsDrives, ShippedProfile,
+                         ::testing::Values("cia402-reference", "festo-cmmp", "kollmorgen-s300-s700",
+                                           "irtsa-drive-fb", "esr-triodrive"),
+                         [](const ::testing::TestParamInfo<const char*>& param_info) {
+                           std::string name;
+                           for (const char* c = param_info.param; *c != '\0'; ++c)
+                             if (*c != '-') name += *c;
+                           return name;
+                         });
+
+TEST(ShippedProfiles, MutatedProfilesRoundTripOrFailCleanly) {
+  // Given 20 random byte mutations of each shipped profile (fixed seed) / When parsed / Then
+  // each is an error, or serialises to YAML that parses back to an equal profile
+  std::mt19937 rng(20261121);
+  int parsed = 0;
+  for (const char* name : {"cia402-reference", "festo-cmmp", "kollmorgen-s300-s700",
+                           "irtsa-drive-fb", "esr-triodrive"}) {
+    const std::string base = test_support::read_file(kDrives / (std::string(name) + ".yaml"));
+    ASSERT_FALSE(base.empty()) << name;
+    for (int i = 0; i < 20; ++i) {
+      std::string text = base;
+      const std::size_t pos = rng() % text.size();
+      switch (rng() % 3) {
+        case 0:
+          text.erase(pos, 1 + rng() % 6);
+          break;
+        case 1:
+          text.insert(pos, 1, static_cast<char>(rng() % 256));
+          break;
+        default:
+          text[pos] = static_cast<char>(rng() % 128);
+          break;
+      }
+      ParseOptions options;
+      options.base_dir = kDrives;
+      options.check_name = false;
+      auto p = parse_profile(text, options);
+      if (!p) continue;
+      ++parsed;
+      auto again = parse_profile(to_yaml(*p), options);
+      ASSERT_TRUE(again.has_value()) << again.error().to_string();
+      ASSERT_EQ(*again, *p) << "mutation " << i << " of " << name;
+    }
+  }
+  EXPECT_GT(parsed, 8);  // the mutations do not all break the YAML
+}
+
+TEST(ShippedProfiles, ReferenceHasNoDeviationsAndEveryOptionCode) {
+  // Given the standard profile / When loaded / Then no deviations, CiA 402's option values
+  auto p = find_profile("cia402-reference", kDrives);
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_TRUE(p->deviations.empty());
+  EXPECT_TRUE(p->supports("option.quick-stop.8"));
+  EXPECT_TRUE(p->supports("transition.16"));
+  EXPECT_TRUE(p->supports("homing.method.37"));
+  EXPECT_TRUE(p->manual.empty());
+}
+
+TEST(ShippedProfiles, FestoQuickStopFixedNoTransition16) {
+  // Given the Festo profile / When loaded / Then 605Ah accepts 2 only and transition 16 is absent
+  auto p = find_profile("festo-cmmp", kDrives);
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_EQ(p->option_codes.at(OptionCode::quick_stop), (std::vector<int>{2}));
+  EXPECT_FALSE(p->supports("transition.16"));
+  EXPECT_FALSE(p->supports("mode.csp"));
+  EXPECT_NE(p->deviation_for("cia402/fsa/transition-16/enable-from-quick-stop"), nullptr);
+  EXPECT_EQ(p->effective_personality().hardware_enable, HardwareEnable::transition_2);
+}
+
+}  // namespace
+}  // namespace drivecheck::profile

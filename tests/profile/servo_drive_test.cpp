@@ -1,0 +1,414 @@
+// ServoDrive with each manual's personality against the standard drive, on the simulated bus:
+// each personality differs from the standard drive exactly where its manual says.
+#include "reference_drive/servo_drive.hpp"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "protocol/can/sim_bus.hpp"
+#include "protocol/profile/drive_profile.hpp"
+
+namespace drivecheck::reference_drive {
+namespace {
+
+using namespace std::chrono_literals;
+
+constexpr std::uint8_t kNode = 5;
+constexpr std::uint32_t kNoAnswer = 0xFFFFFFFF;
+
+const std::filesystem::path kDrives =
+    std::filesystem::path(DRIVECHECK_SOURCE_DIR) / "vectors/drives";
+
+// One ServoDrive (node 5) and a tester port on a 1 Mbit/s simulated bus, powered on.
+class ServoRig {
+ public:
+  // `profile_name` empty: the standard drive.
+  explicit ServoRig(const std::string& profile_name = "") {
+    if (!profile_name.empty()) {
+      auto loaded = profile::find_profile(profile_name, kDrives);
+      if (!loaded) {
+        ADD_FAILURE() << loaded.error().to_string();
+        return;
+      }
+      profile_ = std::move(*loaded);
+    }
+    tester_ = bus_.attach("tester");
+    port_ = bus_.attach("drive");
+    tester_->set_frame_handler([this](const can::TimedFrame& f) { seen_.push_back(f.frame); });
+    ServoDriveOptions options;
+    options.node = kNode;
+    options.profile = profile_ ? &*profile_ : nullptr;
+    auto created = ServoDrive::create(*port_, options);
+    if (!created) {
+      ADD_FAILURE() << "ServoDrive::create: " << created.error();
+      return;
+    }
+    drive_ = std::move(*created);
+    drive_->power_on();
+    run(20ms);
+  }
+
+  bool ok() const { return drive_ != nullptr; }
+  ServoDrive& drive() { return *drive_; }
+
+  std::vector<can::Frame> run(can::Duration window) {
+    seen_.clear();
+    bus_.run_for(window);
+    return std::exchange(seen_, {});
+  }
+  void send(const can::Frame& frame) { ASSERT_FALSE(tester_->send(frame)); }
+
+  // Expedited download of `size` bytes: 0, the abort code, or kNoAnswer.
+  std::uint32_t write(std::uint16_t index, std::uint8_t sub, std::uint64_t value, unsigned size) {
+    // ccs=1 e=1 s=1 n=4-size, index LE, sub, data LE
+    const std::uint8_t bytes[8] = {static_cast<std::uint8_t>(0x23 | ((4 - size) << 2)),
+                                   static_cast<std::uint8_t>(index & 0xFF),
+                                   static_cast<std::uint8_t>(index >> 8),
+                                   sub,
+                                   static_cast<std::uint8_t>(value & 0xFF),
+                                   static_cast<std::uint8_t>(size > 1 ? (value >> 8) & 0xFF : 0),
+                                   static_cast<std::uint8_t>(size > 2 ? (value >> 16) & 0xFF : 0),
+                                   static_cast<std::uint8_t>(size > 3 ? (value >> 24) & 0xFF : 0)};
+    send(can::Frame::standard(0x600 + kNode, bytes));
+    for (const auto& f : run(5ms)) {
+      if (f.id != 0x580U + kNode) continue;
+      if (f.data[0] == 0x60) return 0;
+      if (f.data[0] == 0x80) return data32(f);
+    }
+    return kNoAnswer;
+  }
+  // Expedited upload: the response frame (nullopt: none).
+  std::optional<can::Frame> upload(std::uint16_t index, std::uint8_t sub) {
+    // ccs=2 initiate upload, index LE, sub
+    const std::uint8_t bytes[8] = {0x40,
+                                   static_cast<std::uint8_t>(index & 0xFF),
+                                   static_cast<std::uint8_t>(index >> 8),
+                                   sub,
+                                   0,
+                                   0,
+                                   0,
+                                   0};
+    send(can::Frame::standard(0x600 + kNode, bytes));
+    for (const auto& f : run(5ms))
+      if (f.id == 0x580U + kNode) return f;
+    return std::nullopt;
+  }
+  std::uint32_t read(std::uint16_t index, std::uint8_t sub = 0) {
+    const auto f = upload(index, sub);
+    if (!f || (f->data[0] & 0xE3) != 0x43) return kNoAnswer;
+    const unsigned size = 4 - ((f->data[0] >> 2) & 3);
+    const std::uint32_t data = data32(*f);
+    return size == 4 ? data : data & ((1U << (8 * size)) - 1);
+  }
+  std::uint16_t statusword() { return static_cast<std::uint16_t>(read(0x6041)); }
+  void controlword(std::uint16_t value) {
+    EXPECT_EQ(write(0x6040, 0, value, 2), 0U);
+    run(20ms);
+  }
+
+ private:
+  static std::uint32_t data32(const can::Frame& f) {
+    return static_cast<std::uint32_t>(f.data[4] | f.data[5] << 8 | f.data[6] << 16 |
+                                      f.data[7] << 24);
+  }
+
+  std::optional<profile::DriveProfile> profile_;
+  can::SimBus bus_{can::SimBusConfig{.bitrate = 1'000'000}};
+  std::unique_ptr<can::SimPort> tester_;
+  std::unique_ptr<can::SimPort> port_;
+  std::unique_ptr<ServoDrive> drive_;
+  std::vector<can::Frame> seen_;
+};
+
+constexpr std::uint32_t kInvalidValue = 0x06090030;
+
+std::vector<can::Frame> emcys(const std::vector<can::Frame>& frames) {
+  std::vector<can::Frame> out;
+  for (const auto& f : frames)
+    if (f.id == 0x80U + kNode) out.push_back(f);
+  return out;
+}
+
+TEST(ServoDriveStandard, HostsEveryModeAndEveryOptionCode) {
+  // Given the standard drive / When 6502h and 605Ah are used / Then all modes, 605Ah 5 accepted
+  ServoRig rig;
+  ASSERT_TRUE(rig.ok());
+  // pp pv tq hm ip csp csv cst = bits 0 2 3 5 6 7 8 9
+  EXPECT_EQ(rig.read(0x6502), 0x000003EDU);
+  EXPECT_EQ(rig.write(0x605A, 0, 5, 2), 0U);
+  EXPECT_EQ(rig.read(0x1000), 0x00020192U);
+  EXPECT_TRUE(rig.drive().not_applied().empty());
+}
+
+TEST(ServoDriveStandard, PlanEqualsTheReferenceProfile) {
+  // Given the standard drive and cia402-reference.yaml / When planned / Then the same drive
+  auto reference = profile::find_profile("cia402-reference", kDrives);
+  ASSERT_TRUE(reference.has_value()) << reference.error().to_string();
+  auto from_profile = plan_personality(&*reference);
+  auto standard = plan_personality(nullptr);
+  ASSERT_TRUE(from_profile.has_value()) << from_profile.error();
+  ASSERT_TRUE(standard.has_value()) << standard.error();
+  EXPECT_EQ(from_profile->application.pds.supported_modes,
+            standard->application.pds.supported_modes);
+  EXPECT_EQ(from_profile->application.pds.option_code_support.values,
+            standard->application.pds.option_code_support.values);
+  EXPECT_EQ(from_profile->application.pds.hardware_enable,
+            standard->application.pds.hardware_enable);
+  EXPECT_EQ(from_profile->overrides, standard->overrides);
+  EXPECT_EQ(from_profile->homing.supported_methods.size(), 32U);
+  EXPECT_TRUE(from_profile->not_applied.empty());
+}
+
+TEST(ServoDriveStandard, HardwareEnableGatesSwitchOn) {
+  // Given the standard drive without its hardware enable input / When switched on / Then it
+  // stays READY TO SWITCH ON until the input comes
+  ServoRig rig;
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(rig.drive().simulate("hardware-enable", 0));
+  rig.controlword(0x0006);
+  rig.controlword(0x0007);
+  EXPECT_EQ(rig.statusword() & 0x6F, 0x21);  // ready to switch on
+  ASSERT_TRUE(rig.drive().simulate("hardware-enable", 1));
+  rig.controlword(0x0007);
+  EXPECT_EQ(rig.statusword() & 0x6F, 0x23);  // switched on
+}
+
+TEST(ServoDriveFesto, QuickStopOptionCodeRefusesFive) {
+  // Given the Festo drive (605Ah fixed 2, L5889-5905) / When 605Ah = 5 / Then abort 06090030h
+  ServoRig rig("festo-cmmp");
+  ASSERT_TRUE(rig.ok());
+  EXPECT_EQ(rig.write(0x605A, 0, 5, 2), kInvalidValue);
+  EXPECT_EQ(rig.write(0x605A, 0, 2, 2), 0U);
+  EXPECT_EQ(rig.read(0x605A), 2U);
+  EXPECT_EQ(rig.write(0x605B, 0, 1, 2), kInvalidValue);  // shutdown fixed 0
+  EXPECT_EQ(rig.read(0x1018, 1), 0x1DU);                 // Festo vendor-ID
+}
+
+TEST(ServoDriveFesto, ShortSdoRequestIsPadded) {
+  // Given the Festo drive (its examples print requests with 4 bytes, L744-756) and the standard
+  // drive / When "40 61 60 00" (upload 6061h, DLC 4) comes / Then Festo answers, standard not
+  ServoRig festo("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(festo.ok());
+  ASSERT_TRUE(standard.ok());
+  // ccs=2 initiate upload, 6061h sub 0, no data bytes
+  const std::uint8_t request[4] = {0x40, 0x61, 0x60, 0x00};
+  auto answers = [](ServoRig& rig, std::span<const std::uint8_t> bytes) {
+    rig.send(can::Frame::standard(0x600 + kNode, bytes));
+    std::size_t n = 0;
+    for (const auto& f : rig.run(5ms))
+      n += f.id == 0x580U + kNode ? 1 : 0;
+    return n;
+  };
+  EXPECT_EQ(answers(festo, request), 1U);
+  EXPECT_EQ(answers(standard, request), 0U);
+}
+
+TEST(ServoDriveFesto, HardwareEnableGatesShutdown) {
+  // Given the Festo drive without DIN4/DIN5 (Tab. 6.2 L5218) / When shutdown / Then it stays
+  // SWITCH ON DISABLED
+  ServoRig rig("festo-cmmp");
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(rig.drive().simulate("hardware-enable", 0));
+  rig.controlword(0x0006);
+  EXPECT_EQ(rig.statusword() & 0x4F, 0x40);  // switch on disabled
+  ASSERT_TRUE(rig.drive().simulate("hardware-enable", 1));
+  rig.controlword(0x0006);
+  EXPECT_EQ(rig.statusword() & 0x6F, 0x21);  // ready to switch on
+}
+
+TEST(ServoDriveFesto, DefaultPdoMappingOfTheManual) {
+  // Given the Festo drive / When the PDO defaults are read / Then the manual's tables (L1088-1214)
+  ServoRig rig("festo-cmmp");
+  ASSERT_TRUE(rig.ok());
+  EXPECT_EQ(rig.read(0x1A01, 0), 2U);
+  EXPECT_EQ(rig.read(0x1A01, 1), 0x60410010U);
+  EXPECT_EQ(rig.read(0x1A01, 2), 0x60610008U);
+  EXPECT_EQ(rig.read(0x1603, 2), 0x60FF0020U);
+  EXPECT_NE(rig.read(0x1800, 1) & 0x80000000U, 0U);  // invalid as shipped
+  ServoRig standard;
+  EXPECT_NE(standard.read(0x1A01, 2), 0x60610008U);
+}
+
+TEST(ServoDriveFesto, HomingMethodsOfTheManual) {
+  // Given the Festo drive / When 6098h is written / Then -17 is accepted, 3 is refused
+  ServoRig rig("festo-cmmp");
+  ASSERT_TRUE(rig.ok());
+  EXPECT_EQ(rig.read(0x6098), 17U);
+  EXPECT_EQ(rig.write(0x6098, 0, static_cast<std::uint8_t>(-17), 1), 0U);
+  EXPECT_NE(rig.write(0x6098, 0, 3, 1), 0U);
+  ServoRig standard;
+  EXPECT_EQ(standard.write(0x6098, 0, 3, 1), 0U);
+}
+
+TEST(ServoDriveIrtsa, ErrorCodeIsErrorNumberTimes256Plus80h) {
+  // Given the IRTSA drive (603Fh = n * 256 + 80h, L212-228) / When a fault occurs / Then 603Fh
+  // has 80h in its low byte, where the standard drive shows the CiA 402 code
+  ServoRig irtsa("irtsa-drive-fb");
+  ServoRig standard;
+  ASSERT_TRUE(irtsa.ok());
+  ASSERT_TRUE(standard.ok());
+  ASSERT_TRUE(irtsa.drive().simulate("fault:over-voltage", 1));
+  ASSERT_TRUE(standard.drive().simulate("fault:over-voltage", 1));
+  irtsa.run(20ms);
+  standard.run(20ms);
+  const std::uint32_t standard_code = standard.read(0x603F);
+  const std::uint32_t irtsa_code = irtsa.read(0x603F);
+  EXPECT_EQ(standard_code, 0x3210U);  // DC link over-voltage
+  EXPECT_EQ(irtsa_code & 0xFFU, 0x80U);
+  EXPECT_NE(irtsa_code, standard_code);
+}
+
+TEST(ServoDriveIrtsa, HomingOnlyByManufacturerMethods) {
+  // Given the IRTSA drive (no CiA 402 homing method, L418) / When 6098h is written / Then 35 is
+  // refused, -126 accepted; 6098h starts at 81h
+  ServoRig rig("irtsa-drive-fb");
+  ASSERT_TRUE(rig.ok());
+  EXPECT_EQ(rig.read(0x6098), 0x81U);
+  EXPECT_NE(rig.write(0x6098, 0, 35, 1), 0U);
+  EXPECT_EQ(rig.write(0x6098, 0, 0x82, 1), 0U);
+  EXPECT_EQ(rig.read(0x1000), 0x00420192U);
+}
+
+TEST(ServoDriveIrtsa, HomingSetsThePositionWithoutMotion) {
+  // Given the IRTSA drive in SWITCH ON DISABLED, homing mode, 607Ch = 1234, method 81h
+  // (L416-421: the home offset becomes the actual position; any state but the fault states)
+  ServoRig rig("irtsa-drive-fb");
+  ASSERT_TRUE(rig.ok());
+  ASSERT_EQ(rig.write(0x6060, 0, 6, 1), 0U);
+  ASSERT_EQ(rig.write(0x607C, 0, 1234, 4), 0U);
+  rig.run(10ms);
+  // When homing starts (controlword bit 4 rising, bits 0-3 = 0: still SWITCH ON DISABLED)
+  rig.controlword(0x0000);
+  rig.controlword(0x0010);
+  // Then 6064h reads 1234, homing attained (bit 12), no error (bit 13), still SWITCH ON DISABLED
+  EXPECT_EQ(rig.read(0x6064), 1234U);
+  const std::uint16_t sw = rig.statusword();
+  EXPECT_NE(sw & 0x1000, 0) << std::hex << sw;
+  EXPECT_EQ(sw & 0x2000, 0) << std::hex << sw;
+  EXPECT_EQ(sw & 0x4F, 0x40) << std::hex << sw;
+}
+
+TEST(ServoDriveEsr, ModesOfOperationAre16Bit) {
+  // Given the ESR drive (6060h/6061h INTEGER16, L1029-1036) / When 6060h is uploaded / Then the
+  // response carries 2 bytes (4Bh), where the standard drive's carries 1 (4Fh)
+  ServoRig esr("esr-triodrive");
+  ServoRig standard;
+  ASSERT_TRUE(esr.ok());
+  ASSERT_TRUE(standard.ok());
+  const auto esr_answer = esr.upload(0x6060, 0);
+  const auto standard_answer = standard.upload(0x6060, 0);
+  ASSERT_TRUE(esr_answer.has_value());
+  ASSERT_TRUE(standard_answer.has_value());
+  EXPECT_EQ(esr_answer->data[0], 0x4B);
+  EXPECT_EQ(standard_answer->data[0], 0x4F);
+  EXPECT_EQ(esr.write(0x6060, 0, 1, 2), 0U);  // 16-bit write accepted
+  EXPECT_EQ(esr.read(0x1A01, 2), 0x60610010U);
+}
+
+TEST(ServoDriveKollmorgen, EveryEmcyIsFollowedByAnErrorStateEmcy) {
+  // Given the Kollmorgen drive (L768-777) / When a fault occurs / Then two EMCYs: the code, then
+  // 0000h with the error register; the standard drive sends one
+  ServoRig rig("kollmorgen-s300-s700");
+  ServoRig standard;
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(standard.ok());
+  ASSERT_TRUE(rig.drive().simulate("fault:over-temperature", 1));
+  ASSERT_TRUE(standard.drive().simulate("fault:over-temperature", 1));
+  const auto frames = emcys(rig.run(20ms));
+  const auto standard_frames = emcys(standard.run(20ms));
+  ASSERT_EQ(frames.size(), 2U);
+  EXPECT_NE(frames[0].data[0] | frames[0].data[1], 0);
+  EXPECT_EQ(frames[1].data[0] | frames[1].data[1], 0);  // error reset code 0000h
+  EXPECT_EQ(frames[1].data[2], frames[0].data[2]);      // the error register
+  EXPECT_NE(frames[1].data[2], 0);                      // an error is pending
+  EXPECT_EQ(standard_frames.size(), 1U);
+}
+
+TEST(ServoDriveKollmorgen, IdentityQuickStopAndGuardingReaction) {
+  // Given the Kollmorgen drive / When identity, 605Ah and 1029h are read / Then the manual's
+  // 00002192h and 6Ah, quick stop stays in QUICK STOP ACTIVE (6), no NMT change on loss (1)
+  ServoRig rig("kollmorgen-s300-s700");
+  ASSERT_TRUE(rig.ok());
+  EXPECT_EQ(rig.read(0x1000), 0x00002192U);
+  EXPECT_EQ(rig.read(0x1018, 1), 0x6AU);
+  EXPECT_EQ(rig.read(0x605A), 6U);
+  EXPECT_EQ(rig.write(0x605A, 0, 2, 2), kInvalidValue);
+  EXPECT_EQ(rig.read(0x1029, 1), 1U);
+  EXPECT_FALSE(rig.drive().not_applied().empty());  // manufacturer modes, methods -3/-8
+}
+
+// Operational, 6007h = 0 (no CiA 402 reaction), life guarding 100 ms x 2 started by one RTR,
+// then no more RTRs for 500 ms: the NMT state afterwards.
+cia301::NmtState state_after_guarding_loss(ServoRig& rig) {
+  EXPECT_EQ(rig.write(0x6007, 0, 0, 2), 0U);
+  EXPECT_EQ(rig.write(0x100C, 0, 100, 2), 0U);
+  EXPECT_EQ(rig.write(0x100D, 0, 2, 1), 0U);
+  const std::uint8_t start[2] = {0x01, kNode};  // NMT start remote node 5
+  rig.send(can::Frame::standard(0x000, start));
+  rig.run(10ms);
+  rig.send(can::Frame::remote(0x700 + kNode, 1));  // guarding request (RTR, DLC 1)
+  const auto frames = emcys(rig.run(500ms));
+  EXPECT_FALSE(frames.empty());  // EMCY 8130h: the life guarding event happened
+  return rig.drive().device().state();
+}
+
+TEST(ServoDriveKollmorgen, GuardingLossKeepsTheNmtState) {
+  // Given the Kollmorgen drive (warning N04 and quick stop, no NMT change, L1029-1069) and the
+  // standard drive (1029h:01 = 0) / When life guarding times out in Operational / Then Kollmorgen
+  // stays Operational, the standard drive goes Pre-operational
+  ServoRig rig("kollmorgen-s300-s700");
+  ServoRig standard;
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(standard.ok());
+  EXPECT_EQ(state_after_guarding_loss(rig), cia301::NmtState::operational);
+  EXPECT_EQ(state_after_guarding_loss(standard), cia301::NmtState::pre_operational);
+}
+
+TEST(ServoDriveKollmorgen, StoredValueWinsOverPersonalityDefault) {
+  // Given the Kollmorgen drive with 1029h:01 written 2 / When reset communication / Then 2 stays
+  // (only a value at the dictionary's default is replaced); after restore defaults it is 1 again
+  ServoRig rig("kollmorgen-s300-s700");
+  ASSERT_TRUE(rig.ok());
+  ASSERT_EQ(rig.write(0x1029, 1, 2, 1), 0U);
+  // "save" = 65766173h, all parameters
+  ASSERT_EQ(rig.write(0x1010, 1, 0x65766173, 4), 0U);
+  const std::uint8_t reset_communication[2] = {0x82, kNode};  // NMT cs 82h, node 5
+  rig.send(can::Frame::standard(0x000, reset_communication));
+  rig.run(20ms);
+  EXPECT_EQ(rig.read(0x1029, 1), 2U);
+  // "load" = 64616F6Ch, all parameters
+  ASSERT_EQ(rig.write(0x1011, 1, 0x64616F6C, 4), 0U);
+  rig.send(can::Frame::standard(0x000, reset_communication));
+  rig.run(20ms);
+  EXPECT_EQ(rig.read(0x1029, 1), 1U);
+}
+
+TEST(ServoDrivePlan, RefusesWhatTheDriveCannotTake) {
+  // Given personalities the reference drive cannot take / When planned / Then errors
+  auto bad = profile::parse_profile(R"(name: x
+title: x
+features: [cia402]
+modes: [1]
+personality:
+  object_types: [{index: 0x6041, type: INTEGER32}]
+)",
+                                    {});
+  ASSERT_TRUE(bad.has_value()) << bad.error().to_string();
+  EXPECT_FALSE(plan_personality(&*bad).has_value());
+  auto zero = profile::parse_profile(
+      "name: x\ntitle: x\nfeatures: [cia402]\npersonality: {ack_latency_cycles: 0}\n", {});
+  ASSERT_TRUE(zero.has_value()) << zero.error().to_string();
+  EXPECT_FALSE(plan_personality(&*zero).has_value());
+}
+
+}  // namespace
+}  // namespace drivecheck::reference_drive
