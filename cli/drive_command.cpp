@@ -1,32 +1,38 @@
 // drivecheck drive: the reference drive serving a real CAN interface, as a stand-in device
 // for testing masters and PLCs.
 //
-//   drivecheck drive --bus socketcan:IF --node N [--store FILE]
+//   drivecheck drive --bus socketcan:IF --node N [--store FILE] [--personality NAME|FILE]
+//                    [--deviation NAME...]
 //
-// The drive (reference_drive/device.hpp) powers on (boot-up message), then serves SDO, NMT,
-// heartbeat/guarding, EMCY, SYNC and PDOs until SIGINT or SIGTERM, which stop the bus loop
-// (Bus::stop(), async-signal-safe) and end the program with exit 0. With --store, 1010h saves
-// parameters to FILE (atomically) and they are applied at power on and after resets; without
-// it they live in memory until the program ends. Exit 2: bad options, an interface that cannot
-// be opened, an unreadable FILE ("file:line: message"). Exit 3: the interface failed while
-// serving.
-//
-// --personality and --deviation belong to the CiA 402 part of the drive (next issue): they are
-// refused with a message rather than ignored.
+// The drive (reference_drive/servo_drive.hpp: the CiA 301 device with the CiA 402 application)
+// powers on (boot-up message), then serves SDO, NMT, heartbeat/guarding, EMCY, SYNC, PDOs and
+// the power drive system until SIGINT or SIGTERM, which stop the bus loop (Bus::stop(),
+// async-signal-safe) and end the program with exit 0. --personality takes a drive profile
+// (vectors/drives/NAME.yaml, or a file) and makes the drive behave as that manual documents;
+// what the reference drive cannot show of it is listed on stderr. --deviation injects named
+// deviations (reference_drive/deviations.inc; repeatable, or comma-separated). With --store,
+// 1010h saves parameters to FILE (atomically) and they are applied at power on and after
+// resets; without it they live in memory until the program ends. Exit 2: bad options, an
+// unknown personality or deviation, an interface that cannot be opened, an unreadable FILE
+// ("file:line: message"). Exit 3: the interface failed while serving.
 #include <fmt/format.h>
 #include <signal.h>
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "cli/commands.hpp"
 #include "cli/options.hpp"
 #include "protocol/can/socketcan_bus.hpp"
-#include "reference_drive/device.hpp"
+#include "protocol/profile/drive_profile.hpp"
+#include "reference_drive/deviations.hpp"
 #include "reference_drive/parameter_file.hpp"
+#include "reference_drive/servo_drive.hpp"
 
 namespace drivecheck::cli {
 namespace {
@@ -71,15 +77,21 @@ class SignalScope {
 };
 
 void run_drive(const DriveOptions& options) {
-  if (!options.personality.empty() || !options.deviations.empty()) {
-    usage_error("drive",
-                "--personality and --deviation come with the reference drive's CiA 402 part, "
-                "which is not built yet; this drive is the CiA 301 device only");
-  }
   const auto spec = parse_bus_spec(options.bus);
   if (!spec || spec->kind != BusSpec::Kind::socketcan) {
     usage_error("drive", "--bus must be socketcan:IF: the reference drive serves a real bus");
   }
+
+  // Bad names are bad input: report them before touching the bus.
+  std::optional<profile::DriveProfile> personality;
+  if (!options.personality.empty()) {
+    auto loaded = profile::find_profile(options.personality,
+                                        std::filesystem::path(DRIVECHECK_VECTORS_DIR) / "drives");
+    if (!loaded) usage_error("drive", "--personality: " + loaded.error().to_string());
+    personality = std::move(*loaded);
+  }
+  auto deviations = reference_drive::DeviationSet::parse(options.deviations);
+  if (!deviations) usage_error("drive", "--deviation: " + deviations.error());
 
   std::unique_ptr<reference_drive::FileParameterStorage> storage;
   if (!options.store.empty()) {
@@ -95,18 +107,25 @@ void run_drive(const DriveOptions& options) {
   auto bus = can::SocketCanBus::open(spec->interface);
   if (!bus) usage_error("drive", can::describe_open_error(spec->interface, bus.error()));
 
-  reference_drive::DriveConfig config;
-  config.dictionary.node_id = static_cast<std::uint8_t>(options.node);
-  config.dictionary.identity.serial = static_cast<std::uint32_t>(options.node);
+  reference_drive::ServoDriveOptions config;
+  config.node = static_cast<std::uint8_t>(options.node);
+  config.profile = personality ? &*personality : nullptr;
+  config.deviations = *deviations;
   config.storage = storage.get();
-  auto drive = reference_drive::ReferenceDrive::create(**bus, std::move(config));
+  auto drive = reference_drive::ServoDrive::create(**bus, std::move(config));
   if (!drive) {
     fmt::print(stderr, "drivecheck drive: {}\n", drive.error());
     exit_with(kExitUsage);
     return;
   }
+  for (const std::string& line : (*drive)->not_applied()) {
+    fmt::print(stderr, "drivecheck drive: personality {}: not shown: {}\n", personality->name,
+               line);
+  }
 
-  fmt::print(stderr, "drivecheck drive: node {} on {}{}; Ctrl-C stops\n", options.node, options.bus,
+  fmt::print(stderr, "drivecheck drive: node {} on {}{}{}{}; Ctrl-C stops\n", options.node,
+             options.bus, personality ? ", personality " + personality->name : std::string(),
+             deviations->empty() ? std::string() : ", deviations " + deviations->names(),
              options.store.empty() ? "" : ", parameters in " + options.store);
   {
     SignalScope signals;
@@ -145,9 +164,12 @@ void add_drive_command(CLI::App& app) {
                   "Keep stored parameters (1010h/1011h) in this file (default: in memory)")
       ->type_name("FILE");
   cmd->add_option("--personality", options->personality,
-                  "Behave as the drive of this manual (e.g. festo-cmmp)")
-      ->type_name("NAME");
-  cmd->add_option("--deviation", options->deviations, "Inject a named deviation (repeatable)")
+                  "Behave as the drive of this profile (vectors/drives: cia402-reference, "
+                  "festo-cmmp, kollmorgen-s300-s700, irtsa-drive-fb, esr-triodrive; or a file)")
+      ->type_name("NAME|FILE");
+  cmd->add_option("--deviation", options->deviations,
+                  "Inject a named deviation (repeatable or comma-separated; see "
+                  "reference_drive/deviations.inc)")
       ->type_name("NAME");
   cmd->callback([options] { run_drive(*options); });
 }

@@ -21,12 +21,17 @@ Expected<std::unique_ptr<ReferenceDrive>, std::string> ReferenceDrive::create(ca
 }
 
 ReferenceDrive::ReferenceDrive(can::Bus& bus, DriveConfig config)
-    : bus_(bus), config_(std::move(config)) {}
+    : deviation_port_(config.deviations.empty()
+                          ? nullptr
+                          : std::make_unique<DeviationPort>(bus, config.deviations)),
+      bus_(deviation_port_ ? *deviation_port_ : bus),
+      config_(std::move(config)) {}
 
 Expected<void, std::string> ReferenceDrive::start() {
   auto od = build_dictionary(config_.dictionary);
   if (!od) return Unexpected(od.error());
   od_ = std::make_unique<cia301::ObjectDictionary>(std::move(*od));
+  if (deviation_port_) deviation_port_->set_dictionary(od_.get());
   if (config_.application != nullptr) {
     if (auto ok = config_.application->add_objects(*od_); !ok) {
       return Unexpected("application objects: " + ok.error());
@@ -46,6 +51,8 @@ Expected<void, std::string> ReferenceDrive::start() {
 
   cia301::SdoServerConfig sdo = cia301::SdoServerConfig::for_node(od_->node_id());
   sdo.timeout = config_.sdo_timeout;
+  sdo.short_frames = config_.sdo_short_frames;
+  if (has(Deviation::sdo_no_timeout)) sdo.timeout = can::Duration::max();  // deviation
   sdo_ = std::make_unique<cia301::SdoServer>(*od_, sdo);
   sdo_runner_ = std::make_unique<cia301::SdoServerRunner>(bus_, *sdo_);
 
@@ -55,9 +62,21 @@ Expected<void, std::string> ReferenceDrive::start() {
     on_state_changed(from, to);
   };
   handlers.on_sync = [this](const cia301::SyncConsumerEvent& event) { on_sync(event); };
+  handlers.on_heartbeat = [this](const cia301::HeartbeatEvent& event) {
+    if (event.kind == cia301::HeartbeatEventKind::timeout && config_.application != nullptr) {
+      config_.application->on_communication_loss(*this);
+    }
+  };
+  handlers.on_life_guarding = [this](const cia301::LifeGuardingEvent& event) {
+    if (event.kind == cia301::LifeGuardingEventKind::expired && config_.application != nullptr) {
+      config_.application->on_communication_loss(*this);
+    }
+  };
   handlers.other_frames = [this](const can::TimedFrame& frame) { on_frame(frame); };
-  services_ = std::make_unique<cia301::DeviceServices>(
-      bus_, *od_, cia301::DeviceServicesConfig{config_.initialisation_time}, std::move(handlers));
+  cia301::DeviceServicesConfig services{config_.initialisation_time};
+  services.heartbeat_consumer_timeouts = !has(Deviation::heartbeat_consumer_timeout_ignored);
+  services.emcy_inhibit = !has(Deviation::emcy_inhibit_ignored);
+  services_ = std::make_unique<cia301::DeviceServices>(bus_, *od_, services, std::move(handlers));
   services_->attach();
   // Own frames come back at their end on the wire: PdoService::on_sent (synchronous window).
   bus_.set_loopback(true);
@@ -65,7 +84,9 @@ Expected<void, std::string> ReferenceDrive::start() {
 }
 
 ReferenceDrive::~ReferenceDrive() {
+  if (config_.application != nullptr) config_.application->on_drive_destroyed(*this);
   timer_.disarm();
+  if (deviation_port_) deviation_port_->set_dictionary(nullptr);
 }
 
 void ReferenceDrive::power_on() {
@@ -110,7 +131,8 @@ void ReferenceDrive::on_frame(const can::TimedFrame& timed) {
     return;
   }
   if (sdo_->is_request(timed.frame)) {
-    if (services_->allows(cia301::NmtService::sdo)) {
+    if (services_->allows(cia301::NmtService::sdo) ||
+        (has(Deviation::sdo_in_stopped) && state() == cia301::NmtState::stopped)) {
       sdo_runner_->handle(timed);
       // An SDO write may have changed a PDO (new timers, errors to clear): let the PDOs look.
       handle(pdos_->on_time(timed.timestamp));
@@ -126,9 +148,14 @@ void ReferenceDrive::on_reset(cia301::ResetKind kind) {
   if (kind == cia301::ResetKind::application) {
     store_->apply(cia301::kStoreApplication);
     store_->apply(cia301::kStoreManufacturer);
+    application_reset_ = true;
   } else {
     sdo_->reset();
-    store_->apply(cia301::kStoreCommunication);
+    // Deviation: a reset communication on its own keeps the communication objects as written.
+    if (application_reset_ || !has(Deviation::nmt_reset_communication_keeps_values)) {
+      store_->apply(cia301::kStoreCommunication);
+    }
+    application_reset_ = false;
     pdos_->reload(bus_.now());
     // PDO errors belong to the communication that was just reset.
     handle(pdos_->clear_errors());
@@ -138,18 +165,26 @@ void ReferenceDrive::on_reset(cia301::ResetKind kind) {
 
 void ReferenceDrive::on_state_changed(cia301::NmtState from, cia301::NmtState to) {
   const can::TimePoint now = bus_.now();
-  if (!cia301::nmt_allows(to, cia301::NmtService::sdo)) {
+  const bool sdo_in_stopped =
+      has(Deviation::sdo_in_stopped) && to == cia301::NmtState::stopped;  // deviation
+  if (!cia301::nmt_allows(to, cia301::NmtService::sdo) && !sdo_in_stopped) {
     sdo_->reset();
     sdo_runner_->transmit({});  // re-arms (cancels) the runner's timeout timer
   }
-  pdos_->set_nmt_state(to, now);
+  // Deviation pdo-in-pre-operational: the PDOs run as if Operational.
+  const bool pdo_in_pre_operational =
+      has(Deviation::pdo_in_pre_operational) && to == cia301::NmtState::pre_operational;
+  pdos_->set_nmt_state(pdo_in_pre_operational ? cia301::NmtState::operational : to, now);
   if (config_.application != nullptr) config_.application->on_nmt_state(*this, from, to);
   rearm();
 }
 
 void ReferenceDrive::on_sync(const cia301::SyncConsumerEvent& event) {
   if (event.kind != cia301::SyncConsumerEventKind::sync) return;
-  handle(pdos_->on_sync(event.counter, event.time));
+  // Deviation sync-counter-ignored: the PDOs never see the counter.
+  handle(pdos_->on_sync(has(Deviation::sync_counter_ignored) ? std::nullopt : event.counter,
+                        event.time));
+  if (config_.application != nullptr) config_.application->on_sync(*this, event.time);
   rearm();
 }
 

@@ -27,6 +27,12 @@
 // hook every control cycle (DriveConfig::control_cycle, default 1 ms, on the bus's clock) with
 // the object dictionary at hand; after each cycle event-driven TPDOs see the changed values.
 // Nothing else in the drive knows the application.
+//
+// Deviations (DriveConfig::deviations, reference_drive/deviations.hpp): a DeviationPort wraps
+// the bus port (wire-level faults); the drive itself serves SDO in Stopped, runs PDOs in
+// Pre-operational, hides the SYNC counter from the PDOs, keeps the communication objects over
+// a reset communication, never times out SDO, and tells DeviceServices to ignore heartbeat
+// consumer timeouts and the EMCY inhibit time, when the set says so.
 #pragma once
 
 #include <array>
@@ -43,6 +49,7 @@
 #include "protocol/cia301/sdo_server.hpp"
 #include "protocol/cia301/store_restore.hpp"
 #include "protocol/common/expected.hpp"
+#include "reference_drive/deviations.hpp"
 #include "reference_drive/dictionary.hpp"
 
 namespace drivecheck::reference_drive {
@@ -75,6 +82,18 @@ class DriveApplication {
     (void)drive;
     (void)now;
   }
+  // A SYNC was received (or produced by this device) at `at`, after the PDOs took it (the
+  // synchronous RPDOs' data is in the dictionary): the synchronous modes of operation start
+  // their cycle here.
+  virtual void on_sync(ReferenceDrive& drive, can::TimePoint at) {
+    (void)drive;
+    (void)at;
+  }
+  // Heartbeat consumer timeout or life guarding event (the services have sent EMCY 8130h and
+  // applied 1029h): CiA 402's abort connection reaction (6007h) starts here.
+  virtual void on_communication_loss(ReferenceDrive& drive) { (void)drive; }
+  // The drive is being destroyed (its dictionary goes with it): drop every reference to it.
+  virtual void on_drive_destroyed(ReferenceDrive& drive) { (void)drive; }
 };
 
 struct DriveConfig {
@@ -85,11 +104,17 @@ struct DriveConfig {
   // Power on or reset command to boot-up message.
   can::Duration initialisation_time{0};
   can::Duration sdo_timeout = std::chrono::milliseconds(1000);
+  // SDO requests shorter than 8 bytes: ignored (CiA 301) or padded with 00h (sdo_server.hpp).
+  cia301::ShortFramePolicy sdo_short_frames = cia301::ShortFramePolicy::ignore;
   // Where 1010h saves to; nullptr: a MemoryParameterStorage the drive owns. Must outlive the
   // drive.
   cia301::ParameterStorage* storage = nullptr;
   // nullptr: no application. Must outlive the drive.
   DriveApplication* application = nullptr;
+  // Named deviations (deviations.hpp; empty: the conformant drive). The drive applies the
+  // CiA 301 ones (a DeviationPort between it and `bus`, and its own hooks); the application
+  // applies the CiA 402 ones from its own copy.
+  DeviationSet deviations;
 };
 
 struct DriveStatistics {
@@ -134,11 +159,14 @@ class ReferenceDrive {
   const cia301::StoreRestore& store() const { return *store_; }
   const DriveStatistics& statistics() const { return stats_; }
   const DriveConfig& config() const { return config_; }
+  // The wire-level deviations (nullptr when config().deviations is empty).
+  const DeviationPort* deviation_port() const { return deviation_port_.get(); }
 
  private:
   ReferenceDrive(can::Bus& bus, DriveConfig config);
   Expected<void, std::string> start();
 
+  bool has(Deviation deviation) const { return config_.deviations.has(deviation); }
   void on_frame(const can::TimedFrame& frame);
   void on_reset(cia301::ResetKind kind);
   void on_state_changed(cia301::NmtState from, cia301::NmtState to);
@@ -148,6 +176,10 @@ class ReferenceDrive {
   void tick();
   void rearm();
 
+  // Deviations: the wire-level ones sit between the drive and the bus passed to create()
+  // (declared before bus_, which refers to it when there is one).
+  std::unique_ptr<DeviationPort> deviation_port_;
+  bool application_reset_ = false;  // nmt-reset-communication-keeps-values
   can::Bus& bus_;
   DriveConfig config_;
   std::unique_ptr<cia301::ObjectDictionary> od_;

@@ -44,6 +44,9 @@ std::optional<std::int16_t> initial_option_code(const OptionCodeSupport& support
   return std::nullopt;
 }
 
+// supported-modes-wrong: 6502h also claims vl (bit 1) and ip (bit 6).
+constexpr std::uint32_t kSupportedModesWrongBits = 0x00000042;
+
 // States with high voltage applied to the power stage (statusword bit 4).
 bool voltage_applied(State state) {
   return state == State::switched_on || state == State::operation_enabled ||
@@ -107,9 +110,14 @@ void PowerDriveSystem::step(can::TimePoint now) {
   fault_event_ = false;
   if (!moved) moved = try_automatic(now);
   if (!moved) moved = try_enable_loss(now);
+  // Deviation fault-reset-on-level: bit 7 high counts as a new edge at every step.
+  if (has(Deviation::fault_reset_on_level) &&
+      (controlword_ & cia402::controlword::kFaultReset) != 0) {
+    reset_edge_ = true;
+  }
   if (!moved) try_command(now);
   update_halt();
-  mode_display_ = mode_request_;
+  if (!has(Deviation::mode_display_not_following)) mode_display_ = mode_request_;
   reset_edge_ = false;
 
   // Statusword bit 7: a command the controlword gives now waits for the hardware enable.
@@ -199,9 +207,17 @@ bool PowerDriveSystem::try_command(can::TimePoint now) {
     controlword = static_cast<std::uint16_t>(controlword | cia402::controlword::kFaultReset);
     previous = 0;
   }
-  const auto row = cia402::commanded_transition(
-      state_, controlword, previous, cia402::quick_stop_stays_active(active_quick_stop_));
+  auto row = cia402::commanded_transition(state_, controlword, previous,
+                                          cia402::quick_stop_stays_active(active_quick_stop_) ||
+                                              has(Deviation::transition_16_when_forbidden));
+  // Deviation enable-operation-from-switch-on-disabled: 000Fh there runs 2 (then 3, 4).
+  if (!row && state_ == State::switch_on_disabled &&
+      has(Deviation::enable_operation_from_switch_on_disabled) &&
+      (controlword & 0x008F) == 0x000F) {
+    row = cia402::commanded_transition(state_, cia402::controlword_of(cia402::Command::shutdown));
+  }
   if (!row) return false;  // not a command in this state: ignored, nothing moves
+  if (row->number == 11 && has(Deviation::quick_stop_ignored)) return false;
   if (enable_gates(row->number) && !enable_) return false;
   if (row->number == 15 && !causes_.empty()) return false;  // edge consumed, FAULT stays
   if (pending_ && *pending_ == row->number) return false;   // already on its way
@@ -319,7 +335,7 @@ void PowerDriveSystem::start_fault_reaction() {
 }
 
 void PowerDriveSystem::update_halt() {
-  const bool obeyed = config_.remote && !forced_;
+  const bool obeyed = config_.remote && !forced_ && !has(Deviation::halt_ignored);
   const bool requested = obeyed && state_ == State::operation_enabled && !pending_ &&
                          (controlword_ & cia402::controlword::kHalt) != 0;
   if (requested && !halted_) {
@@ -365,6 +381,7 @@ void PowerDriveSystem::clear_fault_cause(std::uint16_t code) {
 }
 
 void PowerDriveSystem::on_communication_loss() {
+  if (has(Deviation::abort_connection_ignored)) return;
   switch (option_code(OptionCode::abort_connection)) {
     case 1:
       // A fault event: the cause does not persist (a master that can send the fault reset
@@ -400,6 +417,10 @@ Expected<void, cia301::SdoAbort> PowerDriveSystem::set_option_code(OptionCode co
 
 Expected<void, cia301::SdoAbort> PowerDriveSystem::check_mode(std::int8_t mode) const {
   if (mode == 0) return {};
+  if (mode < 0 && std::find(config_.manufacturer_modes.begin(), config_.manufacturer_modes.end(),
+                            mode) != config_.manufacturer_modes.end()) {
+    return {};
+  }
   const auto known = cia402::mode_from_value(mode);
   if (!known || !cia402::supports(config_.supported_modes, *known)) {
     return Unexpected(cia301::SdoAbort::invalid_value);
@@ -421,6 +442,9 @@ std::uint16_t PowerDriveSystem::statusword() const {
   namespace sw = cia402::statusword;
   auto word = cia402::statusword_of(state_);
   if (voltage_applied(state_)) word |= sw::kVoltageEnabled;
+  if (state_ == State::switched_on && has(Deviation::statusword_bit5_wrong_switched_on)) {
+    word = static_cast<decltype(word)>(word & ~sw::kQuickStop);
+  }
   if (warning()) word |= sw::kWarning;
   if (config_.remote) word |= sw::kRemote;
   if (mode_status_ != nullptr) {
@@ -486,7 +510,10 @@ Expected<void, std::string> add_power_drive_objects(cia301::ObjectDictionary& od
       {cia402::kQuickStopDeceleration, DataType::unsigned32, AccessType::rw,
        Value::of_unsigned(config.quick_stop_deceleration), true},
       {cia402::kSupportedDriveModes, DataType::unsigned32, AccessType::ro,
-       Value::of_unsigned(config.supported_modes), false},
+       Value::of_unsigned(config.deviations.has(Deviation::supported_modes_wrong)
+                              ? config.supported_modes | kSupportedModesWrongBits
+                              : config.supported_modes),
+       false},
   };
   if (options.profile_deceleration) {
     rows.push_back({cia402::kProfileDeceleration, DataType::unsigned32, AccessType::rw,
@@ -509,6 +536,8 @@ PowerDriveObjects::PowerDriveObjects(cia301::ObjectDictionary& od, PowerDriveSys
     entry->set_write_validator(
         [&pds, code](const cia301::ObjectDictionary&, const cia301::Entry&,
                      std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+          // Deviation: stored, never applied (read_inputs keeps the old value in force).
+          if (pds.config().deviations.has(Deviation::option_code_invalid_accepted)) return {};
           return pds.check_option_code(code, static_cast<std::int16_t>(cia301::load_signed(data)));
         });
     bound_.push_back(info.id.index);
@@ -517,6 +546,8 @@ PowerDriveObjects::PowerDriveObjects(cia301::ObjectDictionary& od, PowerDriveSys
     entry->set_write_validator(
         [&pds](const cia301::ObjectDictionary&, const cia301::Entry&,
                std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+          // Deviation: stored, never applied (6061h keeps the mode in force).
+          if (pds.config().deviations.has(Deviation::unsupported_mode_accepted)) return {};
           return pds.check_mode(static_cast<std::int8_t>(cia301::load_signed(data)));
         });
     bound_.push_back(cia402::kModesOfOperation.index);

@@ -106,6 +106,7 @@
 #include "protocol/cia402/object_ids.hpp"
 #include "protocol/cia402/state_machine.hpp"
 #include "protocol/common/expected.hpp"
+#include "reference_drive/deviations.hpp"
 
 namespace drivecheck::reference_drive {
 
@@ -243,12 +244,22 @@ struct PowerDriveConfig {
   OptionCodeSupport option_code_support;
   // 6502h; default pp, pv, tq, hm, csp, csv, cst.
   std::uint32_t supported_modes = 0x000003AD;
+  // Manufacturer-specific 6060h values (-128..-1) the drive also accepts (a personality's,
+  // e.g. IRTSA -127); every other negative value is refused.
+  std::vector<std::int8_t> manufacturer_modes;
   // 6060h/6061h after power on (0: no mode assigned).
   std::int8_t initial_mode = 0;
   // Defaults of 6084h profile deceleration (the slow down ramp) and 6085h quick stop
   // deceleration, user units/s² (CiA 402 leaves both to the manufacturer).
   std::uint32_t slow_down_deceleration = 10000;
   std::uint32_t quick_stop_deceleration = 100000;
+  // Named deviations (deviations.inc). The PDS applies those of cia402/fsa, cia402/option-codes
+  // and cia402/modes: transition-16-when-forbidden, statusword-bit5-wrong-switched-on,
+  // fault-reset-on-level, quick-stop-ignored, enable-operation-from-switch-on-disabled,
+  // abort-connection-ignored, option-code-invalid-accepted (PowerDriveObjects' validators),
+  // halt-ignored, mode-display-not-following, unsupported-mode-accepted (validator),
+  // supported-modes-wrong (add_power_drive_objects). Empty: the conformant PDS.
+  DeviationSet deviations;
 };
 
 struct TransitionRecord {
@@ -338,6 +349,7 @@ class PowerDriveSystem {
   void enter(std::uint8_t number, cia402::State to, can::TimePoint now);
   bool enable_needed_in(cia402::State state) const;
   bool enable_gates(std::uint8_t transition_number) const;
+  bool has(Deviation deviation) const { return config_.deviations.has(deviation); }
 
   Axis& axis_;
   PowerDriveConfig config_;

@@ -210,6 +210,7 @@ void DeviceServices::begin_initialisation(bool application, can::TimePoint now) 
   emcy_.clear(kHeartbeatError, now);
   emcy_.clear(kSyncLengthError, now);
   mirror_error_objects(emcy_, od_);
+  communication_error_ = false;
 
   boot_up_due_ = now + config_.initialisation_time;
 }
@@ -263,27 +264,40 @@ void DeviceServices::flush_emcy(can::TimePoint now) {
 void DeviceServices::update_communication_error(can::TimePoint now) {
   bool fault = guarding_.expired();
   for (const auto& entry : consumer_entries_) {
-    fault = fault || heartbeat_consumer_.is_timed_out(entry.node);
+    fault = fault ||
+            (config_.heartbeat_consumer_timeouts && heartbeat_consumer_.is_timed_out(entry.node));
   }
   const bool active = emcy_.is_active(kHeartbeatError);
-  if (fault && !active) {
-    emcy_.raise(kHeartbeatError, kCommunicationBit, {}, now);
-    mirror_error_objects(emcy_, od_);
-    // The EMCY goes out before the error behaviour may stop the node.
-    flush_emcy(now);
+  // The error behaviour (1029h) follows the communication error itself, not the EMCY: the
+  // application may have reported 8130h already from its own handler (CiA 402 6007h = 1 does),
+  // and the NMT reaction must still happen.
+  if (fault && !communication_error_) {
+    communication_error_ = true;
+    if (!active) {
+      emcy_.raise(kHeartbeatError, kCommunicationBit, {}, now);
+      mirror_error_objects(emcy_, od_);
+      // The EMCY goes out before the error behaviour may stop the node.
+      flush_emcy(now);
+    }
     const Entry* behaviour = od_.find(kErrorBehaviourIndex, 1);
     const auto value = behaviour != nullptr ? static_cast<std::uint8_t>(behaviour->as_unsigned())
                                             : std::uint8_t{0};
     if (auto reaction = communication_error_command(nmt_.state(), value)) {
       on_nmt_result(nmt_.apply(*reaction), now);
     }
-  } else if (!fault && active) {
-    emcy_.clear(kHeartbeatError, now);
-    mirror_error_objects(emcy_, od_);
+  } else if (!fault && communication_error_) {
+    communication_error_ = false;
+    if (active) {
+      emcy_.clear(kHeartbeatError, now);
+      mirror_error_objects(emcy_, od_);
+    }
   }
 }
 
 void DeviceServices::on_heartbeat_event(const HeartbeatEvent& event, can::TimePoint now) {
+  const bool timing =
+      event.kind == HeartbeatEventKind::timeout || event.kind == HeartbeatEventKind::resumed;
+  if (timing && !config_.heartbeat_consumer_timeouts) return;  // fault injection
   if (handlers_.on_heartbeat) handlers_.on_heartbeat(event);
   if (event.kind == HeartbeatEventKind::timeout || event.kind == HeartbeatEventKind::resumed) {
     update_communication_error(now);
@@ -425,7 +439,9 @@ void DeviceServices::configure_consumer(bool restart) {
 void DeviceServices::configure_emcy() {
   const auto cob_id = configured_emcy_cob_id(od_);
   emcy_.set_cob_id(cob_id.value_or(EmcyCobIdEntry{false, false, emcy_cob_id(nmt_.node_id())}));
-  emcy_.set_inhibit_time(configured_emcy_inhibit_time(od_).value_or(can::Duration::zero()));
+  emcy_.set_inhibit_time(config_.emcy_inhibit
+                             ? configured_emcy_inhibit_time(od_).value_or(can::Duration::zero())
+                             : can::Duration::zero());
 }
 
 void DeviceServices::start_sync_producer(can::TimePoint now) {

@@ -73,6 +73,12 @@ std::string_view to_string(ResetKind kind);
 struct DeviceServicesConfig {
   // Time from power on or a reset command to the boot-up message (the device's start-up time).
   can::Duration initialisation_time{0};
+  // Fault injection (the reference drive's named deviations; both true in a conformant device):
+  // false: heartbeat consumer timeouts (and their resumption) are not events: no EMCY 8130h, no
+  // 1029h reaction, handlers.on_heartbeat is not told.
+  bool heartbeat_consumer_timeouts = true;
+  // false: the EMCY producer ignores the inhibit time 1015h (1015h still reads as written).
+  bool emcy_inhibit = true;
 };
 
 struct DeviceServicesHandlers {
@@ -203,6 +209,8 @@ class DeviceServices {
   bool powered_ = false;
   bool heartbeat_supported_ = false;
   bool guarding_supported_ = false;
+  // A heartbeat consumer timed out or life guarding expired, and the 1029h reaction was taken.
+  bool communication_error_ = false;
   std::optional<can::TimePoint> boot_up_due_;
   std::vector<std::pair<std::uint16_t, std::uint8_t>> bound_;  // entries observed
   bool attached_ = false;

@@ -21,16 +21,39 @@ CommandResult drivecheck(const std::vector<std::string>& args) {
   return test_support::run_command(argv);
 }
 
-TEST(DriveCommand, PersonalityAndDeviationAreRefusedForNow) {
-  // Given the reference drive without its CiA 402 part
-  // When drivecheck drive gets --personality or --deviation
-  // Then it exits 2 with a message saying why, before opening any bus
-  for (const auto& option : {"--personality", "--deviation"}) {
-    const auto result =
-        drivecheck({"drive", "--bus", "socketcan:vcan0", "--node", "5", option, "festo-cmmp"});
-    EXPECT_EQ(result.exit_code, 2) << option;
-    EXPECT_NE(result.err.find("CiA 402 part"), std::string::npos) << result.err;
-  }
+TEST(DriveCommand, UnknownPersonalityIsAUsageError) {
+  // Given a personality name that is no profile in vectors/drives
+  // When drivecheck drive starts
+  // Then it exits 2 naming the known profiles, before opening any bus
+  const auto result = drivecheck(
+      {"drive", "--bus", "socketcan:vcan0", "--node", "5", "--personality", "festo-cmmpx"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("no profile 'festo-cmmpx'"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("festo-cmmp,"), std::string::npos) << result.err;
+}
+
+TEST(DriveCommand, UnknownDeviationIsAUsageError) {
+  // Given a deviation name the drive does not have
+  // When drivecheck drive starts
+  // Then it exits 2 saying so, before opening any bus
+  const auto result = drivecheck(
+      {"drive", "--bus", "socketcan:vcan0", "--node", "5", "--deviation", "no-such-deviation"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("unknown deviation 'no-such-deviation'"), std::string::npos)
+      << result.err;
+}
+
+TEST(DriveCommand, KnownPersonalityAndDeviationAreAccepted) {
+  // Given a known personality and a known deviation
+  // When drivecheck drive starts on an interface this machine cannot open
+  // Then both are accepted: the only complaint is the interface (exit 2)
+  const auto result =
+      drivecheck({"drive", "--bus", "socketcan:vcan0", "--node", "5", "--personality",
+                  "kollmorgen-s300-s700", "--deviation", "bootup-missing"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_EQ(result.err.find("--personality"), std::string::npos) << result.err;
+  EXPECT_EQ(result.err.find("--deviation"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("vcan0"), std::string::npos) << result.err;
 }
 
 TEST(DriveCommand, SimulatedBusIsAUsageError) {

@@ -84,7 +84,7 @@ DriveRig::DriveRig(std::uint8_t node, DriveConfig config, std::uint32_t bitrate)
   const can::Filter answers[] = {can::Filter::standard(0x580u + node)};
   master_->set_filters(answers);
   config.dictionary.node_id = node;
-  config.application = &application_;
+  if (config.application == nullptr) config.application = &application_;
   if (config.storage == nullptr) config.storage = &storage_;
   auto created = ReferenceDrive::create(*drive_port_, std::move(config));
   if (!created) {

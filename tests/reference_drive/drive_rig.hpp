@@ -56,8 +56,8 @@ class DriveRig {
  public:
   static constexpr std::uint32_t kNoAnswer = 0xFFFFFFFF;
 
-  // A drive at `node` with the test application and a memory storage, powered on, boot-up
-  // seen (the tester's record is cleared after it).
+  // A drive at `node` with the test application (unless config.application names another) and
+  // a memory storage, powered on, boot-up seen (the tester's record is cleared after it).
   // `bitrate`: of the simulated bus (bit/s).
   explicit DriveRig(std::uint8_t node = 5, DriveConfig config = {},
                     std::uint32_t bitrate = 1'000'000);

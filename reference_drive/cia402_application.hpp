@@ -1,0 +1,181 @@
+// The CiA 402 drive application of the reference drive: the power drive system
+// (power_drive_system.hpp), its objects, the simulated axis (axis/axis_model.hpp), the factor
+// group (axis/factor_group.hpp) and the modes of operation (modes/*.hpp), plugged into a
+// ReferenceDrive as its DriveApplication (device.hpp). Wiring, as power_drive_system.hpp's
+// recipe says:
+//
+//   add_objects(od)            PDS objects + the shared drive objects (below) + each mode's own
+//   on_reset(application)      pds.power_on(now), binding.reload(), modes forget set-points
+//   on_reset(communication)    binding.reload()
+//   on_cycle(drive, now)       one drive cycle (modes/operation_mode.hpp: axis, inputs, PDS,
+//                              mode, outputs)
+//   on_sync(drive, at)         the mode in 6061h (ip, csp, csv, cst take their set-point)
+//   on_communication_loss      pds.on_communication_loss() (6007h reaction)
+//   FaultReporter              drive.raise_error(code, bits) / drive.clear_error(code)
+//
+// The shared objects (CiA 402 object definitions; user units through the factor group):
+//   6062h position demand value     INTEGER32 ro PDO   6063h position actual internal  INT32 ro
+//   6064h position actual value     INTEGER32 ro PDO   6065h following error window    U32 rw
+//   6066h following error time out  UNSIGNED16 rw ms   6067h position window           U32 rw
+//   6068h position window time      UNSIGNED16 rw ms   606Bh velocity demand value     INT32 ro
+//   606Ch velocity actual value     INTEGER32 ro PDO   606Dh velocity window           U16 rw
+//   606Eh velocity window time      UNSIGNED16 rw ms   606Fh velocity threshold        U16 rw
+//   6070h velocity threshold time   UNSIGNED16 rw ms   6071h target torque             INT16 rw
+//   6072h max torque                UNSIGNED16 rw ‰    6074h torque demand             INT16 ro
+//   6077h torque actual value       INTEGER16 ro ‰     607Ah target position           INT32 rw
+//   607Dh software position limit   ARRAY 1 min, 2 max INTEGER32 rw (min >= max: no limits)
+//   607Eh polarity                  UNSIGNED8 rw (00h, 40h, 80h, C0h)
+//   607Fh max profile velocity      UNSIGNED32 rw      6080h max motor speed           U32 rw
+//   6081h profile velocity          UNSIGNED32 rw      6082h end velocity              U32 rw
+//   6083h profile acceleration      UNSIGNED32 rw      (6084h, 6085h: PDS objects)
+//   6086h motion profile type       INTEGER16 rw (0 linear; 1, 2, 3 the S-curve)
+//   6087h torque slope              UNSIGNED32 rw ‰/s  6088h torque profile type       INT16 rw
+//   608Fh position encoder resolution ARRAY 1 increments, 2 motor revolutions U32 ro
+//   6091h gear ratio, 6092h feed constant, 6093h position factor, 6094h velocity encoder
+//   factor, 6097h acceleration factor: ARRAY 1 numerator, 2 divisor U32 rw (factor_group.hpp)
+//   60B0h position offset INT32, 60B1h velocity offset INT32, 60B2h torque offset INT16 rw
+//   60C2h interpolation time period RECORD 1 units U8, 2 index INT8 rw (default 1 × 10⁻³ s)
+//   60F4h following error actual value INTEGER32 ro    60FCh position demand internal  INT32 ro
+//   60FDh digital inputs UNSIGNED32 ro PDO: bit 0 negative limit switch, 1 positive limit
+//   switch, 2 home switch, 3 interlock (never set)
+//   60FFh target velocity INTEGER32 rw PDO
+//
+// Reactions of the application (CiA 402 leaves them to the manufacturer; these are the
+// reference drive's):
+//   - a hardware limit switch active in OPERATION ENABLED while the axis moves toward it, in
+//     any mode but homing: fault "limit switch" (8612h reference limit), statusword
+//     bit 11 while a limit switch is active;
+//   - following error (position control: |60F4h| > 6065h for longer than 6066h ms, 6065h =
+//     FFFFFFFFh: off): fault "following error" (8611h) and bit 13 in pp/ip/csp;
+//   - software limits 607Dh: position targets are clamped to them, bit 11 while clamped.
+//
+// simulate(name, value) — the `simulate` step of the vectors (FORMAT.md); positions in user
+// position units of the PHYSICAL frame (= 6064h until homing shifts it):
+//   hardware-enable 0|1          limit-positive, limit-negative, home-switch  1 on, 0 off,
+//                                                                             -1 by the layout
+//   limit-positive-at P          limit-negative-at P     home-switch-from P   home-switch-to P
+//   switch-layout-clear (any)    index-period N (increments)   index-offset P
+//   axis-position P              load-torque T (‰)
+//   fault:following-error | fault:limit-switch | fault:overcurrent | fault:over-voltage |
+//   fault:over-temperature   1 the fault occurs (cause present), 0 the cause is gone
+//   ("fault NAME" with a space is taken too, as FORMAT.md writes it)
+// axis-position while a mode runs: the axis is put there at rest and the mode in 6061h starts
+// again from there (its set-points are dropped), as after a mode change.
+// Unknown names and out-of-range values are errors (the message names the valid ones).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "protocol/cia301/object_dictionary.hpp"
+#include "protocol/common/expected.hpp"
+#include "reference_drive/axis/axis_model.hpp"
+#include "reference_drive/axis/factor_group.hpp"
+#include "reference_drive/deviations.hpp"
+#include "reference_drive/device.hpp"
+#include "reference_drive/modes/operation_mode.hpp"
+#include "reference_drive/power_drive_system.hpp"
+
+namespace drivecheck::reference_drive {
+
+// 603Fh as the drive shows it.
+enum class ErrorCodeFormat : std::uint8_t {
+  standard,      // the CiA 402 / CiA 301 error code (EMCY code)
+  error_number,  // IRTSA: error number × 256 + 80h (003_111f14ab1c37c28a.txt Table 8 L212-228)
+};
+
+// 6060h/6061h size (CiA 402: INTEGER8; ESR maps them as 16 bit, 004_956552dcd17e975a.txt).
+enum class ModeObjectWidth : std::uint8_t { bits8, bits16 };
+
+struct Cia402ApplicationConfig {
+  PowerDriveConfig pds;  // 6502h = pds.supported_modes: only those modes are hosted
+  AxisConfig axis;
+  // New set-point (pp bit 4 edge) to set-point acknowledge (bit 12), in drive cycles (≥ 1).
+  std::uint32_t acknowledge_latency_cycles = 1;
+  ErrorCodeFormat error_code_format = ErrorCodeFormat::standard;
+  // error_number format: EMCY code → error number (unlisted codes: the code's high byte).
+  std::vector<std::pair<std::uint16_t, std::uint8_t>> error_numbers;
+  ModeObjectWidth mode_object_width = ModeObjectWidth::bits8;
+  // Manufacturer-specific 6060h values the drive's manual lists (e.g. IRTSA -127): accepted in
+  // 6060h and shown in 6061h (added to pds.manufacturer_modes); no mode logic runs for them
+  // (the axis holds its position, mode bits 0) unless a mode with that value is add_mode()d.
+  std::vector<std::int8_t> manufacturer_modes;
+  // The deviations of the modes (cia402/pp, pv, tq, ip, csp); merged with pds.deviations both
+  // ways, so either place serves the PDS and the modes.
+  DeviationSet deviations;
+  // Moving-average length (cycles) of the S-curve when 6086h ≠ 0.
+  std::size_t jerk_smoothing_cycles = 20;
+};
+
+class Cia402Application final : public DriveApplication, private FaultReporter, private ModeStatus {
+ public:
+  explicit Cia402Application(Cia402ApplicationConfig config = {});
+  ~Cia402Application() override;
+  Cia402Application(const Cia402Application&) = delete;
+  Cia402Application& operator=(const Cia402Application&) = delete;
+
+  // Hosts another mode (homing: modes/homing.hpp). Before the drive is created (add_objects);
+  // a mode whose 6502h bit is clear is not hosted, one with the 6060h value of a hosted mode
+  // replaces it. One application serves one drive at a time
+  // (it must outlive it; a new drive may use it after the old one is destroyed).
+  void add_mode(std::unique_ptr<OperationMode> mode);
+
+  // DriveApplication.
+  Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override;
+  void on_reset(ReferenceDrive& drive, cia301::ResetKind kind) override;
+  void on_cycle(ReferenceDrive& drive, can::TimePoint now) override;
+  void on_sync(ReferenceDrive& drive, can::TimePoint at) override;
+  void on_communication_loss(ReferenceDrive& drive) override;
+  void on_drive_destroyed(ReferenceDrive& drive) override;
+
+  // The `simulate` inputs (see the file comment).
+  Expected<void, std::string> simulate(std::string_view name, std::int64_t value);
+
+  PowerDriveSystem& pds() { return pds_; }
+  const PowerDriveSystem& pds() const { return pds_; }
+  AxisModel& axis() { return axis_; }
+  const AxisModel& axis() const { return axis_; }
+  const FactorGroup& factors() const { return factors_; }
+  const Cia402ApplicationConfig& config() const { return config_; }
+  // The mode hosted for a 6060h value (null: none).
+  OperationMode* mode(std::int8_t value);
+  std::uint64_t cycles() const { return cycles_; }
+
+ private:
+  // FaultReporter.
+  void fault_raised(std::uint16_t code, std::uint8_t error_register_bits) override;
+  void fault_cleared(std::uint16_t code) override;
+  // ModeStatus.
+  std::uint16_t statusword_bits(cia402::State state, std::int8_t mode_display) const override;
+
+  Expected<void, std::string> add_shared_objects(cia301::ObjectDictionary& od);
+  void bind(cia301::ObjectDictionary& od);
+  void read_parameters();
+  void check_limits(can::TimePoint now, can::Duration dt);
+  void publish();
+  std::uint16_t error_code_shown() const;
+
+  Cia402ApplicationConfig config_;
+  AxisModel axis_;
+  FactorGroup factors_;
+  PowerDriveSystem pds_;
+  std::vector<std::unique_ptr<OperationMode>> modes_;
+  cia301::ObjectDictionary* od_ = nullptr;
+  std::unique_ptr<PowerDriveObjects> binding_;
+  std::unique_ptr<ModeContext> context_;
+  ReferenceDrive* drive_ = nullptr;
+  OperationMode* active_ = nullptr;
+  std::int8_t active_value_ = 0;
+  std::optional<can::TimePoint> last_cycle_;
+  std::uint64_t cycles_ = 0;
+  std::optional<can::TimePoint> following_error_since_;
+  bool limit_active_ = false;
+  std::uint32_t inputs_ = 0;
+};
+
+}  // namespace drivecheck::reference_drive

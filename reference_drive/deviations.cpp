@@ -1,0 +1,563 @@
+#include "reference_drive/deviations.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <memory>
+#include <utility>
+
+#include "protocol/cia301/emcy.hpp"
+#include "protocol/cia301/emcy_producer.hpp"
+#include "protocol/cia301/object_dictionary.hpp"
+#include "protocol/cia301/pdo.hpp"
+
+namespace drivecheck::reference_drive {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Names
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j)
+    row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      const std::size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + cost});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::vector<std::string_view> words_of(std::string_view name) {
+  std::vector<std::string_view> words;
+  while (!name.empty()) {
+    const auto dash = name.find_first_of("-_ ");
+    if (dash != 0) words.push_back(name.substr(0, dash));
+    if (dash == std::string_view::npos) break;
+    name.remove_prefix(dash + 1);
+  }
+  return words;
+}
+
+// Lower is closer; SIZE_MAX: not close at all.
+std::size_t closeness(std::string_view query, std::string_view name) {
+  constexpr std::size_t kFar = static_cast<std::size_t>(-1);
+  if (query.empty()) return kFar;
+  if (name.starts_with(query)) return 0;
+  const std::size_t distance = edit_distance(query, name);
+  if (distance <= std::max<std::size_t>(2, query.size() / 4)) return 1 + distance;
+  // Shared words: "toggle" finds every "...-toggle-..." name.
+  std::size_t shared = 0;
+  const auto name_words = words_of(name);
+  for (std::string_view word : words_of(query)) {
+    if (word.size() < 3) continue;
+    if (std::find(name_words.begin(), name_words.end(), word) != name_words.end()) ++shared;
+  }
+  if (shared > 0) return 100 - std::min<std::size_t>(shared, 50);
+  if (name.find(query) != std::string_view::npos) return 60;
+  return kFar;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frames
+
+constexpr std::uint32_t kNmtId = 0x000;
+constexpr std::uint32_t kSdoRequestBase = 0x600;
+constexpr std::uint32_t kSdoResponseBase = 0x580;
+constexpr std::uint32_t kErrorControlBase = 0x700;
+constexpr std::uint32_t kEmcyBase = 0x080;
+
+// SDO byte 0.
+constexpr std::uint8_t kAbort = 0x80;
+constexpr std::uint8_t kDownloadResponse = 0x60;
+constexpr unsigned ccs_of(std::uint8_t byte0) {
+  return byte0 >> 5;
+}
+constexpr unsigned kCcsDownloadInitiate = 1;
+constexpr unsigned kCcsUploadSegment = 3;
+constexpr unsigned kCcsInvalid = 7;
+
+// Abort codes (CiA 301 §7.2.4.3.17) the mutators look at.
+constexpr std::uint32_t kAbortInvalidCommand = 0x05040001;
+constexpr std::uint32_t kAbortWriteReadOnly = 0x06010002;
+constexpr std::uint32_t kAbortNoObject = 0x06020000;
+constexpr std::uint32_t kAbortPdoLength = 0x06040042;
+constexpr std::uint32_t kAbortLengthMismatch = 0x06070010;
+constexpr std::uint32_t kAbortLengthHigh = 0x06070012;
+constexpr std::uint32_t kAbortLengthLow = 0x06070013;
+constexpr std::uint32_t kAbortNoSubIndex = 0x06090011;
+constexpr std::uint32_t kAbortGeneral = 0x08000000;
+
+// Heartbeat / NMT state bytes.
+constexpr std::uint8_t kStateStopped = 0x04;
+constexpr std::uint8_t kStateOperational = 0x05;
+constexpr std::uint8_t kStatePreOperational = 0x7F;
+
+// 1010h "save" and 1011h "load" signatures, as the bytes of an expedited download.
+constexpr std::array<std::uint8_t, 4> kSave{0x73, 0x61, 0x76, 0x65};
+constexpr std::array<std::uint8_t, 4> kLoad{0x6C, 0x6F, 0x61, 0x64};
+
+std::uint32_t load_u32(const can::Frame& frame, std::size_t at) {
+  return static_cast<std::uint32_t>(frame.data[at]) |
+         (static_cast<std::uint32_t>(frame.data[at + 1]) << 8) |
+         (static_cast<std::uint32_t>(frame.data[at + 2]) << 16) |
+         (static_cast<std::uint32_t>(frame.data[at + 3]) << 24);
+}
+void store_u32(can::Frame& frame, std::size_t at, std::uint32_t value) {
+  for (std::size_t i = 0; i < 4; ++i)
+    frame.data[at + i] = static_cast<std::uint8_t>(value >> (8 * i));
+}
+std::uint16_t index_of(const can::Frame& frame) {
+  return static_cast<std::uint16_t>(frame.data[1] | (frame.data[2] << 8));
+}
+bool is_standard_data(const can::Frame& frame, std::uint32_t id, std::size_t length) {
+  return !frame.is_extended() && !frame.is_remote() && !frame.is_error() && frame.id == id &&
+         frame.length() == length;
+}
+// An initiate download response for the multiplexer of `frame` (an SDO frame).
+can::Frame download_response(std::uint32_t id, const can::Frame& frame) {
+  return can::Frame::standard(
+      id, {kDownloadResponse, frame.data[1], frame.data[2], frame.data[3], 0, 0, 0, 0});
+}
+// An expedited download request (ccs 1, e = 1) to `index`; any sub-index.
+bool is_expedited_download(const can::Frame& request, std::uint16_t index) {
+  return ccs_of(request.data[0]) == kCcsDownloadInitiate && (request.data[0] & 0x02) != 0 &&
+         index_of(request) == index;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Names and sets
+
+std::optional<Deviation> find_deviation(std::string_view name) {
+  for (const DeviationInfo& info : kDeviations) {
+    if (info.name == name) return info.deviation;
+  }
+  return std::nullopt;
+}
+
+std::vector<std::string_view> close_deviation_names(std::string_view name, std::size_t limit) {
+  std::vector<std::pair<std::size_t, std::string_view>> ranked;
+  for (const DeviationInfo& info : kDeviations) {
+    const std::size_t score = closeness(name, info.name);
+    if (score != static_cast<std::size_t>(-1)) ranked.emplace_back(score, info.name);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::string_view> names;
+  for (std::size_t i = 0; i < ranked.size() && i < limit; ++i)
+    names.push_back(ranked[i].second);
+  return names;
+}
+
+std::string deviation_table() {
+  std::size_t name_width = 0;
+  std::size_t family_width = 0;
+  for (const DeviationInfo& info : kDeviations) {
+    name_width = std::max(name_width, info.name.size());
+    family_width = std::max(family_width, info.family.size());
+  }
+  std::string table;
+  for (const DeviationInfo& info : kDeviations) {
+    table += fmt::format("{:<{}}  {:<{}}  {:<8}  {}\n", info.name, name_width, info.family,
+                         family_width, to_string(info.kind), info.description);
+  }
+  return table;
+}
+
+Expected<void, std::string> DeviationSet::add(std::string_view name) {
+  if (const auto deviation = find_deviation(name)) {
+    add(*deviation);
+    return {};
+  }
+  std::string message = fmt::format("unknown deviation '{}'", name);
+  const auto close = close_deviation_names(name);
+  if (!close.empty()) message += fmt::format(" (did you mean: {}?)", fmt::join(close, ", "));
+  message += fmt::format("; {} deviations exist (reference_drive/deviations.inc)", kDeviationCount);
+  return Unexpected(std::move(message));
+}
+
+Expected<DeviationSet, std::string> DeviationSet::parse(std::span<const std::string> names) {
+  DeviationSet set;
+  for (const std::string& item : names) {
+    std::string_view rest = item;
+    while (true) {
+      const auto comma = rest.find(',');
+      std::string_view name = rest.substr(0, comma);
+      while (!name.empty() && name.front() == ' ')
+        name.remove_prefix(1);
+      while (!name.empty() && name.back() == ' ')
+        name.remove_suffix(1);
+      if (!name.empty()) {
+        if (auto ok = set.add(name); !ok) return Unexpected(std::move(ok).error());
+      }
+      if (comma == std::string_view::npos) break;
+      rest.remove_prefix(comma + 1);
+    }
+  }
+  return set;
+}
+
+bool DeviationSet::any_fatal() const {
+  for (Deviation deviation : list()) {
+    if (info_of(deviation).kind == DeviationKind::fatal) return true;
+  }
+  return false;
+}
+
+std::vector<Deviation> DeviationSet::list() const {
+  std::vector<Deviation> members;
+  for (const DeviationInfo& info : kDeviations) {
+    if (has(info.deviation)) members.push_back(info.deviation);
+  }
+  return members;
+}
+
+std::string DeviationSet::names() const {
+  if (empty()) return "none";
+  std::vector<std::string_view> members;
+  for (Deviation deviation : list())
+    members.push_back(to_string(deviation));
+  return fmt::format("{}", fmt::join(members, ", "));
+}
+
+// ---------------------------------------------------------------------------------------------
+// DeviationPort
+
+DeviationPort::DeviationPort(can::Bus& port, DeviationSet deviations)
+    : port_(port), deviations_(deviations) {}
+
+DeviationPort::~DeviationPort() {
+  if (held_timer_ != can::kNoTimer) port_.cancel_timer(held_timer_);
+  for (can::TimerId id : timers_)
+    port_.cancel_timer(id);
+  if (handler_) port_.set_frame_handler({});
+}
+
+std::uint8_t DeviationPort::node() const {
+  return od_ != nullptr ? od_->node_id() : 0;
+}
+
+std::optional<std::uint32_t> DeviationPort::emcy_cob_id() const {
+  if (od_ == nullptr) return std::nullopt;
+  const auto entry = cia301::configured_emcy_cob_id(*od_);
+  if (!entry || !entry->valid || entry->extended) return std::nullopt;
+  return entry->can_id;
+}
+
+bool DeviationPort::is_tpdo(std::uint32_t id, bool synchronous_only) const {
+  if (od_ == nullptr) return false;
+  for (std::uint16_t number = 1; number <= 512; ++number) {
+    const std::uint16_t index =
+        cia301::pdo_communication_index(cia301::PdoDirection::transmit, number);
+    const cia301::Entry* cob = od_->find(index, cia301::pdo_sub::kCobId);
+    if (cob == nullptr) break;
+    const auto decoded = cia301::decode_pdo_cob_id(static_cast<std::uint32_t>(cob->as_unsigned()));
+    if (!decoded || !decoded->valid || decoded->extended || decoded->can_id != id) continue;
+    if (!synchronous_only) return true;
+    const cia301::Entry* type = od_->find(index, cia301::pdo_sub::kTransmissionType);
+    return type != nullptr && type->as_unsigned() <= 240;
+  }
+  return false;
+}
+
+std::error_code DeviationPort::send(const can::Frame& frame) {
+  if (crashed_) return {};  // a crashed node transmits nothing (and nobody tells its software)
+  const auto changed = outgoing(frame);
+  if (!changed) return {};
+  return port_.send(*changed);
+}
+
+std::error_code DeviationPort::transmit(const can::Frame& frame) {
+  return port_.send(frame);
+}
+
+std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
+  const DeviationSet& d = deviations_;
+  if (od_ == nullptr || frame.is_extended() || frame.is_error()) return frame;
+  const std::uint8_t node_id = node();
+  can::Frame out = frame;
+
+  // SDO responses.
+  if (is_standard_data(frame, kSdoResponseBase + node_id, 8)) {
+    if (sdo_hung_) return std::nullopt;
+    const std::uint8_t command = frame.data[0];
+    if (command == kAbort) {
+      const std::uint32_t code = load_u32(frame, 4);
+      if (code == kAbortNoSubIndex && d.has(Deviation::fatal_sdo_hang_on_missing_sub)) {
+        sdo_hung_ = true;
+        return std::nullopt;
+      }
+      if (code == kAbortInvalidCommand && ccs_of(last_request_) == kCcsInvalid &&
+          d.has(Deviation::sdo_invalid_command_ignored)) {
+        return std::nullopt;
+      }
+      const bool length =
+          code == kAbortLengthMismatch || code == kAbortLengthHigh || code == kAbortLengthLow;
+      if ((code == kAbortWriteReadOnly && d.has(Deviation::sdo_read_only_write_accepted)) ||
+          (length && d.has(Deviation::sdo_length_not_checked)) ||
+          (code == kAbortPdoLength && d.has(Deviation::pdo_mapping_too_long_accepted))) {
+        return download_response(frame.id, frame);
+      }
+      if (code == kAbortWriteReadOnly && d.has(Deviation::sdo_read_only_wrong_abort)) {
+        store_u32(out, 4, kAbortNoObject);
+      } else if (code == kAbortNoObject && d.has(Deviation::sdo_no_object_wrong_abort)) {
+        store_u32(out, 4, kAbortGeneral);
+      }
+      if (d.has(Deviation::sdo_abort_wrong_multiplexer)) {
+        out.data[1] = 0;
+        out.data[2] = 0;
+        out.data[3] = 0;
+      }
+      return out;
+    }
+    if (command == kDownloadResponse && d.has(Deviation::sdo_download_response_missing) &&
+        ccs_of(last_request_) == kCcsDownloadInitiate && (last_request_ & 0x02) != 0) {
+      return std::nullopt;
+    }
+    // Expedited upload response with size indicated: scs 2, e = 1, s = 1 (4xh, n in bits 2-3).
+    if ((command & 0xE3) == 0x43) {
+      const std::uint16_t index = index_of(frame);
+      if (index == 0x1000 && frame.data[3] == 0 && d.has(Deviation::device_type_wrong)) {
+        store_u32(out, 4, 0);
+      }
+      if (index == 0x1001 && frame.data[3] == 0 && d.has(Deviation::error_register_not_set)) {
+        out.data[4] = 0;
+      }
+      if (d.has(Deviation::sdo_upload_size_wrong)) out.data[0] = 0x43;  // n = 0: 4 bytes
+      return out;
+    }
+    // Upload segment response (scs 0) to an upload segment request: toggle bit 4.
+    if ((command & 0xE0) == 0x00 && ccs_of(last_request_) == kCcsUploadSegment &&
+        d.has(Deviation::sdo_toggle_not_alternated)) {
+      out.data[0] = static_cast<std::uint8_t>(command & ~0x10);
+    }
+    return out;
+  }
+
+  // Boot-up, heartbeat, guarding responses.
+  if (is_standard_data(frame, kErrorControlBase + node_id, 1)) {
+    const std::uint8_t state = frame.data[0];
+    if (in_guarding_request_) {
+      if (d.has(Deviation::guarding_toggle_not_alternated)) {
+        out.data[0] = static_cast<std::uint8_t>(state & 0x7F);
+      }
+      return out;
+    }
+    const can::TimePoint now = port_.now();
+    if (state == 0x00) {  // boot-up
+      last_heartbeat_ = now;
+      held_heartbeat_.reset();
+      if (held_timer_ != can::kNoTimer) port_.cancel_timer(held_timer_);
+      held_timer_ = can::kNoTimer;
+      if (d.has(Deviation::bootup_missing)) return std::nullopt;
+      return out;
+    }
+    if (state == kStateStopped && d.has(Deviation::heartbeat_missing_in_stopped)) {
+      return std::nullopt;
+    }
+    if (d.has(Deviation::heartbeat_wrong_state)) {
+      if (state == kStateOperational) out.data[0] = kStatePreOperational;
+      if (state == kStatePreOperational) out.data[0] = kStateOperational;
+    }
+    if (d.has(Deviation::heartbeat_period_long)) {
+      const cia301::Entry* entry = od_->find(0x1017, 0);
+      const auto period = std::chrono::milliseconds(entry != nullptr ? entry->as_unsigned() : 0);
+      const can::Duration long_period = period * 11 / 10;
+      if (period.count() == 0 || last_heartbeat_ == can::TimePoint::min() ||
+          now >= last_heartbeat_ + long_period) {
+        last_heartbeat_ = now;
+        return out;
+      }
+      // Held back until 1.1 periods after the last one; a newer heartbeat replaces it.
+      held_heartbeat_ = out;
+      if (held_timer_ == can::kNoTimer) {
+        held_timer_ =
+            port_.start_timer(last_heartbeat_ + long_period, [this] { send_held_heartbeat(); });
+      }
+      return std::nullopt;
+    }
+    return out;
+  }
+
+  // EMCY (on 1014h's COB-ID).
+  if (const auto emcy = emcy_cob_id(); emcy && is_standard_data(frame, *emcy, 8)) {
+    const auto code = static_cast<std::uint16_t>(frame.data[0] | (frame.data[1] << 8));
+    if (code == 0 && d.has(Deviation::emcy_error_reset_missing)) return std::nullopt;
+    if ((code == 0x8210 || code == 0x8220) && d.has(Deviation::rpdo_length_error_not_reported)) {
+      return std::nullopt;
+    }
+    if (d.has(Deviation::emcy_register_zero)) out.data[2] = 0;
+    if (d.has(Deviation::emcy_cob_id_ignored)) out.id = kEmcyBase + node_id;
+    return out;
+  }
+
+  // TPDOs.
+  if (!frame.is_remote() &&
+      (d.has(Deviation::sync_tpdo_missing) || d.has(Deviation::tpdo_wrong_length))) {
+    if (d.has(Deviation::sync_tpdo_missing) && is_tpdo(frame.id, true)) {
+      fake_echo(frame);  // as if lost on the wire: the PDO pacing goes on
+      return std::nullopt;
+    }
+    if (d.has(Deviation::tpdo_wrong_length) && is_tpdo(frame.id, false)) out.dlc = 8;
+  }
+  return out;
+}
+
+std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
+  const DeviationSet& d = deviations_;
+  if (od_ == nullptr || frame.is_extended() || frame.is_error()) return frame;
+  const std::uint8_t node_id = node();
+  can::Frame in = frame;
+
+  // NMT node control: byte 0 command specifier, byte 1 node-ID (0: all).
+  if (is_standard_data(frame, kNmtId, 2)) {
+    const std::uint8_t command = frame.data[0];
+    const std::uint8_t target = frame.data[1];
+    const bool for_us = target == 0 || target == node_id;
+    const bool known =
+        command == 0x01 || command == 0x02 || command == 0x80 || command == 0x81 || command == 0x82;
+    if (for_us && !known && d.has(Deviation::fatal_babble_on_unknown_nmt)) {
+      if (!babbling_) {
+        babbling_ = true;
+        babble();
+      }
+      return std::nullopt;
+    }
+    if (target == 0 && d.has(Deviation::nmt_broadcast_ignored)) return std::nullopt;
+    if (for_us && command == 0x02 && d.has(Deviation::nmt_stop_ignored)) return std::nullopt;
+    if (!for_us && d.has(Deviation::nmt_other_node_obeyed)) in.data[1] = node_id;
+    return in;
+  }
+
+  // SDO requests.
+  if (is_standard_data(frame, kSdoRequestBase + node_id, 8)) {
+    if (sdo_hung_) return std::nullopt;
+    if (ccs_of(frame.data[0]) == kCcsInvalid && d.has(Deviation::fatal_crash_on_invalid_command)) {
+      crashed_ = true;
+      babbling_ = false;
+      return std::nullopt;
+    }
+    last_request_ = frame.data[0];
+    const std::uint32_t response_id = kSdoResponseBase + node_id;
+    // 1003h sub 00h := 0 (the only value CiA 301 allows): confirmed, history kept.
+    if (is_expedited_download(frame, 0x1003) && frame.data[3] == 0 && frame.data[4] == 0 &&
+        d.has(Deviation::emcy_history_not_cleared)) {
+      (void)send(download_response(response_id, frame));
+      return std::nullopt;
+    }
+    // 1011h "load": confirmed, nothing restored.
+    if (is_expedited_download(frame, 0x1011) &&
+        std::equal(kLoad.begin(), kLoad.end(), frame.data.begin() + 4) &&
+        d.has(Deviation::restore_ignored)) {
+      (void)send(download_response(response_id, frame));
+      return std::nullopt;
+    }
+    // 1010h with any value: as if "save" (4 bytes, expedited) had been written.
+    if (is_expedited_download(frame, 0x1010) && d.has(Deviation::store_signature_ignored)) {
+      in.data[0] = 0x23;
+      std::copy(kSave.begin(), kSave.end(), in.data.begin() + 4);
+    }
+    return in;
+  }
+
+  if (frame.is_remote()) {
+    if (frame.id == kErrorControlBase + node_id && d.has(Deviation::guarding_no_response)) {
+      return std::nullopt;
+    }
+    if (d.has(Deviation::pdo_rtr_ignored) && is_tpdo(frame.id, false)) return std::nullopt;
+  }
+  return in;
+}
+
+void DeviationPort::on_frame(const can::TimedFrame& timed) {
+  if (crashed_ || !handler_) return;
+  if (timed.own) {
+    if (babbling_ && timed.frame.id == kEmcyBase + node()) {
+      babble();
+      return;
+    }
+    handler_(timed);
+    return;
+  }
+  const auto frame = incoming(timed.frame);
+  if (!frame) return;
+  in_guarding_request_ = frame->is_remote() && frame->id == kErrorControlBase + node();
+  const FrameHandler handler = handler_;  // the handler may replace itself
+  handler(can::TimedFrame{*frame, timed.timestamp, false});
+  in_guarding_request_ = false;
+}
+
+std::optional<can::TimedFrame> DeviationPort::receive(can::TimePoint deadline) {
+  while (true) {
+    auto timed = port_.receive(deadline);
+    if (!timed) return std::nullopt;
+    if (crashed_) continue;
+    if (timed->own) return timed;
+    if (auto frame = incoming(timed->frame)) {
+      return can::TimedFrame{*frame, timed->timestamp, false};
+    }
+  }
+}
+
+void DeviationPort::set_frame_handler(FrameHandler handler) {
+  handler_ = std::move(handler);
+  if (handler_) {
+    port_.set_frame_handler([this](const can::TimedFrame& frame) { on_frame(frame); });
+  } else {
+    port_.set_frame_handler({});
+  }
+}
+
+void DeviationPort::set_loopback(bool enabled) {
+  loopback_ = enabled;
+  port_.set_loopback(enabled);
+}
+
+void DeviationPort::start_owned_timer(can::TimePoint at, std::function<void()> callback) {
+  auto id = std::make_shared<can::TimerId>(can::kNoTimer);
+  *id = port_.start_timer(at, [this, id, callback = std::move(callback)] {
+    std::erase(timers_, *id);
+    callback();
+  });
+  timers_.push_back(*id);
+}
+
+void DeviationPort::fake_echo(const can::Frame& frame) {
+  if (!loopback_) return;
+  start_owned_timer(port_.now(), [this, frame] {
+    if (handler_ && !crashed_) handler_(can::TimedFrame{frame, port_.now(), true});
+  });
+}
+
+void DeviationPort::send_held_heartbeat() {
+  held_timer_ = can::kNoTimer;
+  if (!held_heartbeat_ || crashed_) return;
+  last_heartbeat_ = port_.now();
+  (void)transmit(*held_heartbeat_);
+  held_heartbeat_.reset();
+}
+
+void DeviationPort::babble() {
+  if (!babbling_ || crashed_) return;
+  // Garbage on the node's EMCY identifier, back to back: the next one is queued when the
+  // previous one comes back (loopback), else every 100 µs.
+  const can::Frame frame =
+      can::Frame::standard(kEmcyBase + node(), {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF});
+  if (transmit(frame)) {
+    babbling_ = false;  // bus-off or queue full: the controller gave up
+    return;
+  }
+  if (!loopback_) {
+    start_owned_timer(port_.now() + std::chrono::microseconds(100), [this] { babble(); });
+  }
+}
+
+}  // namespace drivecheck::reference_drive

@@ -1,0 +1,126 @@
+#include "reference_drive/modes/cyclic_sync.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "reference_drive/modes/interpolated_position.hpp"
+
+namespace drivecheck::reference_drive {
+namespace {
+
+constexpr std::uint16_t kFollows = 0x1000;
+constexpr std::uint16_t kFollowingError = 0x2000;
+
+}  // namespace
+
+void CyclicSyncMode::on_reset(ModeContext& ctx) {
+  start_ = end_ = ctx.axis.position();
+  feed_forward_ = 0.0;
+  command_ = 0.0;
+  latched_at_.reset();
+  last_sync_.reset();
+  tracking_ = true;
+  bits_ = 0;
+}
+
+void CyclicSyncMode::enter(ModeContext& ctx, const ModeCycle& cycle) {
+  (void)cycle;
+  on_reset(ctx);
+}
+
+void CyclicSyncMode::latch(ModeContext& ctx, can::TimePoint at) {
+  const FactorGroup& f = ctx.factors;
+  switch (kind_) {
+    case CyclicKind::position: {
+      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetPosition)) +
+                            static_cast<double>(ctx.read_signed(cia402::kPositionOffset));
+      start_ = tracking_ ? ctx.axis.position() : ctx.axis.demand_position();
+      end_ = ctx.clamp_position(f.position_to_internal(target));
+      feed_forward_ =
+          f.velocity_to_internal(static_cast<double>(ctx.read_signed(cia402::kVelocityOffset)));
+      break;
+    }
+    case CyclicKind::velocity: {
+      const double limit = ctx.axis.max_speed();
+      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetVelocity)) +
+                            static_cast<double>(ctx.read_signed(cia402::kVelocityOffset));
+      command_ = std::clamp(f.velocity_to_internal(target), -limit, limit);
+      break;
+    }
+    case CyclicKind::torque: {
+      const double limit = ctx.axis.torque_limit();
+      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetTorque)) +
+                            static_cast<double>(ctx.read_signed(cia402::kTorqueOffset));
+      command_ = std::clamp(target, -limit, limit);
+      break;
+    }
+  }
+  latched_at_ = at;
+  tracking_ = false;
+}
+
+void CyclicSyncMode::on_sync(ModeContext& ctx, can::TimePoint at) {
+  ++syncs_;
+  last_sync_ = at;
+  if (ctx.pds.state() == cia402::State::operation_enabled) latch(ctx, at);
+}
+
+void CyclicSyncMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
+  const double period = interpolation_period_seconds(ctx.od).value_or(0.001);
+  if (!cycle.drive_enabled) {
+    tracking_ = true;
+    start_ = end_ = ctx.axis.position();
+    latched_at_.reset();
+    switch (kind_) {
+      case CyclicKind::position:
+        ctx.axis.command_position(ctx.axis.position());
+        break;
+      case CyclicKind::velocity:
+        ctx.axis.command_velocity(ctx.axis.velocity());
+        break;
+      case CyclicKind::torque:
+        ctx.axis.command_torque(0.0);
+        break;
+    }
+  } else {
+    const bool sync_driven = last_sync_.has_value();
+    if (!sync_driven || !latched_at_) latch(ctx, cycle.now);
+    switch (kind_) {
+      case CyclicKind::position: {
+        double demand = end_;
+        double velocity = feed_forward_;
+        if (sync_driven && latched_at_) {
+          const double t = std::chrono::duration<double>(cycle.now - *latched_at_).count();
+          const double share = std::clamp(t / period, 0.0, 1.0);
+          demand = start_ + (end_ - start_) * share;
+          if (share < 1.0) velocity += (end_ - start_) / period;
+        }
+        ctx.axis.command_position(demand, velocity);
+        break;
+      }
+      case CyclicKind::velocity:
+        ctx.axis.command_velocity(command_);
+        break;
+      case CyclicKind::torque:
+        ctx.axis.command_torque(command_);
+        ctx.torque_demand = command_;
+        break;
+    }
+  }
+  bits_ = 0;
+  // Deviations csp/csv/cst-follows-bit-never-set.
+  const bool hidden =
+      (kind_ == CyclicKind::position && ctx.has(Deviation::csp_follows_bit_never_set)) ||
+      (kind_ == CyclicKind::velocity && ctx.has(Deviation::csv_follows_bit_never_set)) ||
+      (kind_ == CyclicKind::torque && ctx.has(Deviation::cst_follows_bit_never_set));
+  const bool follows = cycle.drive_enabled && !hidden;
+  if (follows) bits_ |= kFollows;
+  if (kind_ == CyclicKind::position && ctx.following_error) bits_ |= kFollowingError;
+}
+
+std::uint16_t CyclicSyncMode::statusword_bits(cia402::State state) const {
+  if (state != cia402::State::operation_enabled) return 0;
+  return bits_;
+}
+
+}  // namespace drivecheck::reference_drive

@@ -1,0 +1,213 @@
+#include "reference_drive/modes/profile_position.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace drivecheck::reference_drive {
+namespace {
+
+constexpr std::uint16_t kNewSetPoint = 0x0010;
+constexpr std::uint16_t kChangeImmediately = 0x0020;
+constexpr std::uint16_t kRelative = 0x0040;
+constexpr std::uint16_t kChangeOnSetPoint = 0x0200;
+
+constexpr std::uint16_t kTargetReached = 0x0400;
+constexpr std::uint16_t kSetPointAcknowledge = 0x1000;
+constexpr std::uint16_t kFollowingError = 0x2000;
+
+double seconds(can::Duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+}  // namespace
+
+void ProfilePositionMode::on_reset(ModeContext& ctx) {
+  trajectory_.reset(ctx.axis.position());
+  running_.reset();
+  buffered_.reset();
+  previous_bit4_ = false;
+  ack_ = false;
+  ack_due_ = false;
+  ack_countdown_ = 0;
+  reached_ = true;
+  in_window_since_.reset();
+  has_target_ = false;
+  last_clamped_ = false;
+  enabled_ = false;
+  bits_ = 0;
+}
+
+void ProfilePositionMode::enter(ModeContext& ctx, const ModeCycle& cycle) {
+  on_reset(ctx);
+  // An edge already high when the mode starts is not a new set-point.
+  previous_bit4_ = (cycle.controlword & kNewSetPoint) != 0;
+}
+
+std::optional<double> ProfilePositionMode::running_target() const {
+  if (!running_) return std::nullopt;
+  return running_->target;
+}
+
+std::optional<double> ProfilePositionMode::buffered_target() const {
+  if (!buffered_) return std::nullopt;
+  return buffered_->target;
+}
+
+ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& ctx,
+                                                                  std::uint16_t controlword) const {
+  const FactorGroup& f = ctx.factors;
+  SetPoint sp;
+  const double target = static_cast<double>(ctx.read_signed(cia402::kTargetPosition));
+  if ((controlword & kRelative) != 0 && !ctx.has(Deviation::pp_relative_as_absolute)) {
+    // Relative to the demand position 6062h (Festo L5407-5412), here in internal units; the
+    // demand of the buffered set-point's start is the running one's target.
+    const double base = buffered_  ? buffered_->target
+                        : running_ ? running_->target
+                                   : trajectory_.position();
+    sp.target = base + f.position_to_internal(target) - f.position_to_internal(0.0);
+  } else {
+    sp.target = f.position_to_internal(target);
+  }
+  const bool was_limited = ctx.position_limited;
+  ctx.position_limited = false;
+  sp.target = ctx.clamp_position(sp.target);
+  sp.clamped = ctx.position_limited;
+  ctx.position_limited = was_limited || sp.clamped;
+  double velocity = static_cast<double>(ctx.read_unsigned(cia402::kProfileVelocity));
+  const double max_velocity = static_cast<double>(ctx.read_unsigned(cia402::kMaxProfileVelocity));
+  if (max_velocity > 0.0) velocity = std::min(velocity, max_velocity);
+  sp.limits.velocity = std::min(f.speed_to_internal(velocity), ctx.axis.max_speed());
+  sp.limits.acceleration = f.acceleration_to_internal(
+      static_cast<double>(ctx.read_unsigned(cia402::kProfileAcceleration)));
+  sp.limits.deceleration = f.acceleration_to_internal(
+      static_cast<double>(ctx.read_unsigned(cia402::kProfileDeceleration)));
+  sp.limits.end_velocity =
+      f.speed_to_internal(static_cast<double>(ctx.read_unsigned(cia402::kEndVelocity)));
+  sp.change_on_set_point = (controlword & kChangeOnSetPoint) != 0;
+  return sp;
+}
+
+void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
+  const bool bit4 = (cycle.controlword & kNewSetPoint) != 0;
+  const bool edge = bit4 && !previous_bit4_;
+  previous_bit4_ = bit4;
+  const double dt = seconds(cycle.period);
+  enabled_ = cycle.state == cia402::State::operation_enabled;
+
+  if (!enabled_) {
+    // Outside OPERATION ENABLED set-points are dropped and the demand tracks the axis.
+    running_.reset();
+    buffered_.reset();
+    trajectory_.reset(ctx.axis.position());
+    ctx.axis.command_position(ctx.axis.position());
+  } else {
+    if (edge && !ack_ && !ack_due_) {
+      // Taken also while halted (it starts when halt is released).
+      const SetPoint sp = read_set_point(ctx, cycle.controlword);
+      const bool immediately = (cycle.controlword & kChangeImmediately) != 0 &&
+                               !ctx.has(Deviation::pp_change_immediately_ignored);
+      if (immediately || !running_) {
+        running_ = sp;
+        buffered_.reset();
+      } else {
+        buffered_ = sp;
+      }
+      last_target_ = running_->target;
+      last_clamped_ = sp.clamped;
+      has_target_ = true;
+      reached_ = false;
+      in_window_since_.reset();
+      ack_due_ = true;
+      ack_countdown_ = ctx.acknowledge_latency_cycles > 0 ? ctx.acknowledge_latency_cycles - 1 : 0;
+    }
+    if (!cycle.drive_enabled) {
+      // Halt (or a stop ramp) holds the positioning: the PDS stops the axis, the demand tracks
+      // it, and the positioning continues from there when halt is released.
+      trajectory_.reset(ctx.axis.position(), ctx.axis.velocity());
+      ctx.axis.command_position(ctx.axis.position());
+    } else {
+      trajectory_.set_smoothing(
+          ctx.read_signed(cia402::kMotionProfileType) != 0 ? ctx.jerk_smoothing_cycles : 0);
+      if (running_) {
+        ProfileLimits limits = running_->limits;
+        if (buffered_) {
+          limits.end_velocity =
+              buffered_->change_on_set_point ? limits.velocity : running_->limits.end_velocity;
+        } else {
+          limits.end_velocity = 0.0;
+        }
+        trajectory_.move_to(running_->target, limits);
+      }
+      trajectory_.step(dt);
+      if (running_ && trajectory_.profile_done() && buffered_) {
+        running_ = buffered_;
+        buffered_.reset();
+        last_target_ = running_->target;
+        last_clamped_ = running_->clamped;
+        reached_ = false;
+        in_window_since_.reset();
+        ProfileLimits limits = running_->limits;
+        limits.end_velocity = 0.0;
+        trajectory_.move_to(running_->target, limits);
+      }
+      ctx.axis.command_position(trajectory_.position(), trajectory_.velocity());
+    }
+  }
+
+  // Set-point acknowledge (bit 12): shown for at least one cycle once it rises.
+  const bool ack_shown = ack_;
+  if (ack_due_) {
+    if (ack_countdown_ == 0) {
+      ack_ = true;
+      ack_due_ = false;
+    } else {
+      --ack_countdown_;
+    }
+  }
+  if (ack_shown && !bit4 && !buffered_ && !ctx.has(Deviation::pp_set_point_ack_never_cleared)) {
+    ack_ = false;
+  }
+
+  update_target_reached(ctx, cycle);
+  if (has_target_ && last_clamped_) ctx.position_limited = true;
+
+  bits_ = 0;
+  if (reached_) bits_ |= kTargetReached;
+  if (ack_) bits_ |= kSetPointAcknowledge;
+  if (ctx.following_error) bits_ |= kFollowingError;
+}
+
+void ProfilePositionMode::update_target_reached(ModeContext& ctx, const ModeCycle& cycle) {
+  if (cycle.halt) {
+    reached_ = ctx.axis.is_stopped() && !ctx.has(Deviation::pp_halt_target_reached_missing);
+    in_window_since_.reset();
+    return;
+  }
+  if (!has_target_ || !cycle.drive_enabled) {
+    // No positioning yet (or not enabled): the axis is where it was told to be.
+    if (!has_target_) reached_ = true;
+    return;
+  }
+  const bool demand_there = !running_ || trajectory_.done();
+  const double window = ctx.factors.distance_to_internal(
+      static_cast<double>(ctx.read_unsigned(cia402::kPositionWindow)));
+  const bool inside = demand_there && std::abs(ctx.axis.position() - last_target_) <= window;
+  if (!inside) {
+    in_window_since_.reset();
+    reached_ = false;
+    return;
+  }
+  if (!in_window_since_) in_window_since_ = cycle.now;
+  const auto window_time =
+      std::chrono::milliseconds(ctx.read_unsigned(cia402::kPositionWindowTime));
+  reached_ = ctx.has(Deviation::pp_target_reached_before_window_time) ||
+             cycle.now - *in_window_since_ >= window_time;
+}
+
+std::uint16_t ProfilePositionMode::statusword_bits(cia402::State state) const {
+  if (state != cia402::State::operation_enabled) return 0;
+  return bits_;
+}
+
+}  // namespace drivecheck::reference_drive

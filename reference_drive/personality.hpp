@@ -1,0 +1,131 @@
+// Personalities: how the reference drive impersonates the drive of one manual. A drive profile
+// (vectors/drives/<name>.yaml) carries a `personality:` section; protocol/profile parses it into
+// profile::Personality (typed); plan_personality() turns it, with the profile's lists, into the
+// configuration ServoDrive (servo_drive.hpp) composes the drive from. The standard drive (no
+// profile) is the plan of standard_personality().
+//
+// Every key, what it does to the reference drive, and the standard value:
+//
+//   identity: {device_type, vendor_id, product_code, revision_number, serial_number,
+//              device_name, hardware_version, software_version}
+//       1000h, 1018h:01..04, 1008h, 1009h, 100Ah. Keys not given keep the reference drive's
+//       identity (dictionary.hpp). Default: the profile's `identity:`.
+//   modes: [6060h values]
+//       6502h and the modes hosted: 1 pp, 3 pv, 4 tq, 6 hm, 7 ip, 8 csp, 9 csv, 10 cst.
+//       2 (vl) has no implementation in the reference drive: ignored (not_applied). Negative
+//       values must be manufacturer_modes. Default: the profile's `modes:`.
+//   manufacturer_modes: [{value: -128..-1, behaves_as: 0|1..10, name}]
+//       Cia402ApplicationConfig::manufacturer_modes (the PDS does not accept negative 6060h
+//       values yet: see cia402_application.hpp; behaves_as is recorded, not simulated).
+//   option_codes: {quick-stop: [..], shutdown, disable-operation, halt, fault-reaction,
+//                  abort-connection}
+//       The values 605Ah..605Eh and 6007h accept (PowerDriveConfig::option_code_support; any
+//       other value: abort 06090030h). Objects not listed accept CiA 402's values. Negative
+//       values (Festo 605Ch = -1) cannot be shown: not_applied. Default: the profile's.
+//   option_defaults: {object: value}
+//       The option code's value after each reset while it holds the CiA 402 default (stored
+//       parameters win). Standard: the CiA 402 defaults (6007h 1, 605Ah 2, 605Bh 0, 605Ch 1,
+//       605Dh 1, 605Eh 2).
+//   hardware_enable: none | transition-2 | transition-3
+//       PowerDriveConfig::hardware_enable: which transition waits for the hardware enable input
+//       (`simulate: {input: hardware-enable}`). The input is present at power on. Standard:
+//       transition-3 (the reference drive has the input, so the hardware-enable vectors run).
+//   emcy_follow_up: true | false
+//       Kollmorgen (002 §4.4.4 L768-777): after every EMCY with a code other than 0000h the
+//       drive sends a second EMCY: 0000h, byte 2 the error register of the first, bytes 3-7 0
+//       (the error category byte is 0: the category table is not simulated). Standard: false.
+//   error_code_format: standard | error-number
+//       603Fh (Cia402ApplicationConfig::error_code_format): error-number shows IRTSA's
+//       n * 256 + 80h. Standard: standard.
+//   homing: standard | set-position
+//       set-position (IRTSA): homing may start in every state but FAULT REACTION ACTIVE and
+//       FAULT, and statusword bit 13 is never set (HomingConfig). The methods themselves come
+//       from manufacturer_homing (IRTSA -127/-126 move nothing). Standard: standard.
+//   manufacturer_homing: none | festo | kollmorgen | irtsa
+//       Whose negative 6098h methods the homing mode runs (HomingConfig::vendor). The methods
+//       6098h accepts are the profile's homing_methods that the homing table has (others:
+//       not_applied). Standard: none (CiA 402 methods).
+//   homing_default_method: -128..127
+//       6098h after power on (HomingConfig::default_method). Standard: 17 (or the first
+//       supported method when 17 is not).
+//   homing_halt_sets_error: true | false
+//       Festo (L5584-5589): halt ends homing with bit 13. Standard: false.
+//   object_types: [{index, sub, type}]
+//       Only 6060h/6061h as INTEGER16 (ESR) are possible (ModeObjectWidth::bits16); any other
+//       entry is an error.
+//   guarding_loss: error-behaviour | pre-operational | no-nmt-change
+//       1029h:01 after each reset (while at its default 0): pre-operational -> 0 (CiA 301:
+//       Operational -> Pre-operational; ESR's "also from Stopped" is not simulated),
+//       no-nmt-change -> 1. Standard: error-behaviour (1029h as the dictionary has it).
+//   ack_latency_cycles: 1..1000
+//       pp: control cycles from the new set-point edge to set-point acknowledge
+//       (Cia402ApplicationConfig::acknowledge_latency_cycles; 0 is refused). Standard: 1.
+//   control_cycle: duration
+//       DriveConfig::control_cycle. Standard: 1 ms.
+//   sdo_dlc: always-8 | minimal
+//       always-8 only: the SDO server sends every response with 8 bytes; minimal is recorded
+//       as not_applied.
+//   sdo_short_requests: ignore | pad
+//       DriveConfig::sdo_short_frames: an SDO request with fewer than 8 bytes is ignored (CiA
+//       301) or read with the missing bytes as 00h. Standard: ignore.
+//   heartbeat_time_ms: 0..65535
+//       1017h default (DictionaryOptions::producer_heartbeat_ms). Standard: 0.
+//   guard_time_ms: 0..65535, life_time_factor: 0..255
+//       100Ch / 100Dh after each reset while at their default 0. Standard: 0, 0.
+//   note: text
+//       Why the values are what they are; not used.
+//
+// The profile's pdo_defaults become the dictionary's PDO defaults (DictionaryOptions::pdo):
+// PDOs 1-4 with the pre-defined COB-ID base (+N); bit 31 gives `valid`; bit 30 (no RTR) and
+// other bases cannot be shown (not_applied).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "protocol/cia301/nmt.hpp"
+#include "protocol/common/expected.hpp"
+#include "protocol/profile/drive_profile.hpp"
+#include "reference_drive/cia402_application.hpp"
+#include "reference_drive/device.hpp"
+#include "reference_drive/modes/homing.hpp"
+
+namespace drivecheck::reference_drive {
+
+// A value the personality puts into an entry at each reset of its group, in place of the
+// dictionary's default: only while the entry holds that default (stored parameters win).
+struct DefaultOverride {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::int64_t value = 0;
+  cia301::ResetKind reset = cia301::ResetKind::application;  // the reset that applies it
+  friend bool operator==(const DefaultOverride&, const DefaultOverride&) = default;
+};
+
+// What a personality makes of the reference drive.
+struct PersonalityPlan {
+  std::string name;   // the profile's name; "standard" without a profile
+  DriveConfig drive;  // dictionary (identity, heartbeat, PDO defaults), control cycle
+  Cia402ApplicationConfig application;
+  bool host_homing = true;  // 6 is among the modes
+  HomingConfig homing;
+  std::vector<DefaultOverride> overrides;
+  bool emcy_follow_up = false;
+  bool hardware_enable_present = true;  // the input's state at power on
+  // What the personality asks for that the reference drive cannot show (one line each).
+  std::vector<std::string> not_applied;
+};
+
+// The standard drive's personality: every key at its standard value (above), the modes the
+// reference drive hosts (1, 3, 4, 6, 7, 8, 9, 10). vectors/drives/cia402-reference.yaml says
+// the same.
+profile::Personality standard_personality();
+
+// The plan of a profile's personality (profile->effective_personality() with its
+// homing_methods, timing and pdo_defaults); nullptr: the standard drive. Errors: a value the
+// reference drive cannot take at all (a mode value 5 or above 10, an option default the option
+// codes refuse, an object type other than 6060h/6061h INTEGER16, ack_latency_cycles 0).
+Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProfile* profile);
+
+}  // namespace drivecheck::reference_drive

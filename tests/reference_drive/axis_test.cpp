@@ -1,0 +1,235 @@
+// The axis parts alone: motor + load model, encoder index, switches, trajectory generator,
+// factor group.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include "reference_drive/axis/axis_model.hpp"
+#include "reference_drive/axis/factor_group.hpp"
+#include "reference_drive/axis/trajectory.hpp"
+
+namespace drivecheck::reference_drive {
+namespace {
+
+using namespace std::chrono_literals;
+
+TEST(AxisModel, PositionControlHoldsTheDemand) {
+  // Given a powered axis following set-points
+  AxisModel axis;
+  axis.follow_set_points();
+  // When the demand is 1000 for 100 ms
+  for (int i = 0; i < 100; ++i) {
+    axis.command_position(1000.0);
+    axis.advance(1ms);
+  }
+  // Then the axis is at 1000 (within an increment) and at rest
+  EXPECT_NEAR(axis.position(), 1000.0, 0.5);
+  EXPECT_NEAR(axis.velocity(), 0.0, 1.0);
+  EXPECT_NEAR(axis.following_error(), 0.0, 0.5);
+}
+
+TEST(AxisModel, RampToStopUsesTheDecelerationGiven) {
+  // Given an axis running at 10000 increments/s
+  AxisModel axis;
+  axis.follow_set_points();
+  for (int i = 0; i < 50; ++i) {
+    axis.command_velocity(10000.0);
+    axis.advance(1ms);
+  }
+  ASSERT_NEAR(axis.velocity(), 10000.0, 1e-6);
+  // When it is stopped at 100000 increments/s²
+  axis.ramp_to_stop(100000);
+  // Then it is still moving after 99 ms and stopped at 100 ms, 500 increments further
+  const double from = axis.position();
+  for (int i = 0; i < 99; ++i)
+    axis.advance(1ms);
+  EXPECT_FALSE(axis.is_stopped());
+  axis.advance(1ms);
+  EXPECT_TRUE(axis.is_stopped());
+  EXPECT_NEAR(axis.position() - from, 500.0, 5.0);
+}
+
+TEST(AxisModel, FreeAxisCoastsOnFriction) {
+  // Given an axis at 1000 increments/s with 5 ‰ friction (20000 increments/s²)
+  AxisModel axis;
+  axis.follow_set_points();
+  for (int i = 0; i < 10; ++i) {
+    axis.command_velocity(1000.0);
+    axis.advance(1ms);
+  }
+  // When the power is removed
+  axis.disable_power();
+  // Then it coasts to rest within 50 ms + a cycle
+  for (int i = 0; i < 51; ++i)
+    axis.advance(1ms);
+  EXPECT_TRUE(axis.is_stopped());
+}
+
+TEST(AxisModel, IndexPulseIsReportedWhereCrossed) {
+  // Given an index every 1000 increments from 250
+  AxisConfig config;
+  config.index_period = 1000;
+  config.index_offset = 250;
+  AxisModel axis(config);
+  axis.follow_set_points();
+  // When the axis runs from 0 upward at 100000 increments/s
+  std::optional<double> seen;
+  for (int i = 0; i < 10 && !seen; ++i) {
+    axis.command_velocity(100000.0);
+    axis.advance(1ms);
+    seen = axis.index_pulse_crossed();
+  }
+  // Then the first pulse reported is at 250
+  ASSERT_TRUE(seen);
+  EXPECT_DOUBLE_EQ(*seen, 250.0);
+  // And after set_actual_position the pulse is reported in the new frame
+  axis.set_actual_position(0.0);
+  const double physical = axis.physical_position();
+  std::optional<double> next;
+  for (int i = 0; i < 20 && !next; ++i) {
+    axis.command_velocity(100000.0);
+    axis.advance(1ms);
+    next = axis.index_pulse_crossed();
+  }
+  ASSERT_TRUE(next);
+  EXPECT_NEAR(*next, 1250.0 - physical, 1e-6);
+}
+
+TEST(AxisModel, SwitchesFollowTheLayoutUnlessForced) {
+  // Given limits at -100 / +100 and a home switch over [20, 40]
+  AxisConfig config;
+  config.switches.negative_limit = -100;
+  config.switches.positive_limit = 100;
+  config.switches.home_from = 20;
+  config.switches.home_to = 40;
+  AxisModel axis(config);
+  // When the axis is placed at 30, 100, -100, 0
+  axis.place(30);
+  EXPECT_TRUE(axis.switch_active(AxisSwitch::home));
+  EXPECT_FALSE(axis.switch_active(AxisSwitch::positive_limit));
+  axis.place(100);
+  EXPECT_TRUE(axis.switch_active(AxisSwitch::positive_limit));
+  EXPECT_FALSE(axis.switch_active(AxisSwitch::home));
+  axis.place(-100);
+  EXPECT_TRUE(axis.switch_active(AxisSwitch::negative_limit));
+  axis.place(0);
+  // Then forcing overrides the layout, and -1 returns to it
+  axis.force_switch(AxisSwitch::home, SwitchForce::on);
+  EXPECT_TRUE(axis.switch_active(AxisSwitch::home));
+  axis.force_switch(AxisSwitch::home, SwitchForce::layout);
+  EXPECT_FALSE(axis.switch_active(AxisSwitch::home));
+}
+
+TEST(AxisModel, LoadBeyondTheTorqueLimitStallsTheAxis) {
+  // Given a load of 4000 ‰ against a 3000 ‰ torque limit
+  AxisModel axis;
+  axis.set_load_torque(4000.0);
+  axis.follow_set_points();
+  // When the axis is told to go to +1000
+  for (int i = 0; i < 100; ++i) {
+    axis.command_position(1000.0);
+    axis.advance(1ms);
+  }
+  // Then it is pushed back instead, the following error grows, the torque is at its limit
+  EXPECT_LT(axis.position(), 0.0);
+  EXPECT_GT(axis.following_error(), 1000.0);
+  EXPECT_DOUBLE_EQ(axis.torque(), 3000.0);
+}
+
+TEST(Trajectory, TrapezoidLandsExactlyWithinTheLimits) {
+  // Given a move of 100000 at 20000/s, 100000/s² (trapezoid: 0.2 s ramps, 4.8 s cruise... )
+  TrajectoryGenerator t;
+  t.reset(0.0);
+  t.move_to(10000.0, ProfileLimits{2000.0, 10000.0, 20000.0, 0.0});
+  // When it is stepped at 1 ms
+  double peak = 0.0;
+  double last = 0.0;
+  int steps = 0;
+  while (!t.done() && steps < 100000) {
+    t.step(0.001);
+    peak = std::max(peak, t.velocity());
+    EXPECT_GE(t.position(), last - 1e-9);  // never turns back
+    EXPECT_LE(t.position(), 10000.0 + 1e-9);
+    last = t.position();
+    ++steps;
+  }
+  // Then it ends exactly on the target, never faster than 2000/s, in the trapezoid's time
+  // (0.2 s + 0.1 s ramps, 4.85 s cruise: 5.15 s)
+  EXPECT_EQ(t.position(), 10000.0);
+  EXPECT_LE(peak, 2000.0);
+  EXPECT_NEAR(steps, 5150, 5);
+}
+
+TEST(Trajectory, TurnsBackToATargetBehind) {
+  // Given a demand moving up at 1000/s
+  TrajectoryGenerator t;
+  t.reset(0.0, 1000.0);
+  // When the target is -100
+  t.move_to(-100.0, ProfileLimits{1000.0, 10000.0, 10000.0, 0.0});
+  int steps = 0;
+  double highest = 0.0;
+  while (!t.done() && steps < 10000) {
+    t.step(0.001);
+    highest = std::max(highest, t.position());
+    ++steps;
+  }
+  // Then it brakes (about 50 increments further up), turns, and lands on -100
+  EXPECT_NEAR(highest, 50.0, 2.0);
+  EXPECT_EQ(t.position(), -100.0);
+}
+
+// The largest change of acceleration from one 1 ms cycle to the next, and the end position.
+std::pair<double, double> run_profile(std::size_t smoothing) {
+  TrajectoryGenerator t;
+  t.reset(0.0);
+  t.set_smoothing(smoothing);
+  t.move_to(5000.0, ProfileLimits{5000.0, 50000.0, 50000.0, 0.0});
+  double v0 = 0.0;
+  double a0 = 0.0;
+  double max_jerk_step = 0.0;
+  for (int steps = 0; !t.done() && steps < 10000; ++steps) {
+    t.step(0.001);
+    const double a = (t.velocity() - v0) / 0.001;
+    max_jerk_step = std::max(max_jerk_step, std::abs(a - a0));
+    v0 = t.velocity();
+    a0 = a;
+  }
+  return {max_jerk_step, t.position()};
+}
+
+TEST(Trajectory, SmoothingLimitsTheJerkAndKeepsTheTarget) {
+  // Given the same move as a trapezoid and as an S-curve over 20 cycles
+  // When both run
+  const auto [trapezoid_jerk, trapezoid_end] = run_profile(0);
+  const auto [smooth_jerk, smooth_end] = run_profile(20);
+  // Then the trapezoid's acceleration jumps by the full 50000/s² in one cycle, the S-curve's
+  // by at most a twentieth of it, and both end on the target
+  EXPECT_NEAR(trapezoid_jerk, 50000.0, 1.0);
+  EXPECT_LE(smooth_jerk, 50000.0 / 20.0 + 1.0);
+  EXPECT_NEAR(trapezoid_end, 5000.0, 1e-9);
+  EXPECT_NEAR(smooth_end, 5000.0, 1e-6);
+}
+
+TEST(FactorGroup, PositionFactorAndPolarity) {
+  // Given 6093h = 4096/360 (4096 increments per 360 units)
+  FactorGroup f;
+  f.position = Fraction{4096, 360};
+  // Then 90 units are 1024 increments and back
+  EXPECT_DOUBLE_EQ(f.position_to_internal(90.0), 1024.0);
+  EXPECT_DOUBLE_EQ(f.position_to_user(1024.0), 90.0);
+  // When the position polarity is set (80h)
+  f.polarity = FactorGroup::kPositionPolarity;
+  // Then positions change sign, velocities do not
+  EXPECT_DOUBLE_EQ(f.position_to_internal(90.0), -1024.0);
+  EXPECT_DOUBLE_EQ(f.velocity_to_internal(5.0), 5.0);
+  // And fractions reduce or refuse
+  Fraction out;
+  EXPECT_TRUE(reduce_fraction(4096 * 3, 360, out));
+  EXPECT_EQ(out, (Fraction{512, 15}));
+  EXPECT_FALSE(reduce_fraction(1, 0, out));
+}
+
+}  // namespace
+}  // namespace drivecheck::reference_drive
