@@ -1,9 +1,12 @@
-// drivecheck report diff A.json B.json: what changed between two runs.
+// drivecheck report diff A.json B.json: what changed between two runs (reports/report_diff.cpp:
+// new failures first, then fixed, other verdict changes, added and removed vectors).
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <memory>
 #include <string>
 
 #include "cli/commands.hpp"
+#include "reports/report_writers.hpp"
 
 namespace drivecheck::cli {
 
@@ -20,8 +23,10 @@ void add_report_command(CLI::App& app) {
   diff->add_option("B.json", files->second, "The later run's JSON report")
       ->required()
       ->check(CLI::ExistingFile);
-  diff->callback(
-      [files] { not_built_yet("report diff", "the JSON report reader is not built yet"); });
+  diff->callback([files] {
+    // 0 no new failures, 1 new failures, 2 a report cannot be read ("file:line: message").
+    exit_with(reports::report_diff_command(files->first, files->second, stdout, stderr));
+  });
 }
 
 }  // namespace drivecheck::cli

@@ -1,13 +1,47 @@
 // drivecheck run: the conformance suite against a drive. With no options, the embedded
-// default: the reference drive on the simulated bus, every vector, reports under reports/out/.
-// Owned by the lead engineer; until the engine exists it validates its options and says so.
+// default: the reference drive on the simulated bus (1 Mbit/s), every vector of the source
+// tree's vectors/, reports under reports/out/ (report.html, junit.xml, report.json).
+//
+// Reports: when none of --junit/--html/--json is given, all three go to reports/out/ relative
+// to the current directory; otherwise exactly the ones given are written.
+// Exit codes: conformance::exit_code() (0 pass, 1 fail, 3 DUT lost, 130 interrupted), 2 for bad
+// input (vector or profile errors with file:line, an unreadable EDS, a bus that cannot open).
+#include <fmt/format.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <csignal>
 #include <cstdint>
+#include <ctime>
+#include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
+#include "conformance/engine.hpp"
+#include "conformance/od_checks.hpp"
+#include "conformance/sha256.hpp"
+#include "conformance/vector_file.hpp"
+#include "protocol/can/sim_bus.hpp"
+#include "protocol/can/socketcan_bus.hpp"
+#include "protocol/can/trace_recorder.hpp"
+#include "protocol/cia306/eds.hpp"
+#include "protocol/profile/drive_profile.hpp"
+#include "reports/report_writers.hpp"
+
+#ifndef DRIVECHECK_VECTORS_DIR
+#error "DRIVECHECK_VECTORS_DIR must be defined by the build (cli/CMakeLists.txt)"
+#endif
+#ifndef DRIVECHECK_VERSION
+#error "DRIVECHECK_VERSION must be defined by the build (cli/CMakeLists.txt)"
+#endif
 
 namespace drivecheck::cli {
 namespace {
@@ -15,7 +49,7 @@ namespace {
 struct RunOptions {
   std::string bus = "sim";
   int node = 1;
-  std::string profile;
+  std::string profile = "cia402-reference";
   std::string eds;
   std::string filter;
   bool strict = false;
@@ -26,7 +60,243 @@ struct RunOptions {
   std::string json;
   std::string trace;
   std::string pcap;
+  std::string vectors;
+  std::vector<std::string> deviations;
 };
+
+std::atomic<conformance::Engine*> g_engine{nullptr};
+
+extern "C" void interrupt_run(int) {
+  if (auto* engine = g_engine.load()) engine->interrupt();
+}
+
+class InterruptScope {
+ public:
+  explicit InterruptScope(conformance::Engine& engine) {
+    g_engine.store(&engine);
+    struct sigaction action {};
+    action.sa_handler = interrupt_run;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &previous_int_);
+    sigaction(SIGTERM, &action, &previous_term_);
+  }
+  ~InterruptScope() {
+    sigaction(SIGINT, &previous_int_, nullptr);
+    sigaction(SIGTERM, &previous_term_, nullptr);
+    g_engine.store(nullptr);
+  }
+  InterruptScope(const InterruptScope&) = delete;
+  InterruptScope& operator=(const InterruptScope&) = delete;
+
+ private:
+  struct sigaction previous_int_ {};
+  struct sigaction previous_term_ {};
+};
+
+std::string utc_now() {
+  const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", tm.tm_year + 1900, tm.tm_mon + 1,
+                     tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
+}
+
+[[noreturn]] void bad_input(const std::string& message) {
+  fmt::print(stderr, "{}\n", message);
+  exit_with(kExitUsage);
+  std::abort();  // exit_with(non-zero) throws
+}
+
+void run(const RunOptions& options) {
+  const auto spec = parse_bus_spec(options.bus);
+  if (!spec) usage_error("run", spec.error());
+  const bool sim = spec->kind == BusSpec::Kind::sim;
+  if (!sim && !options.deviations.empty())
+    usage_error("run", "--deviation injects faults into the embedded drive: only with --bus sim");
+
+  // Vectors, profile, EDS: all bad input is reported before the bus is touched.
+  const std::filesystem::path vectors_dir =
+      options.vectors.empty() ? DRIVECHECK_VECTORS_DIR : options.vectors;
+  auto vectors = conformance::load_vector_tree(vectors_dir);
+  if (!vectors.ok()) {
+    for (const auto& error : vectors.errors)
+      fmt::print(stderr, "{}\n", error.to_string());
+    fmt::print(stderr, "drivecheck run: {} error(s) in the vectors (drivecheck vectors lint {})\n",
+               vectors.errors.size(), vectors_dir.string());
+    exit_with(kExitUsage);
+    return;
+  }
+  auto profile = profile::find_profile(options.profile, vectors_dir / "drives");
+  if (!profile) bad_input(profile.error().to_string());
+
+  std::optional<cia301::ObjectDictionary> eds_od;
+  std::string eds_sha256;
+  if (!options.eds.empty()) {
+    auto eds = cia306::read_eds_file(options.eds);
+    if (!eds) bad_input(eds.error().to_string());
+    if (eds->has_errors()) {
+      for (const auto& d : eds->diagnostics)
+        fmt::print(stderr, "{}\n", d.to_string());
+      bad_input(fmt::format("drivecheck run: {} has errors (drivecheck eds lint {})", options.eds,
+                            options.eds));
+    }
+    auto od = cia306::to_object_dictionary(eds->eds, static_cast<std::uint8_t>(options.node),
+                                           options.eds);
+    if (!od) {
+      for (const auto& d : od.error())
+        fmt::print(stderr, "{}\n", d.to_string());
+      bad_input(fmt::format("drivecheck run: {} does not give an object dictionary", options.eds));
+    }
+    eds_od.emplace(std::move(*od));
+    eds_sha256 = conformance::sha256_file(options.eds).value_or("");
+  }
+
+  // The bus: the embedded drive on a simulated bus, or a real interface.
+  std::unique_ptr<can::SimBus> sim_bus;
+  std::unique_ptr<can::SimPort> sim_port;
+  std::unique_ptr<EmbeddedDrive> drive;
+  std::unique_ptr<can::SocketCanBus> socket_bus;
+  can::Bus* port = nullptr;
+  if (sim) {
+    sim_bus = std::make_unique<can::SimBus>(
+        can::SimBusConfig{.bitrate = 1'000'000, .seed = options.seed});
+    sim_port = sim_bus->attach("harness");
+    auto created = EmbeddedDrive::create(*sim_bus, static_cast<std::uint8_t>(options.node),
+                                         *profile, options.deviations);
+    if (!created) usage_error("run", created.error());
+    drive = std::move(*created);
+    port = sim_port.get();
+  } else {
+    auto opened = can::SocketCanBus::open(spec->interface);
+    if (!opened) usage_error("run", can::describe_open_error(spec->interface, opened.error()));
+    socket_bus = std::move(*opened);
+    port = socket_bus.get();
+  }
+
+  // Traces: the whole simulated wire, or what the harness port sees on a real bus.
+  std::unique_ptr<can::TraceRecorder> recorder;
+  std::unique_ptr<can::RecordingBus> recording;
+  if (!options.trace.empty() || !options.pcap.empty()) {
+    auto opened = can::TraceRecorder::open(
+        {options.trace, options.pcap},
+        {.interface = sim ? "sim" : spec->interface, .unix_offset = port->unix_offset()});
+    if (!opened) usage_error("run", opened.error());
+    recorder = std::move(*opened);
+    if (sim) {
+      sim_bus->add_monitor(recorder->monitor());
+    } else {
+      recording = std::make_unique<can::RecordingBus>(*port, *recorder);
+      port = recording.get();
+    }
+  }
+
+  // EDS-driven object dictionary checks (family eds/od) from the EDS and the profile's objects.
+  auto od_vectors =
+      conformance::generate_od_vectors(eds_od ? &*eds_od : nullptr, options.eds, *profile);
+  for (auto& vector : od_vectors)
+    vectors.vectors.push_back(std::move(vector));
+
+  std::size_t total = 0;
+  for (const auto& vector : vectors.vectors) {
+    if (options.filter.empty() || profile::glob_match(options.filter, vector.id)) ++total;
+  }
+  reports::ConsoleReporter console(stdout, reports::ConsoleOptions::detect(stdout, total));
+
+  conformance::EngineOptions engine_options;
+  engine_options.node = static_cast<std::uint8_t>(options.node);
+  engine_options.strict = options.strict;
+  engine_options.allow_motion = options.allow_motion;
+  engine_options.real_bus = !sim;
+  engine_options.filter = options.filter;
+  engine_options.simulation = drive ? drive->simulation() : nullptr;
+  engine_options.eds = eds_od ? &*eds_od : nullptr;
+  engine_options.on_vector_started = [&](const conformance::Vector& v) {
+    console.vector_started(v.id);
+  };
+  engine_options.on_vector_finished = [&](const conformance::VectorResult& r) {
+    console.vector_finished(r);
+  };
+
+  conformance::RunInfo info;
+  info.tool_version = DRIVECHECK_VERSION;
+  info.started_utc = utc_now();
+  info.bus = options.bus;
+  info.profile_file = profile->path.string();
+  info.eds_file = options.eds;
+  info.eds_sha256 = eds_sha256;
+  info.seed = options.seed;
+  if (drive) {
+    info.personality = drive->personality();
+    info.deviations = drive->deviations();
+  }
+
+  conformance::RunResult result;
+  {
+    conformance::Engine engine(*port, *profile, std::move(engine_options));
+    InterruptScope interrupts(engine);
+    // The simulated bus runs in this thread; if a simulated node livelocks (events at one
+    // instant forever) nothing returns. A watchdog thread stops such a run (exit 3).
+    std::jthread watchdog;
+    if (sim) {
+      watchdog = std::jthread([&engine](const std::stop_token& stop) {
+        constexpr auto kTick = std::chrono::milliseconds(100);
+        constexpr auto kStallLimit = std::chrono::seconds(10);
+        auto last = engine.progress();
+        auto still = std::chrono::milliseconds(0);
+        while (!stop.stop_requested()) {
+          std::this_thread::sleep_for(kTick);
+          const auto progress = engine.progress();
+          still = progress == last ? still + kTick : std::chrono::milliseconds(0);
+          last = progress;
+          if (still >= kStallLimit) {
+            engine.declare_stalled();
+            still = std::chrono::milliseconds(0);
+          }
+        }
+      });
+    }
+    result = engine.run(vectors.vectors, std::move(info));
+    const std::string probe_id = "eds/od/undocumented-objects";
+    if (eds_od && !result.interrupted && !result.dut_lost &&
+        (options.filter.empty() || profile::glob_match(options.filter, probe_id))) {
+      console.vector_started(probe_id);
+      result.vectors.push_back(engine.probe_undocumented_objects(
+          [&eds_od](std::uint16_t index) { return eds_od->find(index) != nullptr; },
+          fmt::format("EDS {}", options.eds)));
+      console.vector_finished(result.vectors.back());
+    }
+  }
+  console.finish(result);
+  if (result.dut_lost)
+    fmt::print(stderr, "drivecheck run: the drive stopped answering (node {} on {})\n",
+               options.node, options.bus);
+
+  // Reports.
+  const bool defaults = options.junit.empty() && options.html.empty() && options.json.empty();
+  const std::filesystem::path out = "reports/out";
+  const auto junit = defaults ? out / "junit.xml" : std::filesystem::path(options.junit);
+  const auto html = defaults ? out / "report.html" : std::filesystem::path(options.html);
+  const auto json = defaults ? out / "report.json" : std::filesystem::path(options.json);
+  bool written = true;
+  const auto report = [&](const Expected<void, std::string>& done) {
+    if (!done) {
+      fmt::print(stderr, "drivecheck run: {}\n", done.error());
+      written = false;
+    }
+  };
+  if (!junit.empty()) report(reports::write_junit_report(junit, result));
+  if (!html.empty()) report(reports::write_html_report(html, result));
+  if (!json.empty()) report(reports::write_json_report(json, result));
+  if (recorder) {
+    (void)recorder->flush();
+    if (recorder->error()) {
+      fmt::print(stderr, "drivecheck run: the trace is incomplete: {}\n", *recorder->error());
+      written = false;
+    }
+  }
+  const int code = conformance::exit_code(result);
+  exit_with(code == kExitPass && !written ? kExitUsage : code);
+}
 
 }  // namespace
 
@@ -45,13 +315,15 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--profile", options->profile,
                   "Drive profile: a vectors/drives/*.yaml file or its name (e.g. festo-cmmp); "
                   "on the simulated bus also the reference drive's personality")
-      ->type_name("FILE|NAME");
+      ->type_name("FILE|NAME")
+      ->capture_default_str();
   cmd->add_option("--eds", options->eds, "The drive's EDS/DCF file")
       ->check(CLI::ExistingFile)
       ->type_name("FILE");
   cmd->add_option("--filter", options->filter, "Only vectors whose id matches, e.g. cia402/fsa/*")
       ->type_name("GLOB");
-  cmd->add_flag("--strict", options->strict, "Also run SHOULD and MAY vectors");
+  cmd->add_flag("--strict", options->strict,
+                "SHOULD and MAY failures are failures (default: warnings)");
   cmd->add_flag("--allow-motion", options->allow_motion,
                 "Allow vectors that move the motor (needed on a real bus)");
   cmd->add_option("--seed", options->seed, "Seed of the simulated bus and faults")
@@ -64,7 +336,14 @@ void add_run_command(CLI::App& app) {
       ->type_name("FILE.log");
   cmd->add_option("--pcap", options->pcap, "Record every frame to a pcap file for Wireshark")
       ->type_name("FILE");
-  cmd->callback([options] { not_built_yet("run", "the conformance engine is not built yet"); });
+  cmd->add_option("--vectors", options->vectors,
+                  "Vector directory (default: the source tree's vectors/)")
+      ->check(CLI::ExistingDirectory)
+      ->type_name("DIR");
+  cmd->add_option("--deviation", options->deviations,
+                  "Inject a named deviation into the embedded drive (repeatable; --bus sim only)")
+      ->type_name("NAME");
+  cmd->callback([options] { run(*options); });
 }
 
 }  // namespace drivecheck::cli

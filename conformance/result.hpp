@@ -28,8 +28,8 @@ enum class Verdict : std::uint8_t {
 inline constexpr std::size_t kVerdictCount = 5;
 
 constexpr std::string_view to_string(Verdict verdict) {
-  constexpr std::array<std::string_view, kVerdictCount> kNames{
-      "pass", "fail", "deviation", "not-applicable", "error"};
+  constexpr std::array<std::string_view, kVerdictCount> kNames{"pass", "fail", "deviation",
+                                                               "not-applicable", "error"};
   return kNames[static_cast<std::size_t>(verdict)];
 }
 constexpr std::string_view to_string(Level level) {
@@ -47,10 +47,10 @@ struct EvidenceFrame {
 
 // One checked expectation: what the step required and what was seen.
 struct Check {
-  std::size_t step = 0;   // index into the vector's steps
-  std::string action;     // the step's action key, e.g. "expect_frame", "sdo_read"
-  std::string expected;   // e.g. "580+5#80416000020001 06 (abort 06010002h)", "one of {...}"
-  std::string actual;     // what the DUT did, or "nothing within 100 ms"
+  std::size_t step = 0;  // index into the vector's steps
+  std::string action;    // the step's action key, e.g. "expect_frame", "sdo_read"
+  std::string expected;  // e.g. "580+5#80416000020001 06 (abort 06010002h)", "one of {...}"
+  std::string actual;    // what the DUT did, or "nothing within 100 ms"
   bool ok = false;
 };
 
@@ -90,7 +90,12 @@ struct VectorResult {
   bool warning = false;          // a should/may vector failed and --strict was not given
 
   std::vector<Check> checks;
+  // The frames of the vector; a long one keeps its first and last frames only (the run's
+  // candump trace, --trace, has every frame): frames_elided frames were left out after
+  // frames[frames_elided_at - 1].
   std::vector<EvidenceFrame> frames;
+  std::size_t frames_elided = 0;
+  std::size_t frames_elided_at = 0;
   std::vector<Timing> timings;
   std::vector<Sample> samples;
   can::TimePoint started{};
@@ -100,8 +105,8 @@ struct VectorResult {
 
 // The device under test, as read from it at the start of the run (absent: not readable).
 struct DutIdentity {
-  std::optional<std::uint32_t> device_type;  // 1000h
-  std::optional<std::string> device_name;    // 1008h
+  std::optional<std::uint32_t> device_type;     // 1000h
+  std::optional<std::string> device_name;       // 1008h
   std::optional<std::string> hardware_version;  // 1009h
   std::optional<std::string> software_version;  // 100Ah
   std::optional<std::uint32_t> vendor_id;       // 1018h sub 1..4
@@ -118,9 +123,9 @@ struct RunInfo {
   std::string profile_name;  // e.g. "festo-cmmp"
   std::string profile_title;
   std::string profile_file;
-  std::string eds_file;    // "" when none
-  std::string eds_sha256;  // "" when none
-  std::string personality;             // embedded default: the personality the drive took
+  std::string eds_file;                 // "" when none
+  std::string eds_sha256;               // "" when none
+  std::string personality;              // embedded default: the personality the drive took
   std::vector<std::string> deviations;  // embedded default: deviations injected into the drive
   std::uint64_t seed = 0;
   bool strict = false;
@@ -134,7 +139,8 @@ struct VerdictCounts {
   std::size_t warnings = 0;
   std::size_t total() const {
     std::size_t sum = 0;
-    for (auto n : by_verdict) sum += n;
+    for (auto n : by_verdict)
+      sum += n;
     return sum;
   }
   std::size_t operator[](Verdict verdict) const {

@@ -1,0 +1,83 @@
+#include "cli/embedded_drive.hpp"
+
+#include <fmt/format.h>
+
+#include <string_view>
+#include <utility>
+
+#include "reference_drive/deviations.hpp"
+#include "reference_drive/servo_drive.hpp"
+
+namespace drivecheck::cli {
+
+// The servo drive's simulated inputs, as the engine's `simulate` steps name them.
+class ServoSimulation final : public conformance::SimulationControl {
+ public:
+  explicit ServoSimulation(reference_drive::ServoDrive& drive) : drive_(drive) {}
+  std::string set_input(std::string_view input, std::int64_t value) override {
+    auto done = drive_.simulate(input, value);
+    return done ? std::string() : std::move(done).error();
+  }
+  std::string reset_inputs() override {
+    // The inputs cia402_application.hpp documents, at their power-on values.
+    static constexpr std::pair<std::string_view, std::int64_t> kPowerOn[] = {
+        {"hardware-enable", 1},       {"switch-layout-clear", 0},    {"limit-positive", -1},
+        {"limit-negative", -1},       {"home-switch", -1},           {"load-torque", 0},
+        {"fault:following-error", 0}, {"fault:limit-switch", 0},     {"fault:overcurrent", 0},
+        {"fault:over-voltage", 0},    {"fault:over-temperature", 0},
+    };
+    for (const auto& [input, value] : kPowerOn) {
+      if (auto error = set_input(input, value); !error.empty()) {
+        return fmt::format("{} := {}: {}", input, value, error);
+      }
+    }
+    return {};
+  }
+
+ private:
+  reference_drive::ServoDrive& drive_;
+};
+
+struct EmbeddedDrive::State {
+  std::unique_ptr<can::SimPort> port;
+  std::unique_ptr<reference_drive::ServoDrive> drive;
+  std::unique_ptr<ServoSimulation> simulation;
+  std::string personality;
+};
+
+EmbeddedDrive::EmbeddedDrive(std::unique_ptr<State> state, std::vector<std::string> deviations)
+    : state_(std::move(state)), deviations_(std::move(deviations)) {}
+
+EmbeddedDrive::~EmbeddedDrive() = default;
+
+Expected<std::unique_ptr<EmbeddedDrive>, std::string> EmbeddedDrive::create(
+    can::SimBus& bus, std::uint8_t node, const profile::DriveProfile& profile,
+    const std::vector<std::string>& deviations) {
+  auto parsed = reference_drive::DeviationSet::parse(deviations);
+  if (!parsed) return Unexpected(std::move(parsed).error());
+  auto state = std::make_unique<State>();
+  state->port = bus.attach("drive");
+  reference_drive::ServoDriveOptions options;
+  options.node = node;
+  // The standard profile describes the reference drive as it is: no personality to take.
+  const bool standard = profile.name == "cia402-reference";
+  options.profile = standard ? nullptr : &profile;
+  options.deviations = std::move(*parsed);
+  auto drive = reference_drive::ServoDrive::create(*state->port, std::move(options));
+  if (!drive) return Unexpected(std::move(drive).error());
+  state->drive = std::move(*drive);
+  state->simulation = std::make_unique<ServoSimulation>(*state->drive);
+  state->personality = standard ? std::string() : profile.name;
+  state->drive->power_on();
+  return std::unique_ptr<EmbeddedDrive>(new EmbeddedDrive(std::move(state), deviations));
+}
+
+conformance::SimulationControl* EmbeddedDrive::simulation() {
+  return state_->simulation.get();
+}
+
+std::string EmbeddedDrive::personality() const {
+  return state_->personality;
+}
+
+}  // namespace drivecheck::cli

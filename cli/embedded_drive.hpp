@@ -1,0 +1,46 @@
+// The embedded default of `drivecheck run`: a drive on the simulated bus, on its own port, for
+// the engine to test over another port. The engine never sees this class except through
+// conformance::SimulationControl (and only when the drive has simulated inputs).
+//
+// The drive is the full servo drive (reference_drive/servo_drive.hpp: CiA 301 device, CiA 402
+// application with its simulated axis and inputs), impersonating the profile's drive (no
+// personality for the standard profile cia402-reference), with the named deviations injected.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "conformance/simulation_control.hpp"
+#include "protocol/can/sim_bus.hpp"
+#include "protocol/common/expected.hpp"
+#include "protocol/profile/drive_profile.hpp"
+
+namespace drivecheck::cli {
+
+class EmbeddedDrive {
+ public:
+  // Attaches the drive to `bus` as node `node` and powers it on. `bus` must outlive it.
+  // Errors: a deviation name the drive does not have, a bad node-ID.
+  static Expected<std::unique_ptr<EmbeddedDrive>, std::string> create(
+      can::SimBus& bus, std::uint8_t node, const profile::DriveProfile& profile,
+      const std::vector<std::string>& deviations);
+  ~EmbeddedDrive();
+  EmbeddedDrive(const EmbeddedDrive&) = delete;
+  EmbeddedDrive& operator=(const EmbeddedDrive&) = delete;
+
+  // The simulated inputs, or nullptr when the drive has none.
+  conformance::SimulationControl* simulation();
+  // What goes into RunInfo: the personality taken ("" = none) and the deviations injected.
+  std::string personality() const;
+  const std::vector<std::string>& deviations() const { return deviations_; }
+
+ private:
+  struct State;
+  explicit EmbeddedDrive(std::unique_ptr<State> state, std::vector<std::string> deviations);
+  std::unique_ptr<State> state_;
+  std::vector<std::string> deviations_;
+};
+
+}  // namespace drivecheck::cli

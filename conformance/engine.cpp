@@ -1,0 +1,369 @@
+// The run: filter, applicability, one VectorRun per vector, dut-lost accounting, identity,
+// and on a real bus the safety measures (harness heartbeat, 1016h, motion envelope).
+#include "conformance/engine.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+
+#include "conformance/vector_run.hpp"
+#include "conformance/verdict.hpp"
+#include "protocol/cia301/dissector.hpp"
+#include "protocol/cia301/nmt_master.hpp"
+#include "protocol/cia301/object_dictionary.hpp"
+#include "protocol/profile/vocabulary.hpp"
+
+namespace drivecheck::conformance {
+
+namespace {
+
+// A report stays readable (and a run of hundreds of long vectors stays in megabytes, not
+// gigabytes): a vector keeps its first kHeadFrames and last kTailFrames frames. The first show
+// the setup and the stimulus, the last what led to the verdict; the trace log has the rest.
+constexpr std::size_t kHeadFrames = 150;
+constexpr std::size_t kTailFrames = 450;
+
+constexpr std::size_t kMaxSamples = 1500;
+
+void keep_head_and_tail(VectorResult& result) {
+  // Samples feed the timing diagram: a long vector keeps every k-th (the diagram's shape stays;
+  // the last sample is kept so the diagram ends where the vector did).
+  if (result.samples.size() > kMaxSamples) {
+    const std::size_t stride = (result.samples.size() + kMaxSamples - 1) / kMaxSamples;
+    std::vector<Sample> kept;
+    kept.reserve(kMaxSamples + 1);
+    for (std::size_t i = 0; i < result.samples.size(); i += stride)
+      kept.push_back(std::move(result.samples[i]));
+    if ((result.samples.size() - 1) % stride != 0) kept.push_back(std::move(result.samples.back()));
+    result.samples = std::move(kept);
+  }
+  auto& frames = result.frames;
+  if (frames.size() <= kHeadFrames + kTailFrames) return;
+  const std::size_t elided = frames.size() - kHeadFrames - kTailFrames;
+  frames.erase(frames.begin() + static_cast<std::ptrdiff_t>(kHeadFrames),
+               frames.begin() + static_cast<std::ptrdiff_t>(kHeadFrames + elided));
+  result.frames_elided = elided;
+  result.frames_elided_at = kHeadFrames;
+}
+
+}  // namespace
+
+class Engine::Impl {
+ public:
+  Impl(can::Bus& bus, const profile::DriveProfile& profile, EngineOptions options,
+       const std::atomic<bool>& interrupted, const std::atomic<bool>& stalled,
+       std::atomic<std::uint64_t>& progress)
+      : bus_(bus),
+        profile_(profile),
+        options_(std::move(options)),
+        dissector_(dissector_options(options_)),
+        context_{bus_, profile_, options_, dissector_, interrupted, stalled, progress} {
+    bus_.set_frame_handler({});
+    bus_.set_loopback(true);
+    if (options_.harness_node == options_.node)
+      options_.harness_node = options_.node == 127 ? 126 : 127;
+  }
+  ~Impl() {
+    if (heartbeat_timer_ != can::kNoTimer) bus_.cancel_timer(heartbeat_timer_);
+  }
+
+  static cia301::DissectorOptions dissector_options(const EngineOptions& options) {
+    cia301::DissectorOptions dissector;
+    if (options.eds != nullptr) {
+      const auto* od = options.eds;
+      dissector.object_name = [od](std::uint16_t index,
+                                   std::uint8_t sub) -> std::optional<std::string> {
+        if (const auto* entry = od->find(index, sub)) return entry->name();
+        return std::nullopt;
+      };
+    }
+    return dissector;
+  }
+
+  VectorResult run_vector(const Vector& vector, bool* dut_spoke) {
+    VectorResult result;
+    result.id = vector.id;
+    result.family = vector.family();
+    result.title = vector.title;
+    for (const auto& source : vector.sources)
+      result.sources.push_back(source.text);
+    result.level = vector.level;
+    result.file = vector.file;
+    result.line = vector.line;
+    result.started = bus_.now();
+    const auto wall_start = std::chrono::steady_clock::now();
+
+    const ApplicabilityContext applicability{options_.simulation != nullptr,
+                                             !options_.real_bus || options_.allow_motion};
+    if (auto reason = not_applicable_reason(vector, profile_, applicability); !reason.empty()) {
+      result.verdict = Verdict::not_applicable;
+      result.message = std::move(reason);
+      result.finished = result.started;
+      if (dut_spoke != nullptr) *dut_spoke = true;  // not a silence
+      return result;
+    }
+    if (options_.real_bus && vector.motion) prepare_motion(result);
+    VectorRun run(context_, vector, result);
+    const auto status = run.run_steps();
+    run.teardown();
+    run.drain();
+    if (context_.stalled.load()) {
+      decide_verdict(result, vector, profile_, Outcome::harness_error,
+                     "the simulation stopped advancing (a livelock in a simulated node): "
+                     "the run was stopped by the watchdog",
+                     options_.strict);
+      result.finished = bus_.now();
+      if (dut_spoke != nullptr) *dut_spoke = false;
+      return result;
+    }
+    const Outcome outcome = status == StepStatus::ok       ? Outcome::pass
+                            : status == StepStatus::failed ? Outcome::fail
+                                                           : Outcome::harness_error;
+    decide_verdict(result, vector, profile_, outcome, run.message(), options_.strict);
+    keep_head_and_tail(result);
+    result.finished = bus_.now();
+    result.wall_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+    if (dut_spoke != nullptr) *dut_spoke = run.dut_spoke();
+    return result;
+  }
+
+  // Real bus, before the first motion vector: the envelope, the harness heartbeat, 1016h.
+  void prepare_motion(VectorResult& result) {
+    if (motion_prepared_) return;
+    motion_prepared_ = true;
+    Vector probe;
+    probe.id = "harness/motion-envelope";
+    probe.setup = Setup::none;
+    probe.nmt.reset();
+    VectorResult scratch;
+    VectorRun run(context_, probe, scratch);
+    struct EnvelopeObject {
+      std::uint16_t index;
+      std::uint8_t sub;
+      const char* name;
+    };
+    constexpr std::array<EnvelopeObject, 10> kEnvelope{{
+        {0x607D, 1, "software position limit min"},
+        {0x607D, 2, "software position limit max"},
+        {0x607F, 0, "max profile velocity"},
+        {0x6080, 0, "max motor speed"},
+        {0x6072, 0, "max torque"},
+        {0x6065, 0, "following error window"},
+        {0x6066, 0, "following error time out"},
+        {0x6085, 0, "quick stop deceleration"},
+        {0x605A, 0, "quick stop option code"},
+        {0x6007, 0, "abort connection option code"},
+    }};
+    for (const auto& object : kEnvelope) {
+      const auto outcome = run.sdo_upload({object.index, object.sub});
+      result.checks.push_back(
+          Check{0, "envelope",
+                fmt::format("{:04X}h sub {} ({}) recorded", object.index, object.sub, object.name),
+                outcome.describe(), true});
+    }
+    // The harness becomes a heartbeat producer; the DUT consumes it (1016h sub 1:
+    // node-ID in bits 16..23, time in ms in bits 0..15, 3x our period).
+    start_heartbeat();
+    const auto period_ms = static_cast<std::uint32_t>(
+        std::chrono::duration_cast<std::chrono::milliseconds>(options_.harness_heartbeat).count());
+    const std::uint32_t consumer =
+        static_cast<std::uint32_t>(options_.harness_node) << 16 | (period_ms * 3 & 0xFFFF);
+    const std::array<std::uint8_t, 4> bytes{
+        static_cast<std::uint8_t>(consumer), static_cast<std::uint8_t>(consumer >> 8),
+        static_cast<std::uint8_t>(consumer >> 16), static_cast<std::uint8_t>(consumer >> 24)};
+    const auto outcome = run.sdo_download({0x1016, 1}, bytes);
+    result.checks.push_back(
+        Check{0, "envelope",
+              fmt::format("1016h sub 1 := {:08X}h (consume the harness heartbeat)", consumer),
+              outcome.describe(), true});
+    for (auto& frame : scratch.frames)
+      result.frames.push_back(std::move(frame));
+  }
+
+  void start_heartbeat() {
+    if (heartbeat_timer_ != can::kNoTimer) return;
+    const auto tick = [this](auto&& self) -> void {
+      (void)bus_.send(can::Frame::standard(0x700U + options_.harness_node, {0x05}));
+      heartbeat_timer_ =
+          bus_.start_timer_after(options_.harness_heartbeat, [this, self] { self(self); });
+    };
+    tick(tick);
+  }
+
+  DutIdentity read_identity() {
+    DutIdentity identity;
+    Vector probe;
+    probe.id = "harness/identity";
+    VectorResult scratch;
+    VectorRun run(context_, probe, scratch);
+    const auto u32 = [&](std::uint16_t index, std::uint8_t sub) -> std::optional<std::uint32_t> {
+      const auto outcome = run.sdo_upload({index, sub});
+      if (!outcome.ok || outcome.data.size() != 4) return std::nullopt;
+      return static_cast<std::uint32_t>(cia301::load_unsigned(outcome.data));
+    };
+    const auto text = [&](std::uint16_t index) -> std::optional<std::string> {
+      const auto outcome = run.sdo_upload({index, 0});
+      if (!outcome.ok) return std::nullopt;
+      std::string value(outcome.data.begin(), outcome.data.end());
+      while (!value.empty() && value.back() == '\0')
+        value.pop_back();
+      return value;
+    };
+    identity.device_type = u32(0x1000, 0);
+    identity.device_name = text(0x1008);
+    identity.hardware_version = text(0x1009);
+    identity.software_version = text(0x100A);
+    identity.vendor_id = u32(0x1018, 1);
+    identity.product_code = u32(0x1018, 2);
+    identity.revision = u32(0x1018, 3);
+    identity.serial = u32(0x1018, 4);
+    identity_answered_ = run.dut_spoke();
+    return identity;
+  }
+
+  can::Bus& bus_;
+  const profile::DriveProfile& profile_;
+  EngineOptions options_;
+  cia301::Dissector dissector_;
+  EngineContext context_;
+  bool motion_prepared_ = false;
+  bool identity_answered_ = false;
+  can::TimerId heartbeat_timer_ = can::kNoTimer;
+};
+
+Engine::Engine(can::Bus& port, const profile::DriveProfile& profile, EngineOptions options)
+    : impl_(std::make_unique<Impl>(port, profile, std::move(options), interrupted_, stalled_,
+                                   progress_)) {}
+
+void Engine::declare_stalled() {
+  stalled_.store(true);
+  impl_->bus_.stop();
+}
+
+Engine::~Engine() = default;
+
+void Engine::interrupt() {
+  interrupted_.store(true);
+  impl_->bus_.stop();
+}
+
+DutIdentity Engine::read_identity() {
+  return impl_->read_identity();
+}
+
+VectorResult Engine::run_vector(const Vector& vector) {
+  return impl_->run_vector(vector, nullptr);
+}
+
+VectorResult Engine::probe_undocumented_objects(
+    const std::function<bool(std::uint16_t)>& documented, const std::string& source) {
+  Vector probe;
+  probe.id = "eds/od/undocumented-objects";
+  probe.title =
+      "Every object the device answers in 1000h-1FFFh and 6000h-67FFh MUST be in its description";
+  probe.sources.push_back(Source{source, "", "", 0, 0, 0});
+  probe.setup = Setup::none;
+  probe.nmt.reset();
+  probe.timeout = DurationSpec{std::chrono::minutes(30), {}};
+  probe.file = "(generated)";
+  VectorResult result;
+  result.id = probe.id;
+  result.family = probe.family();
+  result.title = probe.title;
+  result.sources = {source};
+  result.file = probe.file;
+  result.started = impl_->bus_.now();
+  const auto wall_start = std::chrono::steady_clock::now();
+  VectorRun run(impl_->context_, probe, result);
+  std::vector<std::string> found;
+  std::vector<EvidenceFrame> kept;
+  for (const auto& [first, last] : {std::pair{0x1000, 0x1FFF}, std::pair{0x6000, 0x67FF}}) {
+    for (int index = first; index <= last && !interrupted_.load() && !stalled_.load(); ++index) {
+      const auto idx = static_cast<std::uint16_t>(index);
+      if (documented(idx)) continue;
+      const auto frames_before = result.frames.size();
+      const auto outcome = run.sdo_upload({idx, 0});
+      const bool absent = outcome.abort && *outcome.abort == 0x06020000;
+      const bool silent = !outcome.ok && !outcome.abort;
+      if (!absent && !silent) {
+        found.push_back(fmt::format("{:04X}h ({})", idx, outcome.describe()));
+        kept.insert(kept.end(), result.frames.begin() + static_cast<std::ptrdiff_t>(frames_before),
+                    result.frames.end());
+      }
+      result.frames.resize(frames_before);
+    }
+  }
+  result.frames = std::move(kept);
+  const std::string expected = "every object answered is described (others abort 06020000h)";
+  const auto actual = found.empty()
+                          ? std::string("none undescribed")
+                          : fmt::format("{} undescribed: {}", found.size(), fmt::join(found, ", "));
+  result.checks.push_back(Check{0, "probe", expected, actual, found.empty()});
+  decide_verdict(result, probe, impl_->profile_, found.empty() ? Outcome::pass : Outcome::fail,
+                 fmt::format("step 1 probe:\n  Expected: {}\n  Actual:   {}", expected, actual),
+                 impl_->options_.strict);
+  result.finished = impl_->bus_.now();
+  result.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return result;
+}
+
+RunResult Engine::run(const std::vector<Vector>& vectors, RunInfo info) {
+  RunResult result;
+  const auto& options = impl_->options_;
+  info.node = options.node;
+  info.strict = options.strict;
+  info.allow_motion = options.allow_motion;
+  info.filter = options.filter;
+  info.profile_name = impl_->profile_.name;
+  info.profile_title = impl_->profile_.title;
+  if (info.profile_file.empty()) info.profile_file = impl_->profile_.path.string();
+  result.info = std::move(info);
+  const auto sim_start = impl_->bus_.now();
+  const auto wall_start = std::chrono::steady_clock::now();
+  const auto finish = [&] {
+    result.simulated = impl_->bus_.now() - sim_start;
+    result.wall_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+    return result;
+  };
+
+  // Wake the DUT to a state where SDO works (pre-operational) and read who it is.
+  cia301::NmtMaster master;
+  (void)impl_->bus_.send(master.command(cia301::NmtCommand::enter_pre_operational, options.node));
+  result.info.dut = impl_->read_identity();
+  if (!impl_->identity_answered_) {
+    result.dut_lost = true;
+    return finish();
+  }
+  std::size_t silent = 0;
+  for (const auto& vector : vectors) {
+    if (!options.filter.empty() && !profile::glob_match(options.filter, vector.id)) continue;
+    if (interrupted_.load()) {
+      result.interrupted = true;
+      break;
+    }
+    if (options.on_vector_started) options.on_vector_started(vector);
+    bool dut_spoke = true;
+    auto vector_result = impl_->run_vector(vector, &dut_spoke);
+    if (options.on_vector_finished) options.on_vector_finished(vector_result);
+    result.vectors.push_back(std::move(vector_result));
+    if (stalled_.load()) {
+      result.dut_lost = true;
+      break;
+    }
+    if (interrupted_.load()) {
+      result.interrupted = true;
+      break;
+    }
+    silent = dut_spoke ? 0 : silent + 1;
+    if (options.max_silent_vectors > 0 && silent >= options.max_silent_vectors) {
+      result.dut_lost = true;
+      break;
+    }
+  }
+  return finish();
+}
+
+}  // namespace drivecheck::conformance

@@ -1,0 +1,117 @@
+// The conformance engine: runs vectors (vector.hpp) against a device under test (DUT) on one
+// can::Bus port, as a real master would (it never includes reference-drive code), and returns a
+// RunResult (result.hpp) with a verdict and the evidence for every vector.
+//
+// Per vector:
+//   1. applicability (verdict.hpp): `profiles:` must name the selected profile, every
+//      `requires:` feature must be supported by the profile (`simulation`: a SimulationControl
+//      is present; `motion`: the bus is simulated or --allow-motion was given). Else N/A.
+//   2. setup (setup.cpp): reset-node / reset-communication (boot-up awaited within
+//      $timing.bootup) / restore-defaults (1011h sub 1 "load", then reset node) / none; then
+//      the NMT state (`nmt:`), then the CiA 402 state (`drive_state:`) by the standard path.
+//   3. steps, in order, each with its own deadline (`within:` etc.) and the vector's `timeout:`
+//      over all; the first failed check ends the steps.
+//   4. teardown (always): with CiA 402, after a motion vector or when the last statusword read
+//      showed OPERATION ENABLED: quick stop (0002h) then disable voltage (0000h).
+//   5. verdict (verdict.hpp): pass / fail / deviation (a profile deviation's glob matches) /
+//      error (harness error: an unknown mark, a simulate input the drive does not know, a send
+//      the bus refused); should/may failures are warnings unless strict.
+//
+// Time: waiting is receive(deadline) on the port, so on the simulated bus it advances simulated
+// time and runs the drive; on SocketCAN it blocks in poll(). The engine turns loopback on and
+// records its own frames from their echo, so every evidence frame carries its wire time.
+//
+// A DUT that sends nothing at all during `max_silent_vectors` consecutive applicable vectors
+// (or does not answer the identity reads at the start) is lost: the run stops, dut_lost is set
+// (exit 3). interrupt() (safe from a signal handler) stops the run after the current step;
+// teardown still runs and the result is marked interrupted (exit 130).
+//
+// On a real bus (EngineOptions::real_bus), before the first motion vector the engine reads and
+// records the motion envelope (607Dh, 607Fh, 6080h, 6072h, 6065h, 6066h, 6085h, 605Ah, 6007h),
+// produces a heartbeat of its own (node EngineOptions::harness_node) and makes the DUT consume
+// it through 1016h sub 1, so that a dead harness stops the drive (6007h).
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "conformance/result.hpp"
+#include "conformance/simulation_control.hpp"
+#include "conformance/vector.hpp"
+#include "protocol/can/bus.hpp"
+#include "protocol/profile/drive_profile.hpp"
+
+namespace drivecheck::cia301 {
+class ObjectDictionary;
+}  // namespace drivecheck::cia301
+
+namespace drivecheck::conformance {
+
+struct EngineOptions {
+  std::uint8_t node = 1;  // the DUT's node-ID
+  bool strict = false;    // should/may failures are failures
+  bool allow_motion = false;
+  bool real_bus = false;  // SocketCAN: safety measures (motion guard, heartbeat, envelope)
+  std::string filter;     // glob over vector ids; empty: all
+  // Consecutive applicable vectors without a single frame from the DUT before it counts as lost.
+  std::size_t max_silent_vectors = 3;
+  std::uint8_t harness_node = 127;  // heartbeat producer id on a real bus (126 if the DUT is 127)
+  can::Duration harness_heartbeat = std::chrono::milliseconds(100);
+  SimulationControl* simulation = nullptr;  // not owned; nullptr: no `simulate`
+  // The DUT's object dictionary as its EDS describes it (not owned; may be null): data sizes for
+  // sdo_write without `size:`, object names for the dissector.
+  const cia301::ObjectDictionary* eds = nullptr;
+  // Called as each vector starts / ends (console progress).
+  std::function<void(const Vector&)> on_vector_started;
+  std::function<void(const VectorResult&)> on_vector_finished;
+};
+
+class Engine {
+ public:
+  // `port` and `profile` must outlive the engine. The engine takes the port in pull mode
+  // (no frame handler) and turns its loopback on.
+  Engine(can::Bus& port, const profile::DriveProfile& profile, EngineOptions options);
+  ~Engine();
+  Engine(const Engine&) = delete;
+  Engine& operator=(const Engine&) = delete;
+
+  // Runs every vector that passes the filter, in order. `info` is copied into the result
+  // (the engine fills dut, strict, allow_motion, filter, node, profile name/title/file).
+  RunResult run(const std::vector<Vector>& vectors, RunInfo info = {});
+  // One vector, with setup and teardown (no identity read, no dut-lost accounting).
+  VectorResult run_vector(const Vector& vector);
+  // Reads the DUT's identity objects (absent: not readable).
+  DutIdentity read_identity();
+  // `eds/od/undocumented-objects`: reads sub 0 of every index in 1000h-1FFFh and 6000h-67FFh
+  // for which `documented(index)` is false; any answer but abort 06020000h (object does not
+  // exist) is an object the description lacks (fail, listed). Evidence keeps the frames of the
+  // objects found only (the probe is ~10,000 transfers).
+  VectorResult probe_undocumented_objects(const std::function<bool(std::uint16_t)>& documented,
+                                          const std::string& source);
+
+  // Stop after the current step (teardown still runs). Async-signal-safe.
+  void interrupt();
+  bool interrupted() const { return interrupted_.load(); }
+
+  // A watchdog (another thread) may watch progress(): it counts every return from the bus.
+  // On a simulated bus that stops advancing (a livelock in a simulated node: events at one
+  // instant forever), it calls declare_stalled(): the bus is stopped, the current vector ends
+  // as a harness error without teardown, and the run ends with dut_lost. Thread-safe.
+  std::uint64_t progress() const { return progress_.load(std::memory_order_relaxed); }
+  void declare_stalled();
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+  std::atomic<bool> interrupted_{false};
+  std::atomic<bool> stalled_{false};
+  std::atomic<std::uint64_t> progress_{0};
+};
+
+}  // namespace drivecheck::conformance

@@ -1,0 +1,293 @@
+// Expectation steps: frame matching against what the DUT sends, the polled CiA 402 checks,
+// marks and timing measurements. A watching step sees the frames that arrived after the
+// previous step ended (or after `since:` its mark), never earlier ones.
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "conformance/vector_run.hpp"
+#include "protocol/cia301/emcy.hpp"
+#include "protocol/profile/vocabulary.hpp"
+
+namespace drivecheck::conformance {
+namespace {
+
+std::string ms(can::Duration duration) {
+  return fmt::format("{:.3f} ms", std::chrono::duration<double, std::milli>(duration).count());
+}
+
+std::string cob_text(const CobIdSpec& cob, std::uint8_t node) {
+  return cob.plus_node ? fmt::format("{:X}+N ({:03X})", cob.base, cob.resolve(node))
+                       : fmt::format("{:03X}", cob.base);
+}
+
+}  // namespace
+
+void VectorRun::set_mark(const std::string& name, can::TimePoint at, std::size_t index) {
+  marks_[name] = Mark{at, index};
+}
+
+std::size_t VectorRun::watch_start(const std::string& since) const {
+  if (since.empty()) return received_.size();
+  const auto it = marks_.find(since);
+  return it == marks_.end() ? received_.size() : it->second.index;
+}
+
+std::optional<std::size_t> VectorRun::watch(std::size_t from, can::TimePoint deadline,
+                                            const std::function<bool(const can::Frame&)>& match) {
+  for (std::size_t i = from; i < received_.size(); ++i) {
+    if (match(received_[i].frame)) return i;
+  }
+  while (now() < deadline && !vector_timed_out()) {
+    auto frame = pump(deadline);
+    if (!frame) {
+      if (context_.interrupted.load()) return std::nullopt;
+      continue;
+    }
+    if (match(frame->frame)) return received_.size() - 1;
+  }
+  return std::nullopt;
+}
+
+StepStatus VectorRun::poll_statusword(std::string action, std::uint16_t mask, std::uint16_t value,
+                                      std::string expected, can::TimePoint deadline) {
+  const auto every = resolve({{}, "poll"});
+  std::string last = "no statusword read";
+  while (true) {
+    const auto started = now();
+    const auto outcome = sdo_upload({0x6041, 0});
+    if (outcome.ok && outcome.data.size() == 2) {
+      const auto sw = static_cast<std::uint16_t>(outcome.data[0] | outcome.data[1] << 8);
+      if ((sw & mask) == value) {
+        check(std::move(action), std::move(expected),
+              fmt::format("statusword {:04X}h ({})", sw, cia402::describe_statusword(sw)), true);
+        return StepStatus::ok;
+      }
+      last = fmt::format("statusword {:04X}h ({})", sw, cia402::describe_statusword(sw));
+    } else {
+      last = fmt::format("reading 6041h: {}", outcome.describe());
+    }
+    if (now() >= deadline || vector_timed_out() || context_.interrupted.load()) break;
+    wait_until(std::min(deadline, std::max(now(), started + every)));
+  }
+  return fail(std::move(action), std::move(expected), fmt::format("{} at the deadline", last));
+}
+
+StepStatus VectorRun::run_expectation(const Step& step) {
+  const auto& action = step.action;
+  const std::string name(action_name(action));
+  const auto start = now();
+  if (const auto* e = std::get_if<ExpectFrameStep>(&action)) {
+    const auto within = resolve(e->within);
+    const auto from = watch_start(e->since);
+    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    const auto expected = fmt::format("a frame matching {} within {}", e->pattern.text,
+                                      profile::format_duration(within));
+    const auto hit = watch(from, base + within,
+                           [&](const can::Frame& f) { return e->pattern.matches(f, node()); });
+    if (!hit)
+      return fail(name, expected,
+                  fmt::format("nothing matching within {}; {}", profile::format_duration(within),
+                              recent_frames(from)));
+    const auto& frame = received_[*hit];
+    if (!e->mark.empty()) set_mark(e->mark, frame.timestamp, *hit + 1);
+    check(name, expected, fmt::format("{} after {}", frame.frame, ms(frame.timestamp - base)),
+          true);
+    return StepStatus::ok;
+  }
+  if (const auto* e = std::get_if<ExpectSilenceStep>(&action)) {
+    const auto duration = resolve(e->duration);
+    const auto from = watch_start(e->since);
+    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    std::vector<std::string> cobs;
+    for (const auto& cob : e->cob_ids)
+      cobs.push_back(cob_text(cob, node()));
+    const auto expected =
+        e->any ? fmt::format("no frame at all for {}", profile::format_duration(duration))
+               : fmt::format("no frame on {} for {}", fmt::join(cobs, ", "),
+                             profile::format_duration(duration));
+    const auto hit = watch(from, base + duration, [&](const can::Frame& f) {
+      if (e->any) return true;
+      return std::any_of(e->cob_ids.begin(), e->cob_ids.end(), [&](const CobIdSpec& cob) {
+        return !f.is_error() && f.id == cob.resolve(node()) && f.is_extended() == cob.extended;
+      });
+    });
+    if (hit)
+      return fail(
+          name, expected,
+          fmt::format("{} after {}", received_[*hit].frame, ms(received_[*hit].timestamp - base)));
+    check(name, expected, "silence", true);
+    return StepStatus::ok;
+  }
+  if (const auto* e = std::get_if<ExpectBootupStep>(&action)) {
+    const auto within = resolve(e->within);
+    const auto from = watch_start(e->since);
+    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    const auto expected = fmt::format("boot-up {:03X}#00 within {}", 0x700 + node(),
+                                      profile::format_duration(within));
+    const auto hit = watch(from, base + within, [&](const can::Frame& f) {
+      return !f.is_extended() && !f.is_remote() && f.id == 0x700U + node() && f.length() == 1 &&
+             f.data[0] == 0;
+    });
+    if (!hit) return fail(name, expected, fmt::format("no boot-up; {}", recent_frames(from)));
+    if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
+    check(name, expected, fmt::format("after {}", ms(received_[*hit].timestamp - base)), true);
+    return StepStatus::ok;
+  }
+  if (const auto* e = std::get_if<ExpectHeartbeatStep>(&action)) {
+    can::Duration within{};
+    if (e->within) {
+      within = resolve(*e->within);
+    } else {
+      if (!heartbeat_time_) (void)sdo_upload({0x1017, 0});
+      within = heartbeat_time_ && heartbeat_time_->count() > 0 ? *heartbeat_time_ * 3 / 2
+                                                               : resolve({{}, "response"});
+    }
+    const auto from = e->since.empty() ? watch_start({}) : watch_start(e->since);
+    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    const auto state = static_cast<std::uint8_t>(e->state);
+    const auto expected =
+        fmt::format("heartbeat {:03X}#{:02X} ({}) within {}", 0x700 + node(), state,
+                    cia301::to_string(e->state), profile::format_duration(within));
+    const auto hit =
+        watch(std::min(from, received_.size()), base + within, [&](const can::Frame& f) {
+          return !f.is_extended() && !f.is_remote() && f.id == 0x700U + node() && f.length() == 1 &&
+                 (f.data[0] & 0x7F) == state;
+        });
+    if (!hit) return fail(name, expected, fmt::format("none; {}", recent_frames(from)));
+    if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
+    check(name, expected, fmt::format("after {}", ms(received_[*hit].timestamp - base)), true);
+    return StepStatus::ok;
+  }
+  if (const auto* e = std::get_if<ExpectEmcyStep>(&action)) {
+    const auto within = resolve(e->within);
+    const auto from = watch_start(e->since);
+    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    auto expected =
+        fmt::format("EMCY {:03X} with code {{{:04X}h}}", 0x80 + node(), fmt::join(e->codes, "h, "));
+    if (e->register_mask)
+      expected +=
+          fmt::format(", register & {:02X}h == {:02X}h", *e->register_mask, e->register_value);
+    expected += fmt::format(" within {}", profile::format_duration(within));
+    const auto hit = watch(from, base + within, [&](const can::Frame& f) {
+      if (f.is_extended() || f.is_remote() || f.id != 0x80U + node() || f.length() != 8)
+        return false;
+      const auto code = static_cast<std::uint16_t>(f.data[0] | f.data[1] << 8);
+      if (std::find(e->codes.begin(), e->codes.end(), code) == e->codes.end()) return false;
+      if (e->register_mask && (f.data[2] & *e->register_mask) != e->register_value) return false;
+      for (std::size_t i = 0; i < e->manufacturer.size(); ++i) {
+        if (e->manufacturer[i] && *e->manufacturer[i] != f.data[3 + i]) return false;
+      }
+      return true;
+    });
+    if (!hit) return fail(name, expected, fmt::format("no such EMCY; {}", recent_frames(from)));
+    if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
+    check(name, expected,
+          fmt::format("{} after {}", received_[*hit].frame, ms(received_[*hit].timestamp - base)),
+          true);
+    return StepStatus::ok;
+  }
+  if (const auto* e = std::get_if<ExpectStateStep>(&action)) {
+    const auto within = resolve(e->within);
+    const auto& pattern = cia402::pattern_of(e->state);
+    return poll_statusword(
+        name, pattern.mask, pattern.value,
+        fmt::format("state {} (statusword & {:04X}h == {:04X}h) within {}", pattern.name,
+                    pattern.mask, pattern.value, profile::format_duration(within)),
+        start + within);
+  }
+  if (const auto* e = std::get_if<ExpectStatuswordStep>(&action)) {
+    const auto within = resolve(e->within);
+    return poll_statusword(name, e->mask, e->value,
+                           fmt::format("statusword & {:04X}h == {:04X}h within {}", e->mask,
+                                       e->value, profile::format_duration(within)),
+                           start + within);
+  }
+  if (const auto* e = std::get_if<PollStep>(&action)) {
+    const auto deadline = start + resolve(e->within);
+    const auto every = resolve(e->every);
+    const auto expected =
+        fmt::format("{:04X}h sub {} & {:X}h == {:X}h within {}", e->index, e->sub, e->mask,
+                    e->value & e->mask, profile::format_duration(resolve(e->within)));
+    std::string last = "nothing read";
+    while (true) {
+      const auto started = now();
+      const auto outcome = sdo_upload({e->index, e->sub});
+      if (outcome.ok) {
+        const auto raw = cia301::load_unsigned(
+            std::span(outcome.data.data(), std::min<std::size_t>(outcome.data.size(), 8)));
+        if ((raw & e->mask) == (e->value & e->mask)) {
+          check(name, expected, fmt::format("{:X}h after {}", raw, ms(now() - start)), true);
+          return StepStatus::ok;
+        }
+        last = fmt::format("{:X}h", raw);
+      } else {
+        last = outcome.describe();
+      }
+      if (now() >= deadline || vector_timed_out() || context_.interrupted.load()) break;
+      wait_until(std::min(deadline, std::max(now(), started + every)));
+    }
+    return fail(name, expected, fmt::format("last read: {}", last));
+  }
+  if (const auto* e = std::get_if<MeasureStep>(&action)) {
+    const auto from = marks_.find(e->from);
+    const auto to = marks_.find(e->to);
+    if (from == marks_.end() || to == marks_.end())
+      return harness_error(
+          name, fmt::format("unknown mark '{}'", from == marks_.end() ? e->from : e->to));
+    const auto interval = to->second.at - from->second.at;
+    Timing timing{fmt::format("{}→{}", e->from, e->to), interval, std::nullopt, std::nullopt, true};
+    if (e->min) timing.min = resolve(*e->min);
+    if (e->max) timing.max = resolve(*e->max);
+    timing.ok =
+        (!timing.min || interval >= *timing.min) && (!timing.max || interval <= *timing.max);
+    result_.timings.push_back(timing);
+    const auto expected = fmt::format("{} → {} in [{}, {}]", e->from, e->to,
+                                      timing.min ? profile::format_duration(*timing.min) : "-",
+                                      timing.max ? profile::format_duration(*timing.max) : "-");
+    if (!timing.ok) return fail(name, expected, ms(interval));
+    check(name, expected, ms(interval), true);
+    return StepStatus::ok;
+  }
+  if (const auto* e = std::get_if<ExpectPeriodicStep>(&action)) {
+    const auto period = resolve(e->period);
+    const auto tolerance = resolve(e->tolerance);
+    const auto expected =
+        fmt::format("{} frames on {} every {} ± {}", e->count, cob_text(e->cob, node()),
+                    profile::format_duration(period), profile::format_duration(tolerance));
+    const auto matches = [&](const can::Frame& f) {
+      return !f.is_error() && f.id == e->cob.resolve(node()) && f.is_extended() == e->cob.extended;
+    };
+    std::size_t from = received_.size();
+    std::optional<can::TimePoint> previous;
+    for (std::size_t n = 0; n < e->count; ++n) {
+      const auto deadline = (previous ? *previous : start) + period + tolerance;
+      const auto hit = watch(from, deadline, matches);
+      if (!hit)
+        return fail(name, expected,
+                    fmt::format("frame {} of {} missing within {}{}", n + 1, e->count,
+                                profile::format_duration(period + tolerance),
+                                previous ? " of the previous one" : " of the step start"));
+      const auto at = received_[*hit].timestamp;
+      if (previous) {
+        const auto interval = at - *previous;
+        Timing timing{fmt::format("period {}", n), interval, period - tolerance, period + tolerance,
+                      true};
+        timing.ok = interval >= *timing.min && interval <= *timing.max;
+        result_.timings.push_back(timing);
+        if (!timing.ok)
+          return fail(name, expected,
+                      fmt::format("interval {} between frames {} and {}", ms(interval), n, n + 1));
+      } else if (!e->mark.empty()) {
+        set_mark(e->mark, at, *hit + 1);
+      }
+      previous = at;
+      from = *hit + 1;
+    }
+    check(name, expected, fmt::format("{} frames, periods within tolerance", e->count), true);
+    return StepStatus::ok;
+  }
+  return StepStatus::ok;  // a stimulus: sdo_steps.cpp
+}
+
+}  // namespace drivecheck::conformance

@@ -1,0 +1,230 @@
+// The typed model of a test vector (vectors/FORMAT.md): what vector_file.cpp makes of the YAML
+// and what the engine runs. Every value here is already validated; only the things that depend
+// on the run (the DUT's node-ID `N`, `$timing.<key>` durations, saved values) are resolved
+// when the vector runs.
+//
+// A step is one struct per action of the closed vocabulary, held in a std::variant; each step
+// keeps its file line so that a harness error or a failed check can point at the YAML.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "conformance/result.hpp"
+#include "protocol/can/bus.hpp"
+#include "protocol/cia301/nmt.hpp"
+#include "protocol/cia402/state_machine.hpp"
+
+namespace drivecheck::conformance {
+
+// A duration: a literal (`100ms`) or a profile timing name (`$timing.sdo_response`).
+struct DurationSpec {
+  can::Duration value{0};
+  std::string timing;  // non-empty: the timing key, resolved against the profile at run time
+  bool is_timing() const { return !timing.empty(); }
+};
+
+// A COB-ID: `080` (absolute) or `600+N` (base plus the DUT's node-ID).
+struct CobIdSpec {
+  std::uint32_t base = 0;
+  bool plus_node = false;
+  bool extended = false;  // written with 8 hex digits (29-bit)
+  std::uint32_t resolve(std::uint8_t node) const { return plus_node ? base + node : base; }
+};
+
+// A frame or frame pattern in candump compact syntax with `+N`, `..` and a trailing `*`.
+struct FrameSpec {
+  std::string text;  // as written, for messages
+  CobIdSpec cob;
+  bool remote = false;
+  std::uint8_t dlc = 0;                            // remote: the DLC; data: byte count
+  std::vector<std::optional<std::uint8_t>> bytes;  // nullopt: `..` (patterns only)
+  bool any_tail = false;                           // pattern ended in `*`
+  // The frame to send (node substituted); patterns with `..` never reach here (loader).
+  can::Frame to_frame(std::uint8_t node) const;
+  bool matches(const can::Frame& frame, std::uint8_t node) const;
+};
+
+// A value that is a literal or a value saved earlier in the vector (`$name`).
+struct ValueSpec {
+  std::int64_t literal = 0;
+  std::string saved;  // non-empty: the name given to an earlier sdo_read's `save:`
+};
+
+enum class NodeKind : std::uint8_t { dut, broadcast, other, value };
+struct NodeSpec {
+  NodeKind kind = NodeKind::dut;
+  std::uint8_t value = 0;  // NodeKind::value
+};
+
+enum class Transfer : std::uint8_t { automatic, expedited, segmented, block };
+
+// What an SDO step accepts as the answer.
+struct SdoExpect {
+  enum class Kind : std::uint8_t { ok, value, range, size, data, abort };
+  Kind kind = Kind::ok;
+  ValueSpec value;
+  std::optional<std::uint64_t> mask;
+  std::int64_t low = 0;
+  std::int64_t high = 0;
+  std::size_t size = 0;
+  std::vector<std::uint8_t> data;
+  std::vector<std::uint32_t> aborts;  // accepted abort codes (a set, CTT style)
+};
+
+// ---- stimuli ----
+struct SendStep {
+  FrameSpec frame;
+};
+struct NmtStep {
+  cia301::NmtCommand command = cia301::NmtCommand::start;
+  NodeSpec node;
+};
+struct SdoWriteStep {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::optional<ValueSpec> value;  // with size
+  std::optional<std::size_t> size;
+  std::vector<std::uint8_t> data;  // `data:` form (value absent)
+  Transfer transfer = Transfer::automatic;
+  SdoExpect expect;  // ok or abort
+};
+struct SdoReadStep {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  Transfer transfer = Transfer::automatic;
+  SdoExpect expect;
+  bool is_signed = false;
+  std::string save;
+};
+struct WaitStep {
+  DurationSpec duration;
+};
+struct ControlwordStep {
+  std::uint16_t value = 0;
+};
+struct SimulateStep {
+  std::string input;
+  std::int64_t value = 0;
+};
+struct MarkStep {
+  std::string name;
+};
+
+// ---- expectations ----
+struct ExpectFrameStep {
+  FrameSpec pattern;
+  DurationSpec within{{}, "response"};
+  std::string mark;
+  std::string since;
+};
+struct ExpectSilenceStep {
+  bool any = false;
+  std::vector<CobIdSpec> cob_ids;
+  DurationSpec duration;  // `for:`
+  std::string since;
+};
+struct ExpectBootupStep {
+  DurationSpec within{{}, "bootup"};
+  std::string mark;
+  std::string since;
+};
+struct ExpectHeartbeatStep {
+  cia301::NmtState state = cia301::NmtState::pre_operational;
+  std::optional<DurationSpec> within;  // default: 1.5 x 1017h when known, else response
+  std::string mark;
+  std::string since;
+};
+struct ExpectEmcyStep {
+  std::vector<std::uint16_t> codes;
+  std::optional<std::uint8_t> register_mask;
+  std::uint8_t register_value = 0;
+  std::vector<std::optional<std::uint8_t>> manufacturer;  // pattern over bytes 3..7
+  DurationSpec within{{}, "response"};
+  std::string mark;
+  std::string since;
+};
+struct ExpectStateStep {
+  cia402::State state = cia402::State::switch_on_disabled;
+  DurationSpec within{{}, "state_change"};
+};
+struct ExpectStatuswordStep {
+  std::uint16_t mask = 0xFFFF;
+  std::uint16_t value = 0;
+  DurationSpec within{{}, "state_change"};
+};
+struct PollStep {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::uint64_t value = 0;
+  std::uint64_t mask = ~std::uint64_t{0};
+  DurationSpec within;
+  DurationSpec every{{}, "poll"};
+};
+struct MeasureStep {
+  std::string from;
+  std::string to;
+  std::optional<DurationSpec> min;
+  std::optional<DurationSpec> max;
+};
+struct ExpectPeriodicStep {
+  CobIdSpec cob;
+  DurationSpec period;
+  DurationSpec tolerance{{}, "heartbeat_tolerance"};
+  std::size_t count = 2;
+  std::string mark;
+};
+
+using Action = std::variant<SendStep, NmtStep, SdoWriteStep, SdoReadStep, WaitStep, ControlwordStep,
+                            SimulateStep, MarkStep, ExpectFrameStep, ExpectSilenceStep,
+                            ExpectBootupStep, ExpectHeartbeatStep, ExpectEmcyStep, ExpectStateStep,
+                            ExpectStatuswordStep, PollStep, MeasureStep, ExpectPeriodicStep>;
+
+// The action key of each alternative, in variant order ("send", "nmt", ...).
+std::string_view action_name(const Action& action);
+
+struct Step {
+  Action action;
+  std::string note;
+  std::size_t line = 0;
+};
+
+// A parsed source citation.
+struct Source {
+  std::string text;       // as written
+  std::string manual;     // manual file, or "" for a CiA clause
+  std::string section;    // "3.2.2" / the clause
+  std::size_t first = 0;  // manual lines (0 for a CiA clause)
+  std::size_t last = 0;
+  std::size_t line = 0;  // YAML line of the citation
+};
+
+enum class Setup : std::uint8_t { reset_node, reset_communication, restore_defaults, none };
+
+struct Vector {
+  std::string id;
+  std::string title;
+  std::vector<Source> sources;
+  Level level = Level::must;
+  std::vector<std::string> requires_features;  // `requires:`; `motion` added by motion: true
+  std::vector<std::string> profiles;
+  bool motion = false;
+  Setup setup = Setup::reset_node;
+  std::optional<cia301::NmtState> nmt = cia301::NmtState::pre_operational;  // nullopt: `none`
+  std::optional<cia402::State> drive_state;
+  DurationSpec timeout{std::chrono::seconds(30), {}};  // whole-vector limit
+  std::vector<Step> steps;
+  std::string note;
+  std::string file;  // as given to the loader
+  std::size_t line = 0;
+
+  // First two id components: "cia301/sdo".
+  std::string family() const;
+};
+
+}  // namespace drivecheck::conformance

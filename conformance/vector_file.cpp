@@ -1,0 +1,1282 @@
+#include "conformance/vector_file.hpp"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <charconv>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include "protocol/profile/vocabulary.hpp"
+
+namespace drivecheck::conformance {
+
+// ---- the model's small functions ----
+
+std::string_view action_name(const Action& action) {
+  constexpr std::array<std::string_view, std::variant_size_v<Action>> kNames{
+      "send",           "nmt",           "sdo_write",
+      "sdo_read",       "wait",          "controlword",
+      "simulate",       "mark",          "expect_frame",
+      "expect_silence", "expect_bootup", "expect_heartbeat",
+      "expect_emcy",    "expect_state",  "expect_statusword",
+      "poll",           "measure",       "expect_periodic"};
+  return kNames[action.index()];
+}
+
+std::string Vector::family() const {
+  const auto first = id.find('/');
+  if (first == std::string::npos) return id;
+  const auto second = id.find('/', first + 1);
+  return second == std::string::npos ? id : id.substr(0, second);
+}
+
+can::Frame FrameSpec::to_frame(std::uint8_t node) const {
+  const std::uint32_t id = cob.resolve(node);
+  const auto format = cob.extended ? can::IdFormat::extended : can::IdFormat::standard;
+  if (remote) return can::Frame::remote(id, dlc, format);
+  std::array<std::uint8_t, 8> data{};
+  std::size_t n = 0;
+  for (const auto& byte : bytes)
+    data[n++] = byte.value_or(0);
+  const std::span<const std::uint8_t> payload(data.data(), n);
+  return cob.extended ? can::Frame::extended(id, payload) : can::Frame::standard(id, payload);
+}
+
+bool FrameSpec::matches(const can::Frame& frame, std::uint8_t node) const {
+  if (frame.is_error()) return false;
+  if (frame.id != cob.resolve(node) || frame.is_extended() != cob.extended) return false;
+  if (remote) return frame.is_remote() && (any_tail || frame.dlc == dlc);
+  if (frame.is_remote()) return false;
+  const auto payload = frame.payload();
+  if (any_tail ? payload.size() < bytes.size() : payload.size() != bytes.size()) return false;
+  for (std::size_t i = 0; i < bytes.size(); ++i) {
+    if (bytes[i] && *bytes[i] != payload[i]) return false;
+  }
+  return true;
+}
+
+// ---- value syntax ----
+
+namespace {
+
+int hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+std::optional<std::uint64_t> parse_hex(std::string_view text) {
+  if (text.empty() || text.size() > 16) return std::nullopt;
+  std::uint64_t value = 0;
+  for (const char c : text) {
+    const int digit = hex_digit(c);
+    if (digit < 0) return std::nullopt;
+    value = (value << 4) | static_cast<std::uint64_t>(digit);
+  }
+  return value;
+}
+
+// YAML integer: decimal or 0x hex, may be negative. Range: int64 for negatives, uint64 else
+// (returned as the two's-complement int64 bit pattern together with `negative`).
+struct Integer {
+  std::int64_t value = 0;
+  std::uint64_t bits = 0;
+  bool negative = false;
+};
+
+Expected<Integer, std::string> parse_integer(std::string_view text) {
+  const std::string shown(text);
+  Integer result;
+  if (!text.empty() && (text.front() == '-' || text.front() == '+')) {
+    result.negative = text.front() == '-';
+    text.remove_prefix(1);
+  }
+  std::uint64_t magnitude = 0;
+  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) {
+    const auto hex = parse_hex(text.substr(2));
+    if (!hex) return Unexpected(fmt::format("'{}' is not an integer (decimal or 0x hex)", shown));
+    magnitude = *hex;
+  } else {
+    const auto* end = text.data() + text.size();
+    const auto [ptr, ec] = std::from_chars(text.data(), end, magnitude);
+    if (text.empty() || ec != std::errc{} || ptr != end)
+      return Unexpected(fmt::format("'{}' is not an integer (decimal or 0x hex)", shown));
+  }
+  if (result.negative) {
+    if (magnitude > std::uint64_t{1} << 63)
+      return Unexpected(fmt::format("'{}' is out of range", shown));
+    result.bits = ~magnitude + 1;
+    result.value = static_cast<std::int64_t>(result.bits);
+  } else {
+    result.bits = magnitude;
+    result.value = static_cast<std::int64_t>(magnitude);
+  }
+  return result;
+}
+
+Expected<std::vector<std::optional<std::uint8_t>>, std::string> parse_byte_pattern(
+    std::string_view text, bool allow_wildcards) {
+  std::vector<std::optional<std::uint8_t>> bytes;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    if (text[i] == ' ') {
+      ++i;
+      continue;
+    }
+    if (i + 1 >= text.size())
+      return Unexpected(fmt::format("odd number of hex digits in '{}'", text));
+    if (text[i] == '.' && text[i + 1] == '.') {
+      if (!allow_wildcards)
+        return Unexpected(
+            fmt::format("'..' (don't care) is allowed only in expectations: '{}'", text));
+      bytes.emplace_back(std::nullopt);
+    } else {
+      const int high = hex_digit(text[i]);
+      const int low = hex_digit(text[i + 1]);
+      if (high < 0 || low < 0)
+        return Unexpected(fmt::format("byte {}: '{}' is not two hex digits{}", bytes.size(),
+                                      text.substr(i, 2), allow_wildcards ? " or '..'" : ""));
+      bytes.emplace_back(static_cast<std::uint8_t>(high * 16 + low));
+    }
+    i += 2;
+  }
+  return bytes;
+}
+
+}  // namespace
+
+Expected<DurationSpec, std::string> parse_duration_spec(std::string_view text) {
+  constexpr std::string_view kTiming = "$timing.";
+  if (text.starts_with(kTiming)) {
+    const auto key = text.substr(kTiming.size());
+    if (profile::find_timing(key) == nullptr) {
+      std::string known;
+      for (const auto& timing : profile::timing_table())
+        known += fmt::format(" {}", timing.name);
+      return Unexpected(fmt::format("unknown timing name '{}' (known:{})", key, known));
+    }
+    return DurationSpec{{}, std::string(key)};
+  }
+  auto value = profile::parse_duration(text);
+  if (!value) return Unexpected(value.error() + " or $timing.<key>");
+  return DurationSpec{*value, {}};
+}
+
+Expected<CobIdSpec, std::string> parse_cob_id(std::string_view text) {
+  CobIdSpec cob;
+  auto hex = text;
+  if (text.ends_with("+N")) {
+    cob.plus_node = true;
+    hex.remove_suffix(2);
+  }
+  const auto value = parse_hex(hex);
+  if (!value || hex.size() > 8 || (hex.size() > 3 && hex.size() != 8))
+    return Unexpected(fmt::format(
+        "'{}' is not a COB-ID (1..3 hex digits, or 8 for 29 bits, optionally followed by +N)",
+        text));
+  cob.extended = hex.size() == 8;
+  const std::uint64_t limit = cob.extended ? can::kMaxExtendedId : can::kMaxStandardId;
+  if (*value + (cob.plus_node ? 127U : 0U) > limit)
+    return Unexpected(fmt::format("COB-ID '{}' is out of range (max {:X}h{})", text, limit,
+                                  cob.plus_node ? " including the node-ID" : ""));
+  cob.base = static_cast<std::uint32_t>(*value);
+  return cob;
+}
+
+Expected<FrameSpec, std::string> parse_frame_spec(std::string_view text, bool pattern) {
+  FrameSpec spec;
+  spec.text = std::string(text);
+  const auto hash = text.find('#');
+  if (hash == std::string_view::npos)
+    return Unexpected(fmt::format("'{}' is not a frame (COBID#DATA in candump syntax)", text));
+  if (text.substr(hash + 1).starts_with("#"))
+    return Unexpected(fmt::format("'{}': CAN FD (##) is not classic CAN", text));
+  auto cob = parse_cob_id(text.substr(0, hash));
+  if (!cob) return Unexpected(cob.error());
+  spec.cob = *cob;
+  auto data = text.substr(hash + 1);
+  if (data.ends_with("*")) {
+    if (!pattern)
+      return Unexpected(fmt::format("'{}': a trailing '*' is allowed only in expectations", text));
+    spec.any_tail = true;
+    data.remove_suffix(1);
+  }
+  if (data.starts_with("R") || data.starts_with("r")) {
+    spec.remote = true;
+    const auto dlc = data.substr(1);
+    if (!dlc.empty()) {
+      if (dlc.size() != 1 || dlc[0] < '0' || dlc[0] > '8')
+        return Unexpected(fmt::format("'{}': remote frame DLC must be 0..8", text));
+      spec.dlc = static_cast<std::uint8_t>(dlc[0] - '0');
+    }
+    return spec;
+  }
+  auto bytes = parse_byte_pattern(data, pattern);
+  if (!bytes) return Unexpected(fmt::format("'{}': {}", text, bytes.error()));
+  if (bytes->size() > 8)
+    return Unexpected(
+        fmt::format("'{}': {} data bytes (classic CAN carries at most 8)", text, bytes->size()));
+  spec.bytes = std::move(*bytes);
+  spec.dlc = static_cast<std::uint8_t>(spec.bytes.size());
+  return spec;
+}
+
+Expected<Source, std::string> parse_source(std::string_view text) {
+  Source source;
+  source.text = std::string(text);
+  const auto para = text.find("§");
+  if (para == std::string_view::npos)
+    return Unexpected(
+        fmt::format("source '{}' has no '§': write '<manual file> §<section> L<first>-<last>' or "
+                    "'CiA 301 §<clause>' / 'CiA 402-2 §<clause>'",
+                    text));
+  auto head = text.substr(0, para);
+  while (head.ends_with(" "))
+    head.remove_suffix(1);
+  auto rest = text.substr(para + std::string_view("§").size());
+  if (head.starts_with("CiA ")) {
+    if (rest.empty() || rest.front() == ' ')
+      return Unexpected(fmt::format("source '{}': the clause after '§' is missing", text));
+    const auto end = rest.find(' ');
+    source.section = std::string(rest.substr(0, end));
+    return source;
+  }
+  if (head.empty() || head.find(' ') != std::string_view::npos || !head.ends_with(".txt"))
+    return Unexpected(fmt::format(
+        "source '{}': '{}' is neither a manual file (*.txt) nor 'CiA <document>'", text, head));
+  source.manual = std::string(head);
+  const auto lines = rest.rfind(" L");
+  if (lines == std::string_view::npos)
+    return Unexpected(
+        fmt::format("source '{}': the line range ' L<first>-<last>' is missing", text));
+  source.section = std::string(rest.substr(0, lines));
+  if (source.section.empty())
+    return Unexpected(fmt::format("source '{}': the section after '§' is missing", text));
+  const auto range = rest.substr(lines + 2);
+  const auto dash = range.find('-');
+  const auto first_text = range.substr(0, dash);
+  const auto last_text = dash == std::string_view::npos ? first_text : range.substr(dash + 1);
+  const auto parse_line = [](std::string_view digits, std::size_t& out) {
+    const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), out);
+    return !digits.empty() && ec == std::errc{} && ptr == digits.data() + digits.size() && out > 0;
+  };
+  if (!parse_line(first_text, source.first) || !parse_line(last_text, source.last))
+    return Unexpected(fmt::format(
+        "source '{}': 'L{}' is not a line range L<first>-<last> (1-based)", text, range));
+  if (source.first > source.last)
+    return Unexpected(fmt::format("source '{}': line range L{}-{} runs backwards", text,
+                                  source.first, source.last));
+  return source;
+}
+
+// ---- YAML → model ----
+
+namespace {
+
+struct StepSyntax {
+  std::string_view action;
+  std::vector<std::string_view> modifiers;
+};
+
+const std::vector<StepSyntax>& step_syntax() {
+  static const std::vector<StepSyntax> kSyntax{
+      {"send", {}},
+      {"nmt", {"node"}},
+      {"sdo_write", {"transfer", "expect"}},
+      {"sdo_read", {"transfer", "expect", "signed", "save"}},
+      {"wait", {}},
+      {"controlword", {}},
+      {"simulate", {}},
+      {"mark", {}},
+      {"expect_frame", {"within", "mark", "since"}},
+      {"expect_silence", {"for", "since"}},
+      {"expect_bootup", {"within", "mark", "since"}},
+      {"expect_heartbeat", {"within", "mark", "since"}},
+      {"expect_emcy", {"within", "mark", "since"}},
+      {"expect_state", {"within"}},
+      {"expect_statusword", {"within"}},
+      {"poll", {"within", "every"}},
+      {"measure", {}},
+      {"expect_periodic", {"period", "tolerance", "count", "mark"}},
+  };
+  return kSyntax;
+}
+
+constexpr std::array<std::string_view, 13> kVectorKeys{
+    "id",    "title", "source",      "level",   "requires", "profiles", "motion",
+    "setup", "nmt",   "drive_state", "timeout", "steps",    "note"};
+
+std::optional<cia402::State> parse_402_state(std::string_view text) {
+  constexpr std::array<std::pair<std::string_view, cia402::State>, 8> kNames{{
+      {"not-ready-to-switch-on", cia402::State::not_ready_to_switch_on},
+      {"switch-on-disabled", cia402::State::switch_on_disabled},
+      {"ready-to-switch-on", cia402::State::ready_to_switch_on},
+      {"switched-on", cia402::State::switched_on},
+      {"operation-enabled", cia402::State::operation_enabled},
+      {"quick-stop-active", cia402::State::quick_stop_active},
+      {"fault-reaction-active", cia402::State::fault_reaction_active},
+      {"fault", cia402::State::fault},
+  }};
+  for (const auto& [name, state] : kNames) {
+    if (name == text) return state;
+  }
+  return std::nullopt;
+}
+
+std::optional<cia301::NmtState> parse_nmt_state(std::string_view text) {
+  if (text == "bootup" || text == "initialising") return cia301::NmtState::boot_up;
+  if (text == "pre-operational") return cia301::NmtState::pre_operational;
+  if (text == "operational") return cia301::NmtState::operational;
+  if (text == "stopped") return cia301::NmtState::stopped;
+  return std::nullopt;
+}
+
+class Parser {
+ public:
+  Parser(std::string file, VectorSet& out) : file_(std::move(file)), out_(out) {}
+
+  void parse_document(const YAML::Node& root) {
+    if (root.IsNull()) return;  // an empty file holds no vectors
+    if (!root.IsSequence()) {
+      error(root, "a vector file is a YAML sequence of vectors ('- id: ...')");
+      return;
+    }
+    for (const auto& node : root) {
+      const auto errors_before = out_.errors.size();
+      Vector vector = parse_vector(node);
+      if (out_.errors.size() == errors_before) out_.vectors.push_back(std::move(vector));
+    }
+  }
+
+ private:
+  static std::size_t line_of(const YAML::Node& node) {
+    const auto mark = node.Mark();
+    return mark.line < 0 ? 0 : static_cast<std::size_t>(mark.line) + 1;
+  }
+
+  void error(const YAML::Node& node, std::string message) {
+    out_.errors.push_back(TextError{file_, static_cast<int>(line_of(node)), std::move(message)});
+  }
+
+  std::optional<std::string> scalar(const YAML::Node& node, std::string_view what) {
+    if (!node.IsScalar()) {
+      error(node, fmt::format("{}: expected a single value", what));
+      return std::nullopt;
+    }
+    return node.Scalar();
+  }
+
+  template <class T>
+  std::optional<T> integer(const YAML::Node& node, std::string_view what, std::int64_t min,
+                           std::int64_t max) {
+    auto text = scalar(node, what);
+    if (!text) return std::nullopt;
+    auto value = parse_integer(*text);
+    if (!value) {
+      error(node, fmt::format("{}: {}", what, value.error()));
+      return std::nullopt;
+    }
+    const bool too_big = !value->negative && value->bits > static_cast<std::uint64_t>(max);
+    if (too_big || value->value < min) {
+      error(node, fmt::format("{}: {} is out of range {}..{}", what, *text, min, max));
+      return std::nullopt;
+    }
+    return static_cast<T>(value->value);
+  }
+
+  std::optional<bool> boolean(const YAML::Node& node, std::string_view what) {
+    auto text = scalar(node, what);
+    if (!text) return std::nullopt;
+    if (*text == "true") return true;
+    if (*text == "false") return false;
+    error(node, fmt::format("{}: '{}' is not true or false", what, *text));
+    return std::nullopt;
+  }
+
+  std::optional<DurationSpec> duration(const YAML::Node& node, std::string_view what) {
+    auto text = scalar(node, what);
+    if (!text) return std::nullopt;
+    auto spec = parse_duration_spec(*text);
+    if (!spec) {
+      error(node, fmt::format("{}: {}", what, spec.error()));
+      return std::nullopt;
+    }
+    return *spec;
+  }
+
+  std::optional<std::string> name(const YAML::Node& node, std::string_view what) {
+    auto text = scalar(node, what);
+    if (!text) return std::nullopt;
+    const bool ok = !text->empty() && std::all_of(text->begin(), text->end(), [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '-' || c == '.';
+    });
+    if (!ok) {
+      error(node, fmt::format("{}: '{}' is not a name ([A-Za-z0-9_.-])", what, *text));
+      return std::nullopt;
+    }
+    return text;
+  }
+
+  // The keys of a map, each checked against `allowed`; false (with errors) when not a map.
+  bool check_map(const YAML::Node& node, std::string_view what,
+                 const std::vector<std::string_view>& allowed) {
+    if (!node.IsMap()) {
+      error(node, fmt::format("{}: expected a map {{{}}}", what, fmt::join(allowed, ", ")));
+      return false;
+    }
+    bool ok = true;
+    for (const auto& entry : node) {
+      const auto key = entry.first.Scalar();
+      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
+        error(entry.first, fmt::format("{}: unknown key '{}' (allowed: {})", what, key,
+                                       fmt::join(allowed, ", ")));
+        ok = false;
+      }
+    }
+    return ok;
+  }
+
+  std::vector<std::string> string_list(const YAML::Node& node, std::string_view what) {
+    std::vector<std::string> items;
+    if (node.IsScalar()) {
+      items.push_back(node.Scalar());
+    } else if (node.IsSequence()) {
+      for (const auto& item : node) {
+        if (auto text = scalar(item, what)) items.push_back(*text);
+      }
+    } else {
+      error(node, fmt::format("{}: expected a value or a list", what));
+    }
+    return items;
+  }
+
+  std::optional<std::vector<std::uint8_t>> hex_data(const YAML::Node& node, std::string_view what) {
+    auto text = scalar(node, what);
+    if (!text) return std::nullopt;
+    auto bytes = parse_byte_pattern(*text, false);
+    if (!bytes) {
+      error(node, fmt::format("{}: {}", what, bytes.error()));
+      return std::nullopt;
+    }
+    std::vector<std::uint8_t> data;
+    for (const auto& byte : *bytes)
+      data.push_back(*byte);
+    return data;
+  }
+
+  std::optional<ValueSpec> value_spec(const YAML::Node& node, std::string_view what) {
+    auto text = scalar(node, what);
+    if (!text) return std::nullopt;
+    if (text->starts_with("$")) {
+      const auto saved = text->substr(1);
+      if (saves_.count(saved) == 0) {
+        error(node, fmt::format("{}: '{}' names no value saved earlier in this vector (save: {})",
+                                what, *text, saved));
+        return std::nullopt;
+      }
+      return ValueSpec{0, saved};
+    }
+    auto value = integer<std::int64_t>(node, what, std::numeric_limits<std::int64_t>::min(),
+                                       std::numeric_limits<std::int64_t>::max());
+    if (!value) {
+      // parse_integer accepts up to 2^64-1 for bit patterns: retry as unsigned
+      return std::nullopt;
+    }
+    return ValueSpec{*value, {}};
+  }
+
+  std::vector<std::uint32_t> abort_codes(const YAML::Node& node, std::string_view what) {
+    std::vector<std::uint32_t> codes;
+    const auto one = [&](const YAML::Node& item) {
+      if (auto code = integer<std::uint32_t>(item, what, 1, 0xFFFFFFFF)) codes.push_back(*code);
+    };
+    if (node.IsSequence()) {
+      for (const auto& item : node)
+        one(item);
+      if (node.size() == 0) error(node, fmt::format("{}: the list of abort codes is empty", what));
+    } else {
+      one(node);
+    }
+    return codes;
+  }
+
+  Transfer transfer(const YAML::Node& node) {
+    auto text = scalar(node, "transfer");
+    if (!text) return Transfer::automatic;
+    if (*text == "expedited") return Transfer::expedited;
+    if (*text == "segmented") return Transfer::segmented;
+    if (*text == "block") return Transfer::block;
+    error(node, fmt::format("transfer: '{}' is not expedited, segmented or block", *text));
+    return Transfer::automatic;
+  }
+
+  std::optional<std::uint16_t> index(const YAML::Node& map, std::string_view what) {
+    if (!map["index"]) {
+      error(map, fmt::format("{}: 'index' is missing", what));
+      return std::nullopt;
+    }
+    return integer<std::uint16_t>(map["index"], "index", 0, 0xFFFF);
+  }
+  std::optional<std::uint8_t> sub(const YAML::Node& map, std::string_view what) {
+    if (!map["sub"]) {
+      error(map, fmt::format("{}: 'sub' is missing", what));
+      return std::nullopt;
+    }
+    return integer<std::uint8_t>(map["sub"], "sub", 0, 0xFF);
+  }
+
+  std::string mark_definition(const YAML::Node& node) {
+    auto text = name(node, "mark");
+    if (!text) return {};
+    marks_.insert(*text);
+    return *text;
+  }
+  std::string mark_reference(const YAML::Node& node, std::string_view what) {
+    auto text = name(node, what);
+    if (!text) return {};
+    if (marks_.count(*text) == 0) {
+      error(node, fmt::format("{}: unknown mark '{}' (marks must be set by an earlier step)", what,
+                              *text));
+    }
+    return *text;
+  }
+
+  SdoExpect sdo_expect(const YAML::Node& node, bool read) {
+    SdoExpect expect;
+    if (node.IsScalar()) {
+      if (node.Scalar() != "ok")
+        error(node, fmt::format("expect: '{}' is not 'ok' or a map", node.Scalar()));
+      return expect;
+    }
+    const std::vector<std::string_view> keys =
+        read ? std::vector<std::string_view>{"value", "mask", "range", "size", "data", "abort"}
+             : std::vector<std::string_view>{"abort"};
+    if (!check_map(node, "expect", keys)) return expect;
+    std::size_t kinds = 0;
+    if (node["abort"]) {
+      ++kinds;
+      expect.kind = SdoExpect::Kind::abort;
+      expect.aborts = abort_codes(node["abort"], "abort");
+    }
+    if (node["value"]) {
+      ++kinds;
+      expect.kind = SdoExpect::Kind::value;
+      if (auto value = value_spec(node["value"], "value")) expect.value = *value;
+      if (node["mask"]) {
+        const auto mask = scalar(node["mask"], "mask");
+        if (mask) {
+          auto parsed = parse_integer(*mask);
+          if (!parsed || parsed->negative)
+            error(node["mask"], fmt::format("mask: '{}' is not an unsigned integer", *mask));
+          else
+            expect.mask = parsed->bits;
+        }
+      }
+    } else if (node["mask"]) {
+      error(node["mask"], "expect: 'mask' needs 'value'");
+    }
+    if (node["range"]) {
+      ++kinds;
+      expect.kind = SdoExpect::Kind::range;
+      const auto& range = node["range"];
+      if (!range.IsSequence() || range.size() != 2) {
+        error(range, "range: expected [low, high]");
+      } else {
+        const auto low =
+            integer<std::int64_t>(range[0], "range low", std::numeric_limits<std::int64_t>::min(),
+                                  std::numeric_limits<std::int64_t>::max());
+        const auto high =
+            integer<std::int64_t>(range[1], "range high", std::numeric_limits<std::int64_t>::min(),
+                                  std::numeric_limits<std::int64_t>::max());
+        if (low && high) {
+          expect.low = *low;
+          expect.high = *high;
+          if (*low > *high) error(range, "range: low is above high");
+        }
+      }
+    }
+    if (node["size"]) {
+      ++kinds;
+      expect.kind = SdoExpect::Kind::size;
+      expect.size = integer<std::size_t>(node["size"], "size", 0, 1 << 24).value_or(0);
+    }
+    if (node["data"]) {
+      ++kinds;
+      expect.kind = SdoExpect::Kind::data;
+      expect.data = hex_data(node["data"], "data").value_or(std::vector<std::uint8_t>{});
+    }
+    if (kinds != 1)
+      error(node, "expect: give exactly one of value, range, size, data, abort (or 'ok')");
+    return expect;
+  }
+
+  std::optional<Action> parse_action(std::string_view action, const YAML::Node& value,
+                                     const YAML::Node& step_map) {
+    const auto modifier = [&step_map](std::string_view key) { return step_map[std::string(key)]; };
+    if (action == "send") {
+      auto text = scalar(value, "send");
+      if (!text) return std::nullopt;
+      auto frame = parse_frame_spec(*text, false);
+      if (!frame) {
+        error(value, fmt::format("send: {}", frame.error()));
+        return std::nullopt;
+      }
+      return SendStep{std::move(*frame)};
+    }
+    if (action == "nmt") {
+      NmtStep nmt;
+      auto text = scalar(value, "nmt");
+      if (!text) return std::nullopt;
+      if (*text == "start") {
+        nmt.command = cia301::NmtCommand::start;
+      } else if (*text == "stop") {
+        nmt.command = cia301::NmtCommand::stop;
+      } else if (*text == "pre-operational") {
+        nmt.command = cia301::NmtCommand::enter_pre_operational;
+      } else if (*text == "reset-node") {
+        nmt.command = cia301::NmtCommand::reset_node;
+      } else if (*text == "reset-communication") {
+        nmt.command = cia301::NmtCommand::reset_communication;
+      } else {
+        error(value, fmt::format("nmt: '{}' is not start, stop, pre-operational, reset-node or "
+                                 "reset-communication",
+                                 *text));
+        return std::nullopt;
+      }
+      if (const auto node = modifier("node")) {
+        auto spec = scalar(node, "node");
+        if (!spec) return std::nullopt;
+        if (*spec == "N") {
+          nmt.node.kind = NodeKind::dut;
+        } else if (*spec == "all" || *spec == "0") {
+          nmt.node.kind = NodeKind::broadcast;
+        } else if (*spec == "other") {
+          nmt.node.kind = NodeKind::other;
+        } else {
+          auto id = integer<std::uint8_t>(node, "node", 1, 127);
+          if (!id) return std::nullopt;
+          nmt.node = {NodeKind::value, *id};
+        }
+      }
+      return nmt;
+    }
+    if (action == "sdo_write") {
+      SdoWriteStep write;
+      if (!check_map(value, "sdo_write", {"index", "sub", "value", "size", "data"}))
+        return std::nullopt;
+      auto idx = index(value, "sdo_write");
+      auto sb = sub(value, "sdo_write");
+      if (!idx || !sb) return std::nullopt;
+      write.index = *idx;
+      write.sub = *sb;
+      if (value["value"] && value["data"]) {
+        error(value, "sdo_write: give 'value' (with 'size') or 'data', not both");
+        return std::nullopt;
+      }
+      if (value["value"]) {
+        write.value = value_spec(value["value"], "value");
+        if (!write.value) return std::nullopt;
+        if (value["size"]) {
+          write.size = integer<std::size_t>(value["size"], "size", 1, 8);
+          if (!write.size) return std::nullopt;
+          if (write.value->saved.empty() && *write.size < 8) {
+            const auto bits = 8 * *write.size;
+            const std::int64_t low = -(std::int64_t{1} << (bits - 1));
+            const std::int64_t high = (std::int64_t{1} << bits) - 1;
+            if (write.value->literal < low || write.value->literal > high) {
+              error(value["value"], fmt::format("value {} does not fit in {} byte(s)",
+                                                write.value->literal, *write.size));
+              return std::nullopt;
+            }
+          }
+        }
+      } else if (value["data"]) {
+        if (value["size"]) {
+          error(value["size"], "sdo_write: 'size' goes with 'value'; 'data' carries its length");
+          return std::nullopt;
+        }
+        auto data = hex_data(value["data"], "data");
+        if (!data) return std::nullopt;
+        write.data = std::move(*data);
+      } else {
+        error(value, "sdo_write: 'value' or 'data' is missing");
+        return std::nullopt;
+      }
+      if (const auto node = modifier("transfer")) write.transfer = transfer(node);
+      if (const auto node = modifier("expect")) write.expect = sdo_expect(node, false);
+      return write;
+    }
+    if (action == "sdo_read") {
+      SdoReadStep read;
+      if (!check_map(value, "sdo_read", {"index", "sub"})) return std::nullopt;
+      auto idx = index(value, "sdo_read");
+      auto sb = sub(value, "sdo_read");
+      if (!idx || !sb) return std::nullopt;
+      read.index = *idx;
+      read.sub = *sb;
+      if (const auto node = modifier("transfer")) read.transfer = transfer(node);
+      if (const auto node = modifier("expect")) read.expect = sdo_expect(node, true);
+      if (const auto node = modifier("signed"))
+        read.is_signed = boolean(node, "signed").value_or(false);
+      if (const auto node = modifier("save")) {
+        auto saved = name(node, "save");
+        if (!saved) return std::nullopt;
+        read.save = *saved;
+      }
+      return read;
+    }
+    if (action == "wait") {
+      auto d = duration(value, "wait");
+      if (!d) return std::nullopt;
+      return WaitStep{*d};
+    }
+    if (action == "controlword") {
+      auto cw = integer<std::uint16_t>(value, "controlword", 0, 0xFFFF);
+      if (!cw) return std::nullopt;
+      return ControlwordStep{*cw};
+    }
+    if (action == "simulate") {
+      if (!check_map(value, "simulate", {"input", "value"})) return std::nullopt;
+      if (!value["input"] || !value["value"]) {
+        error(value, "simulate: 'input' and 'value' are required");
+        return std::nullopt;
+      }
+      auto input = scalar(value["input"], "input");
+      auto v =
+          integer<std::int64_t>(value["value"], "value", std::numeric_limits<std::int64_t>::min(),
+                                std::numeric_limits<std::int64_t>::max());
+      if (!input || !v) return std::nullopt;
+      if (input->empty()) {
+        error(value["input"], "simulate: input name is empty");
+        return std::nullopt;
+      }
+      return SimulateStep{*input, *v};
+    }
+    if (action == "mark") {
+      auto mark = mark_definition(value);
+      if (mark.empty()) return std::nullopt;
+      return MarkStep{mark};
+    }
+    if (action == "expect_frame") {
+      ExpectFrameStep step;
+      auto text = scalar(value, "expect_frame");
+      if (!text) return std::nullopt;
+      auto pattern = parse_frame_spec(*text, true);
+      if (!pattern) {
+        error(value, fmt::format("expect_frame: {}", pattern.error()));
+        return std::nullopt;
+      }
+      step.pattern = std::move(*pattern);
+      if (const auto node = modifier("within"))
+        step.within = duration(node, "within").value_or(step.within);
+      if (const auto node = modifier("since")) step.since = mark_reference(node, "since");
+      if (const auto node = modifier("mark")) step.mark = mark_definition(node);
+      return step;
+    }
+    if (action == "expect_silence") {
+      ExpectSilenceStep step;
+      if (value.IsScalar() && value.Scalar() == "any") {
+        step.any = true;
+      } else if (value.IsSequence() && value.size() > 0) {
+        for (const auto& item : value) {
+          auto text = scalar(item, "expect_silence");
+          if (!text) continue;
+          auto cob = parse_cob_id(*text);
+          if (!cob) {
+            error(item, fmt::format("expect_silence: {}", cob.error()));
+            continue;
+          }
+          step.cob_ids.push_back(*cob);
+        }
+      } else {
+        error(value, "expect_silence: expected 'any' or a list of COB-IDs ([180+N, 080])");
+        return std::nullopt;
+      }
+      const auto node = modifier("for");
+      if (!node) {
+        error(step_node_, "expect_silence: 'for:' (a duration) is required");
+        return std::nullopt;
+      }
+      auto d = duration(node, "for");
+      if (!d) return std::nullopt;
+      step.duration = *d;
+      if (const auto since = modifier("since")) step.since = mark_reference(since, "since");
+      return step;
+    }
+    if (action == "expect_bootup") {
+      ExpectBootupStep step;
+      if (!(value.IsMap() && value.size() == 0) && !value.IsNull()) {
+        error(value, "expect_bootup: the value is {}");
+        return std::nullopt;
+      }
+      if (const auto node = modifier("within"))
+        step.within = duration(node, "within").value_or(step.within);
+      if (const auto node = modifier("since")) step.since = mark_reference(node, "since");
+      if (const auto node = modifier("mark")) step.mark = mark_definition(node);
+      return step;
+    }
+    if (action == "expect_heartbeat") {
+      ExpectHeartbeatStep step;
+      auto text = scalar(value, "expect_heartbeat");
+      if (!text) return std::nullopt;
+      auto state = parse_nmt_state(*text);
+      if (!state) {
+        error(value, fmt::format("expect_heartbeat: '{}' is not an NMT state (bootup "
+                                 "initialising pre-operational operational stopped)",
+                                 *text));
+        return std::nullopt;
+      }
+      step.state = *state;
+      if (const auto node = modifier("within")) step.within = duration(node, "within");
+      if (const auto node = modifier("since")) step.since = mark_reference(node, "since");
+      if (const auto node = modifier("mark")) step.mark = mark_definition(node);
+      return step;
+    }
+    if (action == "expect_emcy") {
+      ExpectEmcyStep step;
+      if (!check_map(value, "expect_emcy", {"code", "register", "manufacturer"}))
+        return std::nullopt;
+      if (!value["code"]) {
+        error(value, "expect_emcy: 'code' is missing");
+        return std::nullopt;
+      }
+      const auto one = [&](const YAML::Node& item) {
+        if (auto code = integer<std::uint16_t>(item, "code", 0, 0xFFFF))
+          step.codes.push_back(*code);
+      };
+      if (value["code"].IsSequence()) {
+        for (const auto& item : value["code"])
+          one(item);
+      } else {
+        one(value["code"]);
+      }
+      if (step.codes.empty()) return std::nullopt;
+      if (const auto reg = value["register"]) {
+        if (!check_map(reg, "register", {"mask", "value"}) || !reg["mask"] || !reg["value"]) {
+          if (reg.IsMap()) error(reg, "register: 'mask' and 'value' are required");
+          return std::nullopt;
+        }
+        step.register_mask = integer<std::uint8_t>(reg["mask"], "mask", 0, 0xFF);
+        step.register_value = integer<std::uint8_t>(reg["value"], "value", 0, 0xFF).value_or(0);
+      }
+      if (const auto man = value["manufacturer"]) {
+        auto text = scalar(man, "manufacturer");
+        if (!text) return std::nullopt;
+        auto bytes = parse_byte_pattern(*text, true);
+        if (!bytes || bytes->size() > 5) {
+          error(man, fmt::format("manufacturer: '{}' is not a pattern of at most 5 bytes", *text));
+          return std::nullopt;
+        }
+        step.manufacturer = std::move(*bytes);
+      }
+      if (const auto node = modifier("within"))
+        step.within = duration(node, "within").value_or(step.within);
+      if (const auto node = modifier("since")) step.since = mark_reference(node, "since");
+      if (const auto node = modifier("mark")) step.mark = mark_definition(node);
+      return step;
+    }
+    if (action == "expect_state") {
+      ExpectStateStep step;
+      auto text = scalar(value, "expect_state");
+      if (!text) return std::nullopt;
+      auto state = parse_402_state(*text);
+      if (!state) {
+        error(value, fmt::format("expect_state: '{}' is not a CiA 402 state", *text));
+        return std::nullopt;
+      }
+      step.state = *state;
+      if (const auto node = modifier("within"))
+        step.within = duration(node, "within").value_or(step.within);
+      return step;
+    }
+    if (action == "expect_statusword") {
+      ExpectStatuswordStep step;
+      if (!check_map(value, "expect_statusword", {"mask", "value"})) return std::nullopt;
+      if (!value["mask"] || !value["value"]) {
+        error(value, "expect_statusword: 'mask' and 'value' are required");
+        return std::nullopt;
+      }
+      auto mask = integer<std::uint16_t>(value["mask"], "mask", 0, 0xFFFF);
+      auto v = integer<std::uint16_t>(value["value"], "value", 0, 0xFFFF);
+      if (!mask || !v) return std::nullopt;
+      step.mask = *mask;
+      step.value = *v;
+      if ((step.value & ~step.mask) != 0)
+        error(value, fmt::format("expect_statusword: value {:04X}h has bits outside mask {:04X}h",
+                                 step.value, step.mask));
+      if (const auto node = modifier("within"))
+        step.within = duration(node, "within").value_or(step.within);
+      return step;
+    }
+    if (action == "poll") {
+      PollStep step;
+      if (!check_map(value, "poll", {"index", "sub", "value", "mask"})) return std::nullopt;
+      auto idx = index(value, "poll");
+      auto sb = sub(value, "poll");
+      if (!idx || !sb) return std::nullopt;
+      step.index = *idx;
+      step.sub = *sb;
+      if (!value["value"]) {
+        error(value, "poll: 'value' is missing");
+        return std::nullopt;
+      }
+      auto v = parse_integer(value["value"].Scalar());
+      if (!value["value"].IsScalar() || !v) {
+        error(value["value"], "poll: value is not an integer");
+        return std::nullopt;
+      }
+      step.value = v->bits;
+      if (value["mask"]) {
+        auto m = parse_integer(value["mask"].IsScalar() ? value["mask"].Scalar() : "");
+        if (!m || m->negative) {
+          error(value["mask"], "poll: mask is not an unsigned integer");
+          return std::nullopt;
+        }
+        step.mask = m->bits;
+      }
+      const auto within = modifier("within");
+      if (!within) {
+        error(step_node_, "poll: 'within:' is required");
+        return std::nullopt;
+      }
+      auto d = duration(within, "within");
+      if (!d) return std::nullopt;
+      step.within = *d;
+      if (const auto node = modifier("every"))
+        step.every = duration(node, "every").value_or(step.every);
+      return step;
+    }
+    if (action == "measure") {
+      MeasureStep step;
+      if (!check_map(value, "measure", {"from", "to", "min", "max"})) return std::nullopt;
+      if (!value["from"] || !value["to"]) {
+        error(value, "measure: 'from' and 'to' are required");
+        return std::nullopt;
+      }
+      step.from = mark_reference(value["from"], "from");
+      step.to = mark_reference(value["to"], "to");
+      if (value["min"]) step.min = duration(value["min"], "min");
+      if (value["max"]) step.max = duration(value["max"], "max");
+      if (!value["min"] && !value["max"]) error(value, "measure: give 'min', 'max' or both");
+      return step;
+    }
+    if (action == "expect_periodic") {
+      ExpectPeriodicStep step;
+      auto text = scalar(value, "expect_periodic");
+      if (!text) return std::nullopt;
+      auto cob = parse_cob_id(*text);
+      if (!cob) {
+        error(value, fmt::format("expect_periodic: {}", cob.error()));
+        return std::nullopt;
+      }
+      step.cob = *cob;
+      const auto period = modifier("period");
+      if (!period) {
+        error(step_node_, "expect_periodic: 'period:' is required");
+        return std::nullopt;
+      }
+      auto d = duration(period, "period");
+      if (!d) return std::nullopt;
+      step.period = *d;
+      if (const auto node = modifier("tolerance"))
+        step.tolerance = duration(node, "tolerance").value_or(step.tolerance);
+      if (const auto node = modifier("count"))
+        step.count = integer<std::size_t>(node, "count", 2, 10000).value_or(2);
+      if (const auto node = modifier("mark")) step.mark = mark_definition(node);
+      return step;
+    }
+    error(value, fmt::format("internal: action '{}' has no parser", action));
+    return std::nullopt;
+  }
+
+  std::optional<Step> parse_step(const YAML::Node& node) {
+    if (!node.IsMap()) {
+      error(node, "a step is a map with one action key, e.g. '- send: \"600+N#...\"'");
+      return std::nullopt;
+    }
+    step_node_ = node;
+    const StepSyntax* syntax = nullptr;
+    YAML::Node action_value;
+    // `mark` is an action on its own (`- mark: t0`) and a modifier of expectations.
+    const bool mark_is_modifier = node.size() > 1 && node["mark"];
+    for (const auto& entry : node) {
+      const auto key = entry.first.Scalar();
+      if (key == "mark" && mark_is_modifier) continue;
+      for (const auto& candidate : step_syntax()) {
+        if (candidate.action == key) {
+          if (syntax != nullptr) {
+            error(entry.first,
+                  fmt::format("step has two actions: '{}' and '{}'", syntax->action, key));
+            return std::nullopt;
+          }
+          syntax = &candidate;
+          action_value = entry.second;
+        }
+      }
+    }
+    if (syntax == nullptr) {
+      std::vector<std::string_view> actions;
+      for (const auto& candidate : step_syntax())
+        actions.push_back(candidate.action);
+      error(node, fmt::format("step has no action (one of: {})", fmt::join(actions, ", ")));
+      return std::nullopt;
+    }
+    bool ok = true;
+    for (const auto& entry : node) {
+      const auto key = entry.first.Scalar();
+      if (key == syntax->action || key == "note") continue;
+      if (std::find(syntax->modifiers.begin(), syntax->modifiers.end(), key) ==
+          syntax->modifiers.end()) {
+        error(entry.first, fmt::format("{}: unknown key '{}' (allowed: {}{}note)", syntax->action,
+                                       key, fmt::join(syntax->modifiers, ", "),
+                                       syntax->modifiers.empty() ? "" : ", "));
+        ok = false;
+      }
+    }
+    if (!ok) return std::nullopt;
+    Step step;
+    step.line = line_of(node);
+    if (const auto note = node["note"]) step.note = scalar(note, "note").value_or("");
+    auto action = parse_action(syntax->action, action_value, node);
+    if (!action) return std::nullopt;
+    step.action = std::move(*action);
+    if (const auto* read = std::get_if<SdoReadStep>(&step.action); read && !read->save.empty())
+      saves_.insert(read->save);
+    return step;
+  }
+
+  Vector parse_vector(const YAML::Node& node) {
+    Vector vector;
+    vector.file = file_;
+    vector.line = line_of(node);
+    marks_.clear();
+    saves_.clear();
+    if (!node.IsMap()) {
+      error(node, "a vector is a map (id, title, source, level, steps, ...)");
+      return vector;
+    }
+    for (const auto& entry : node) {
+      const auto key = entry.first.Scalar();
+      if (std::find(kVectorKeys.begin(), kVectorKeys.end(), key) == kVectorKeys.end())
+        error(entry.first, fmt::format("unknown vector key '{}' (allowed: {})", key,
+                                       fmt::join(kVectorKeys, ", ")));
+    }
+    for (const std::string_view required : {"id", "title", "source", "steps"}) {
+      if (!node[std::string(required)])
+        error(node,
+              fmt::format("vector{}: '{}' is missing",
+                          node["id"] && node["id"].IsScalar() ? " " + node["id"].Scalar() : "",
+                          required));
+    }
+    if (const auto id = node["id"]) {
+      if (auto text = scalar(id, "id")) {
+        const bool charset = std::all_of(text->begin(), text->end(), [](char c) {
+          return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '/' || c == '.' ||
+                 c == '_' || c == '-';
+        });
+        if (!charset || text->find('/') == std::string::npos || text->front() == '/' ||
+            text->back() == '/' || text->find("//") != std::string::npos) {
+          error(id, fmt::format("id '{}': use [a-z0-9/._-] with at least two '/'-separated "
+                                "components (family/name)",
+                                *text));
+        }
+        vector.id = *text;
+      }
+    }
+    if (const auto title = node["title"]) vector.title = scalar(title, "title").value_or("");
+    if (const auto note = node["note"]) vector.note = scalar(note, "note").value_or("");
+    if (const auto source = node["source"]) {
+      const auto add = [&](const YAML::Node& item) {
+        auto text = scalar(item, "source");
+        if (!text) return;
+        auto parsed = parse_source(*text);
+        if (!parsed) {
+          error(item, parsed.error());
+          return;
+        }
+        parsed->line = line_of(item);
+        vector.sources.push_back(std::move(*parsed));
+      };
+      if (source.IsSequence()) {
+        for (const auto& item : source)
+          add(item);
+        if (source.size() == 0) error(source, "source: the list is empty");
+      } else {
+        add(source);
+      }
+    }
+    if (const auto level = node["level"]) {
+      auto text = scalar(level, "level");
+      if (text == "must") {
+        vector.level = Level::must;
+      } else if (text == "should") {
+        vector.level = Level::should;
+      } else if (text == "may") {
+        vector.level = Level::may;
+      } else if (text) {
+        error(level, fmt::format("level: '{}' is not must, should or may", *text));
+      }
+    }
+    if (const auto req = node["requires"]) {
+      for (auto& feature : string_list(req, "requires")) {
+        if (!profile::is_known_feature(feature)) {
+          error(req, fmt::format("requires: unknown feature '{}' (see vectors/FORMAT.md "
+                                 "\"Features\")",
+                                 feature));
+        } else {
+          vector.requires_features.push_back(std::move(feature));
+        }
+      }
+    }
+    if (const auto profiles = node["profiles"]) vector.profiles = string_list(profiles, "profiles");
+    if (const auto motion = node["motion"])
+      vector.motion = boolean(motion, "motion").value_or(false);
+    if (vector.motion && std::find(vector.requires_features.begin(), vector.requires_features.end(),
+                                   "motion") == vector.requires_features.end())
+      vector.requires_features.emplace_back("motion");
+    if (const auto setup = node["setup"]) {
+      auto text = scalar(setup, "setup");
+      if (text == "reset-node") {
+        vector.setup = Setup::reset_node;
+      } else if (text == "reset-communication") {
+        vector.setup = Setup::reset_communication;
+      } else if (text == "restore-defaults") {
+        vector.setup = Setup::restore_defaults;
+      } else if (text == "none") {
+        vector.setup = Setup::none;
+      } else if (text) {
+        error(setup, fmt::format("setup: '{}' is not reset-node, reset-communication, "
+                                 "restore-defaults or none",
+                                 *text));
+      }
+    }
+    if (const auto nmt = node["nmt"]) {
+      auto text = scalar(nmt, "nmt");
+      if (text == "none") {
+        vector.nmt.reset();
+      } else if (text) {
+        auto state = parse_nmt_state(*text);
+        if (!state || *state == cia301::NmtState::boot_up)
+          error(nmt, fmt::format("nmt: '{}' is not pre-operational, operational, stopped or none",
+                                 *text));
+        else
+          vector.nmt = *state;
+      }
+    }
+    if (const auto drive_state = node["drive_state"]) {
+      auto text = scalar(drive_state, "drive_state");
+      if (text) {
+        vector.drive_state = parse_402_state(*text);
+        if (!vector.drive_state)
+          error(drive_state, fmt::format("drive_state: '{}' is not a CiA 402 state", *text));
+      }
+    }
+    if (const auto timeout = node["timeout"])
+      vector.timeout = duration(timeout, "timeout").value_or(vector.timeout);
+    if (const auto steps = node["steps"]) {
+      if (!steps.IsSequence() || steps.size() == 0) {
+        error(steps, "steps: expected a non-empty list of steps");
+      } else {
+        for (const auto& item : steps) {
+          if (auto step = parse_step(item)) vector.steps.push_back(std::move(*step));
+        }
+      }
+    }
+    return vector;
+  }
+
+  std::string file_;
+  VectorSet& out_;
+  std::set<std::string> marks_;
+  std::set<std::string> saves_;
+  YAML::Node step_node_;
+};
+
+}  // namespace
+
+VectorSet parse_vectors(std::string_view text, const std::string& file) {
+  VectorSet set;
+  set.files.push_back(file);
+  YAML::Node root;
+  try {
+    root = YAML::Load(std::string(text));
+  } catch (const YAML::Exception& e) {
+    set.errors.push_back(TextError{file, e.mark.line < 0 ? 0 : e.mark.line + 1, e.msg});
+    return set;
+  }
+  try {
+    Parser(file, set).parse_document(root);
+  } catch (const YAML::Exception& e) {  // e.g. a duplicate or non-scalar key
+    set.errors.push_back(TextError{file, e.mark.line < 0 ? 0 : e.mark.line + 1, e.msg});
+  }
+  return set;
+}
+
+VectorSet load_vector_file(const std::filesystem::path& path, const std::string& display) {
+  const std::string name = display.empty() ? path.string() : display;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    VectorSet set;
+    set.errors.push_back(TextError{name, 0, "cannot read the file"});
+    return set;
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_vectors(text.str(), name);
+}
+
+VectorSet load_vector_tree(const std::filesystem::path& dir) {
+  VectorSet set;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) {
+    set.errors.push_back(TextError{dir.string(), 0, "not a directory"});
+    return set;
+  }
+  std::vector<std::filesystem::path> files;
+  for (auto it = std::filesystem::recursive_directory_iterator(dir, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec)) {
+    const auto relative = it->path().lexically_relative(dir);
+    if (it->is_directory() && relative == "drives") {
+      it.disable_recursion_pending();
+      continue;
+    }
+    if (!it->is_regular_file() || it->path().extension() != ".yaml") continue;
+    if (relative == "manuals.yaml") continue;
+    files.push_back(it->path());
+  }
+  std::sort(files.begin(), files.end());
+  const auto base = dir.lexically_normal().has_filename()
+                        ? dir.lexically_normal().parent_path()
+                        : dir.lexically_normal().parent_path().parent_path();
+  std::map<std::string, std::pair<std::string, std::size_t>> seen;
+  for (const auto& path : files) {
+    auto display = path.lexically_normal().lexically_relative(base).string();
+    if (display.empty()) display = path.string();
+    auto one = load_vector_file(path, display);
+    set.files.push_back(display);
+    for (auto& error : one.errors)
+      set.errors.push_back(std::move(error));
+    for (auto& vector : one.vectors) {
+      const auto [it, inserted] = seen.emplace(vector.id, std::pair{vector.file, vector.line});
+      if (!inserted) {
+        set.errors.push_back(TextError{vector.file, static_cast<int>(vector.line),
+                                       fmt::format("duplicate id '{}' (first at {}:{})", vector.id,
+                                                   it->second.first, it->second.second)});
+        continue;
+      }
+      set.vectors.push_back(std::move(vector));
+    }
+  }
+  return set;
+}
+
+}  // namespace drivecheck::conformance

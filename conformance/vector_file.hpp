@@ -1,0 +1,49 @@
+// Vector files (vectors/FORMAT.md) → the typed model (vector.hpp).
+//
+// A vector file is a YAML sequence of vectors. Every key is checked against the format (an
+// unknown key is an error: a typo must not silently disable a check), every value is parsed
+// and range-checked, and every error names file:line (yaml-cpp's mark of the offending node).
+// Loading does not stop at the first error: a linter wants them all. A vector with an error is
+// left out of the result.
+//
+// A vector tree is every `*.yaml` under a directory except `drives/` (drive profiles) and the
+// top-level `manuals.yaml` (the manual list), read in path order; ids must be unique across
+// all of them.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "conformance/vector.hpp"
+#include "protocol/common/expected.hpp"
+
+namespace drivecheck::conformance {
+
+struct VectorSet {
+  std::vector<Vector> vectors;
+  std::vector<TextError> errors;   // file:line: message, in file order
+  std::vector<std::string> files;  // the files read (display names)
+  bool ok() const { return errors.empty(); }
+};
+
+// Parses YAML text; `file` is the display name used in errors and Vector::file.
+VectorSet parse_vectors(std::string_view text, const std::string& file);
+// Reads one file (display name: `display` or, when empty, the path as given).
+VectorSet load_vector_file(const std::filesystem::path& path, const std::string& display = {});
+// Reads a tree (display names relative to the parent of `dir`, e.g. "vectors/cia301/sdo.yaml"),
+// and checks that ids are unique across files.
+VectorSet load_vector_tree(const std::filesystem::path& dir);
+
+// Parses a duration literal "100ms", "2s", "1min" (ns us ms s min) or "$timing.<key>" (key
+// from the timing table). The error is a message without file:line.
+Expected<DurationSpec, std::string> parse_duration_spec(std::string_view text);
+// Parses a source citation (FORMAT.md "source").
+Expected<Source, std::string> parse_source(std::string_view text);
+// Parses a frame (`patterns`: `..` bytes and a trailing `*` allowed).
+Expected<FrameSpec, std::string> parse_frame_spec(std::string_view text, bool pattern);
+// Parses a COB-ID: `080`, `600+N`.
+Expected<CobIdSpec, std::string> parse_cob_id(std::string_view text);
+
+}  // namespace drivecheck::conformance

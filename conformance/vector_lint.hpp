@@ -1,0 +1,59 @@
+// `drivecheck vectors lint`: everything that can be checked about a vector tree without a drive.
+//
+//  - every vector file parses (vector_file.hpp: schema, unknown keys, values, marks, features);
+//  - ids are unique across files;
+//  - every manual a source cites is listed in <dir>/manuals.yaml and the line range lies within
+//    the manual's line count; when the manuals directory is available, each listed manual
+//    exists there and its sha256 is the one in manuals.yaml (the citations point at that text);
+//  - every drive profile in <dir>/drives/ loads (protocol/profile), its deviation sources cite
+//    listed manuals within range, and each deviation glob matches at least one vector
+//    (a warning: a glob that matches nothing explains nothing);
+//  - every `profiles:` name of a vector is a profile in <dir>/drives/.
+// Findings are file:line messages; errors make the lint fail (exit 2), warnings do not.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "conformance/vector.hpp"
+#include "protocol/common/expected.hpp"
+
+namespace drivecheck::conformance {
+
+// One manual of vectors/manuals.yaml.
+struct ManualEntry {
+  std::string file;
+  std::string device;
+  std::string sha256;
+  std::size_t lines = 0;
+  std::size_t line = 0;  // where manuals.yaml lists it
+};
+
+// Reads manuals.yaml ({file, device, sha256, lines} per entry, keys checked).
+Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
+    const std::filesystem::path& path);
+
+struct LintOptions {
+  std::filesystem::path dir;                         // the vector tree (vectors/)
+  std::optional<std::filesystem::path> manuals_dir;  // where the manuals are, if available
+};
+
+struct LintReport {
+  std::vector<TextError> errors;
+  std::vector<TextError> warnings;
+  std::vector<Vector> vectors;  // the vectors that loaded
+  std::size_t files = 0;
+  std::size_t profiles = 0;
+  bool manuals_checked = false;  // sha256 of the manuals verified
+  bool ok() const { return errors.empty(); }
+};
+
+LintReport lint_vector_tree(const LintOptions& options);
+
+// Checks a source citation against the manual list ("" when fine).
+std::string check_citation(const Source& source, const std::vector<ManualEntry>& manuals);
+
+}  // namespace drivecheck::conformance

@@ -1,0 +1,129 @@
+// Internal to the engine: the state of one vector while it runs, and the step implementations,
+// split by concern:
+//   evidence.cpp      receiving, sending, recording frames/samples/checks, durations
+//   sdo_steps.cpp     SDO transfers and the stimuli (send, nmt, sdo_*, wait, controlword,
+//                     simulate, mark)
+//   expectations.cpp  frame matching and the expect_* / poll / measure / periodic steps
+//   setup.cpp         setup (reset, NMT state, CiA 402 state walk) and teardown
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "conformance/engine.hpp"
+#include "conformance/result.hpp"
+#include "conformance/vector.hpp"
+#include "protocol/can/bus.hpp"
+#include "protocol/cia301/dissector.hpp"
+#include "protocol/cia301/sdo_codec.hpp"
+#include "protocol/profile/drive_profile.hpp"
+
+namespace drivecheck::conformance {
+
+// What every vector of a run shares.
+struct EngineContext {
+  can::Bus& bus;
+  const profile::DriveProfile& profile;
+  EngineOptions& options;
+  cia301::Dissector& dissector;
+  const std::atomic<bool>& interrupted;
+  const std::atomic<bool>& stalled;      // the simulation stopped making progress
+  std::atomic<std::uint64_t>& progress;  // counts every return from the bus
+};
+
+enum class StepStatus : std::uint8_t { ok, failed, harness_error };
+
+struct SdoOutcome {
+  bool ok = false;
+  std::vector<std::uint8_t> data;      // upload
+  std::optional<std::uint32_t> abort;  // the server's abort code
+  std::error_code error;               // any failure (abort included)
+  std::string describe() const;        // "ok", "abort 06010002h (...)", "no answer ..."
+};
+
+class VectorRun {
+ public:
+  VectorRun(EngineContext& context, const Vector& vector, VectorResult& result);
+
+  // ---- evidence.cpp ----
+  // Receives one frame from another node (recording it), or nullopt at `deadline` (clipped to
+  // the vector's deadline). Own echoes are recorded and skipped.
+  std::optional<can::TimedFrame> pump(can::TimePoint deadline);
+  // Takes every frame already due off the port (recording it).
+  void drain();
+  void wait_until(can::TimePoint deadline);
+  std::error_code send(const can::Frame& frame);
+  void sample(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data);
+  void check(std::string action, std::string expected, std::string actual, bool ok);
+  can::Duration resolve(const DurationSpec& spec) const;
+  can::TimePoint now() const { return context_.bus.now(); }
+  can::TimePoint deadline() const { return deadline_; }
+  bool vector_timed_out() const { return now() >= deadline_ || context_.stalled.load(); }
+  std::uint8_t node() const { return context_.options.node; }
+  // The last frames from other nodes, for Actual: texts ("585#..., 701#05").
+  std::string recent_frames(std::size_t from_index, std::size_t max = 4) const;
+  // Fails with `expected`/`actual` (sets the failure message).
+  StepStatus fail(std::string action, std::string expected, std::string actual);
+  StepStatus harness_error(std::string action, std::string message);
+
+  // ---- sdo_steps.cpp ----
+  SdoOutcome sdo_upload(cia301::Multiplexer mux, Transfer transfer = Transfer::automatic);
+  SdoOutcome sdo_download(cia301::Multiplexer mux, std::span<const std::uint8_t> data,
+                          Transfer transfer = Transfer::automatic);
+  StepStatus run_stimulus(const Step& step);
+
+  // ---- expectations.cpp ----
+  StepStatus run_expectation(const Step& step);
+  // A 402 state or statusword pattern polled through 6041h until `deadline`.
+  StepStatus poll_statusword(std::string action, std::uint16_t mask, std::uint16_t value,
+                             std::string expected, can::TimePoint deadline);
+
+  // ---- setup.cpp ----
+  StepStatus setup();
+  void teardown();
+
+  // Runs the whole vector: setup, steps, teardown; returns the outcome and message.
+  StepStatus run_steps();
+
+  const std::string& message() const { return message_; }
+  bool dut_spoke() const { return dut_frames_ > 0; }
+  std::size_t current_step() const { return step_index_; }
+
+ private:
+  struct Mark {
+    can::TimePoint at{};
+    std::size_t index = 0;  // first frame index after the mark
+  };
+  StepStatus write_controlword(std::uint16_t value, std::string action);
+  StepStatus reach_drive_state(cia402::State target);
+  StepStatus await_bootup(std::string action);
+  std::size_t watch_start(const std::string& since) const;
+  std::optional<std::size_t> watch(std::size_t from, can::TimePoint deadline,
+                                   const std::function<bool(const can::Frame&)>& match);
+  void set_mark(const std::string& name, can::TimePoint at, std::size_t index);
+  std::optional<std::int64_t> value_of(const ValueSpec& spec, std::string& error) const;
+  std::size_t object_size(std::uint16_t index, std::uint8_t sub) const;
+
+  EngineContext& context_;
+  const Vector& vector_;
+  VectorResult& result_;
+  can::TimePoint deadline_ = can::kForever;
+  std::vector<can::TimedFrame> received_;  // frames from other nodes, in order
+  std::size_t dut_frames_ = 0;
+  std::map<std::string, Mark> marks_;
+  std::map<std::string, std::int64_t> saved_;
+  std::optional<std::uint16_t> last_statusword_;
+  std::optional<can::Duration> heartbeat_time_;  // 1017h as written or read in this vector
+  std::size_t step_index_ = 0;
+  std::string action_;  // current step's action
+  std::string message_;
+};
+
+}  // namespace drivecheck::conformance

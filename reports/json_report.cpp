@@ -1,0 +1,483 @@
+// The JSON report (layout in report_writers.hpp) and its reader for `drivecheck report diff`.
+#include <fmt/format.h>
+
+#include <cstdint>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "reports/report_writers.hpp"
+
+namespace drivecheck::reports {
+namespace {
+
+using conformance::DutIdentity;
+using conformance::Level;
+using conformance::RunResult;
+using conformance::VectorResult;
+using conformance::Verdict;
+using nlohmann::json;
+
+double seconds(can::Duration duration) {
+  return static_cast<double>(duration.count()) / 1e9;
+}
+std::int64_t ns_of(can::TimePoint at) {
+  return at.time_since_epoch().count();
+}
+
+template <class T>
+void put_optional(json& object, const char* key, const std::optional<T>& value) {
+  if (value) object[key] = *value;
+}
+
+json dut_json(const DutIdentity& dut) {
+  json out = json::object();
+  put_optional(out, "device_type", dut.device_type);
+  put_optional(out, "device_name", dut.device_name);
+  put_optional(out, "hardware_version", dut.hardware_version);
+  put_optional(out, "software_version", dut.software_version);
+  put_optional(out, "vendor_id", dut.vendor_id);
+  put_optional(out, "product_code", dut.product_code);
+  put_optional(out, "revision", dut.revision);
+  put_optional(out, "serial", dut.serial);
+  return out;
+}
+
+json vector_json(const VectorResult& vector) {
+  json out;
+  out["id"] = vector.id;
+  out["family"] = vector.family;
+  out["title"] = vector.title;
+  out["sources"] = vector.sources;
+  out["level"] = std::string(to_string(vector.level));
+  out["file"] = vector.file;
+  out["line"] = vector.line;
+  out["verdict"] = std::string(to_string(vector.verdict));
+  out["message"] = vector.message;
+  out["deviation_id"] = vector.deviation_id;
+  out["deviation_source"] = vector.deviation_source;
+  out["warning"] = vector.warning;
+  json checks = json::array();
+  for (const auto& check : vector.checks) {
+    checks.push_back({{"step", check.step},
+                      {"action", check.action},
+                      {"expected", check.expected},
+                      {"actual", check.actual},
+                      {"ok", check.ok}});
+  }
+  out["checks"] = std::move(checks);
+  json frames = json::array();
+  for (const auto& frame : vector.frames) {
+    frames.push_back({{"t_ns", ns_of(frame.at)},
+                      {"t_s", seconds(frame.at.time_since_epoch())},
+                      {"frame", can::to_candump(frame.frame)},
+                      {"from_harness", frame.from_harness},
+                      {"decoded", frame.decoded}});
+  }
+  out["frames"] = std::move(frames);
+  out["frames_elided"] = vector.frames_elided;
+  out["frames_elided_at"] = vector.frames_elided_at;
+  json timings = json::array();
+  for (const auto& timing : vector.timings) {
+    json t = {{"name", timing.name},
+              {"measured_ns", timing.measured.count()},
+              {"measured_s", seconds(timing.measured)},
+              {"ok", timing.ok}};
+    if (timing.min) t["min_ns"] = timing.min->count();
+    if (timing.max) t["max_ns"] = timing.max->count();
+    timings.push_back(std::move(t));
+  }
+  out["timings"] = std::move(timings);
+  json samples = json::array();
+  for (const auto& sample : vector.samples) {
+    samples.push_back(
+        {{"t_ns", ns_of(sample.at)}, {"signal", sample.signal}, {"value", sample.value}});
+  }
+  out["samples"] = std::move(samples);
+  out["started_ns"] = ns_of(vector.started);
+  out["finished_ns"] = ns_of(vector.finished);
+  out["duration_s"] = seconds(vector.finished - vector.started);
+  out["wall_s"] = vector.wall_seconds;
+  return out;
+}
+
+// ---- reading ---------------------------------------------------------------------------
+
+// A structural error: where in the document (a JSON path) and what is wrong.
+struct ReadError {
+  std::string message;
+};
+
+class Reader {
+ public:
+  const json& member(const json& object, const char* key) const {
+    const auto it = object.find(key);
+    if (it == object.end()) throw ReadError{where(key) + ": missing"};
+    return *it;
+  }
+  std::string string(const json& object, const char* key) const {
+    const json& value = member(object, key);
+    if (!value.is_string()) throw ReadError{where(key) + ": expected a string"};
+    return value.get<std::string>();
+  }
+  bool boolean(const json& object, const char* key) const {
+    const json& value = member(object, key);
+    if (!value.is_boolean()) throw ReadError{where(key) + ": expected true or false"};
+    return value.get<bool>();
+  }
+  std::int64_t integer(const json& object, const char* key) const {
+    const json& value = member(object, key);
+    if (!value.is_number_integer()) throw ReadError{where(key) + ": expected an integer"};
+    if (value.is_number_unsigned() &&
+        value.get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX)) {
+      throw ReadError{where(key) + ": out of range"};
+    }
+    return value.get<std::int64_t>();
+  }
+  // A time or duration in ns, limited to ±2^61 ns (±73 years) so that the writers' differences
+  // of two times cannot overflow.
+  std::int64_t nanoseconds(const json& object, const char* key) const {
+    constexpr std::int64_t kLimit = std::int64_t{1} << 61;
+    const std::int64_t value = integer(object, key);
+    if (value < -kLimit || value > kLimit) throw ReadError{where(key) + ": out of range"};
+    return value;
+  }
+  std::uint64_t unsigned_integer(const json& object, const char* key) const {
+    const json& value = member(object, key);
+    if (!value.is_number_unsigned()) throw ReadError{where(key) + ": expected an unsigned integer"};
+    return value.get<std::uint64_t>();
+  }
+  double number(const json& object, const char* key) const {
+    const json& value = member(object, key);
+    if (!value.is_number()) throw ReadError{where(key) + ": expected a number"};
+    return value.get<double>();
+  }
+  const json& array(const json& object, const char* key) const {
+    const json& value = member(object, key);
+    if (!value.is_array()) throw ReadError{where(key) + ": expected an array"};
+    return value;
+  }
+  const json& object(const json& parent, const char* key) const {
+    const json& value = member(parent, key);
+    if (!value.is_object()) throw ReadError{where(key) + ": expected an object"};
+    return value;
+  }
+  std::optional<std::uint32_t> optional_u32(const json& object, const char* key) const {
+    if (!object.contains(key)) return std::nullopt;
+    const std::uint64_t value = unsigned_integer(object, key);
+    if (value > UINT32_MAX) throw ReadError{where(key) + ": out of range for 32 bits"};
+    return static_cast<std::uint32_t>(value);
+  }
+  std::optional<std::string> optional_string(const json& object, const char* key) const {
+    if (!object.contains(key)) return std::nullopt;
+    return string(object, key);
+  }
+
+  // The JSON path of the element being read, for messages ("vectors[3].checks[0]").
+  void push(std::string part) { path_parts_.push_back(std::move(part)); }
+  void pop() { path_parts_.pop_back(); }
+  std::string where(std::string_view key) const {
+    std::string out;
+    for (const auto& part : path_parts_) {
+      if (!out.empty() && part.front() != '[') out += '.';
+      out += part;
+    }
+    if (key.empty()) return out.empty() ? std::string("(document)") : out;
+    if (!out.empty() && key.front() != '[') out += '.';
+    return out + std::string(key);
+  }
+
+ private:
+  std::vector<std::string> path_parts_;
+};
+
+// Pushes a path component for the lifetime of the scope.
+class Scope {
+ public:
+  Scope(Reader& reader, std::string part) : reader_(reader) { reader_.push(std::move(part)); }
+  ~Scope() { reader_.pop(); }
+  Scope(const Scope&) = delete;
+  Scope& operator=(const Scope&) = delete;
+
+ private:
+  Reader& reader_;
+};
+
+Verdict parse_verdict(const Reader& reader, const json& object) {
+  const std::string text = reader.string(object, "verdict");
+  for (std::size_t i = 0; i < conformance::kVerdictCount; ++i) {
+    const auto verdict = static_cast<Verdict>(i);
+    if (text == to_string(verdict)) return verdict;
+  }
+  throw ReadError{reader.where("verdict") + ": unknown verdict \"" + text + "\""};
+}
+
+Level parse_level(const Reader& reader, const json& object) {
+  const std::string text = reader.string(object, "level");
+  for (const Level level : {Level::must, Level::should, Level::may}) {
+    if (text == to_string(level)) return level;
+  }
+  throw ReadError{reader.where("level") + ": unknown level \"" + text + "\""};
+}
+
+can::TimePoint time_at(std::int64_t ns) {
+  return can::TimePoint(can::Duration(ns));
+}
+
+std::size_t size_of(const Reader& reader, const json& object, const char* key) {
+  const std::int64_t value = reader.integer(object, key);
+  if (value < 0) throw ReadError{reader.where(key) + ": must not be negative"};
+  return static_cast<std::size_t>(value);
+}
+
+VectorResult read_vector(Reader& reader, const json& in) {
+  if (!in.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+  VectorResult vector;
+  vector.id = reader.string(in, "id");
+  vector.family = reader.string(in, "family");
+  vector.title = reader.string(in, "title");
+  {
+    Scope scope(reader, "sources");
+    std::size_t i = 0;
+    for (const json& source : reader.array(in, "sources")) {
+      if (!source.is_string())
+        throw ReadError{reader.where(fmt::format("[{}]", i)) + ": expected a string"};
+      vector.sources.push_back(source.get<std::string>());
+      ++i;
+    }
+  }
+  vector.level = parse_level(reader, in);
+  vector.file = reader.string(in, "file");
+  vector.line = size_of(reader, in, "line");
+  vector.verdict = parse_verdict(reader, in);
+  vector.message = reader.string(in, "message");
+  vector.deviation_id = reader.string(in, "deviation_id");
+  vector.deviation_source = reader.string(in, "deviation_source");
+  vector.warning = reader.boolean(in, "warning");
+  std::size_t i = 0;
+  for (const json& item : reader.array(in, "checks")) {
+    Scope scope(reader, fmt::format("checks[{}]", i++));
+    if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+    conformance::Check check;
+    check.step = size_of(reader, item, "step");
+    check.action = reader.string(item, "action");
+    check.expected = reader.string(item, "expected");
+    check.actual = reader.string(item, "actual");
+    check.ok = reader.boolean(item, "ok");
+    vector.checks.push_back(std::move(check));
+  }
+  i = 0;
+  for (const json& item : reader.array(in, "frames")) {
+    Scope scope(reader, fmt::format("frames[{}]", i++));
+    if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+    conformance::EvidenceFrame frame;
+    frame.at = time_at(reader.nanoseconds(item, "t_ns"));
+    const std::string text = reader.string(item, "frame");
+    auto parsed = can::parse_candump(text);
+    if (!parsed) throw ReadError{reader.where("frame") + ": " + parsed.error()};
+    frame.frame = *parsed;
+    frame.from_harness = reader.boolean(item, "from_harness");
+    frame.decoded = reader.string(item, "decoded");
+    vector.frames.push_back(std::move(frame));
+  }
+  // Absent in reports written before the evidence cap: nothing was left out.
+  if (in.contains("frames_elided")) {
+    vector.frames_elided = static_cast<std::size_t>(reader.unsigned_integer(in, "frames_elided"));
+    vector.frames_elided_at =
+        static_cast<std::size_t>(reader.unsigned_integer(in, "frames_elided_at"));
+    if (vector.frames_elided_at > vector.frames.size()) {
+      throw ReadError{reader.where("frames_elided_at") + ": beyond the frames kept"};
+    }
+  }
+  i = 0;
+  for (const json& item : reader.array(in, "timings")) {
+    Scope scope(reader, fmt::format("timings[{}]", i++));
+    if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+    conformance::Timing timing;
+    timing.name = reader.string(item, "name");
+    timing.measured = can::Duration(reader.nanoseconds(item, "measured_ns"));
+    if (item.contains("min_ns")) timing.min = can::Duration(reader.nanoseconds(item, "min_ns"));
+    if (item.contains("max_ns")) timing.max = can::Duration(reader.nanoseconds(item, "max_ns"));
+    timing.ok = reader.boolean(item, "ok");
+    vector.timings.push_back(std::move(timing));
+  }
+  i = 0;
+  for (const json& item : reader.array(in, "samples")) {
+    Scope scope(reader, fmt::format("samples[{}]", i++));
+    if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+    conformance::Sample sample;
+    sample.at = time_at(reader.nanoseconds(item, "t_ns"));
+    sample.signal = reader.string(item, "signal");
+    sample.value = reader.integer(item, "value");
+    vector.samples.push_back(std::move(sample));
+  }
+  vector.started = time_at(reader.nanoseconds(in, "started_ns"));
+  vector.finished = time_at(reader.nanoseconds(in, "finished_ns"));
+  vector.wall_seconds = reader.number(in, "wall_s");
+  return vector;
+}
+
+RunResult read_run(Reader& reader, const json& document) {
+  if (!document.is_object()) throw ReadError{"the document is not a JSON object"};
+  if (!document.contains("schema_version")) {
+    throw ReadError{"schema_version: missing (not a drivecheck JSON report?)"};
+  }
+  const std::int64_t version = reader.integer(document, "schema_version");
+  if (version != kJsonSchemaVersion) {
+    throw ReadError{fmt::format("schema_version: {} is not supported (this drivecheck reads {})",
+                                version, kJsonSchemaVersion)};
+  }
+  RunResult result;
+  {
+    Scope scope(reader, "run");
+    const json& run = reader.object(document, "run");
+    auto& info = result.info;
+    info.tool_version = reader.string(run, "tool_version");
+    info.started_utc = reader.string(run, "started_utc");
+    info.bus = reader.string(run, "bus");
+    const std::int64_t node = reader.integer(run, "node");
+    if (node < 0 || node > 255) throw ReadError{reader.where("node") + ": out of range"};
+    info.node = static_cast<int>(node);
+    {
+      Scope inner(reader, "profile");
+      const json& profile = reader.object(run, "profile");
+      info.profile_name = reader.string(profile, "name");
+      info.profile_title = reader.string(profile, "title");
+      info.profile_file = reader.string(profile, "file");
+    }
+    {
+      Scope inner(reader, "eds");
+      const json& eds = reader.object(run, "eds");
+      info.eds_file = reader.string(eds, "file");
+      info.eds_sha256 = reader.string(eds, "sha256");
+    }
+    info.personality = reader.string(run, "personality");
+    {
+      Scope inner(reader, "deviations");
+      std::size_t i = 0;
+      for (const json& item : reader.array(run, "deviations")) {
+        if (!item.is_string())
+          throw ReadError{reader.where(fmt::format("[{}]", i)) + ": expected a string"};
+        info.deviations.push_back(item.get<std::string>());
+        ++i;
+      }
+    }
+    info.seed = reader.unsigned_integer(run, "seed");
+    info.strict = reader.boolean(run, "strict");
+    info.allow_motion = reader.boolean(run, "allow_motion");
+    info.filter = reader.string(run, "filter");
+    {
+      Scope inner(reader, "dut");
+      const json& dut = reader.object(run, "dut");
+      info.dut.device_type = reader.optional_u32(dut, "device_type");
+      info.dut.device_name = reader.optional_string(dut, "device_name");
+      info.dut.hardware_version = reader.optional_string(dut, "hardware_version");
+      info.dut.software_version = reader.optional_string(dut, "software_version");
+      info.dut.vendor_id = reader.optional_u32(dut, "vendor_id");
+      info.dut.product_code = reader.optional_u32(dut, "product_code");
+      info.dut.revision = reader.optional_u32(dut, "revision");
+      info.dut.serial = reader.optional_u32(dut, "serial");
+    }
+    result.interrupted = reader.boolean(run, "interrupted");
+    result.dut_lost = reader.boolean(run, "dut_lost");
+    result.simulated = can::Duration(reader.nanoseconds(run, "simulated_ns"));
+    result.wall_seconds = reader.number(run, "wall_s");
+  }
+  std::size_t i = 0;
+  for (const json& item : reader.array(document, "vectors")) {
+    Scope scope(reader, fmt::format("vectors[{}]", i++));
+    result.vectors.push_back(read_vector(reader, item));
+  }
+  return result;
+}
+
+}  // namespace
+
+std::string render_json(const RunResult& result) {
+  json run;
+  const auto& info = result.info;
+  run["tool_version"] = info.tool_version;
+  run["started_utc"] = info.started_utc;
+  run["bus"] = info.bus;
+  run["node"] = info.node;
+  run["profile"] = {
+      {"name", info.profile_name}, {"title", info.profile_title}, {"file", info.profile_file}};
+  run["eds"] = {{"file", info.eds_file}, {"sha256", info.eds_sha256}};
+  run["personality"] = info.personality;
+  run["deviations"] = info.deviations;
+  run["seed"] = info.seed;
+  run["strict"] = info.strict;
+  run["allow_motion"] = info.allow_motion;
+  run["filter"] = info.filter;
+  run["dut"] = dut_json(info.dut);
+  run["interrupted"] = result.interrupted;
+  run["dut_lost"] = result.dut_lost;
+  run["simulated_ns"] = result.simulated.count();
+  run["simulated_s"] = seconds(result.simulated);
+  run["wall_s"] = result.wall_seconds;
+
+  const auto counts = result.counts();
+  json count_json;
+  for (std::size_t i = 0; i < conformance::kVerdictCount; ++i) {
+    count_json[std::string(to_string(static_cast<Verdict>(i)))] = counts.by_verdict[i];
+  }
+  count_json["warnings"] = counts.warnings;
+  count_json["total"] = counts.total();
+
+  json vectors = json::array();
+  for (const auto& vector : result.vectors)
+    vectors.push_back(vector_json(vector));
+
+  json document;
+  document["schema_version"] = kJsonSchemaVersion;
+  document["generator"] = "drivecheck " + info.tool_version;
+  document["run"] = std::move(run);
+  document["counts"] = std::move(count_json);
+  document["exit_code"] = conformance::exit_code(result);
+  document["vectors"] = std::move(vectors);
+  // replace: invalid UTF-8 from the DUT becomes U+FFFD instead of an exception.
+  return document.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
+}
+
+Expected<void, std::string> write_json_report(const std::filesystem::path& path,
+                                              const RunResult& result) {
+  return write_file_atomically(path, render_json(result));
+}
+
+Expected<RunResult, TextError> parse_json_report(std::string_view text, std::string_view file) {
+  json document;
+  try {
+    document = json::parse(text);
+  } catch (const json::parse_error& error) {
+    // The byte offset of the error → its line.
+    const std::size_t offset = std::min<std::size_t>(error.byte, text.size());
+    int line = 1;
+    for (std::size_t i = 0; i + 1 < offset; ++i)
+      if (text[i] == '\n') ++line;
+    std::string message = error.what();
+    // "[json.exception.parse_error.101] parse error at line 1, column 2: syntax error ..."
+    if (const auto colon = message.find(": "); colon != std::string::npos)
+      message = message.substr(colon + 2);
+    return Unexpected(TextError{std::string(file), line, "not valid JSON: " + message});
+  }
+  Reader reader;
+  try {
+    return read_run(reader, document);
+  } catch (const ReadError& error) {
+    return Unexpected(TextError{std::string(file), 0, error.message});
+  } catch (const json::exception& error) {
+    return Unexpected(TextError{std::string(file), 0, error.what()});
+  }
+}
+
+Expected<RunResult, TextError> read_json_report(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Unexpected(TextError{path.string(), 0, "cannot open the file"});
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return Unexpected(TextError{path.string(), 0, "cannot read the file"});
+  return parse_json_report(text.str(), path.string());
+}
+
+}  // namespace drivecheck::reports

@@ -1,0 +1,107 @@
+// Text helpers every writer shares: untrusted strings made valid UTF-8 and printable, and the
+// transcript line of one evidence frame.
+#include <fmt/format.h>
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "reports/report_writers.hpp"
+
+namespace drivecheck::reports {
+namespace {
+
+constexpr std::string_view kReplacement = "\xEF\xBF\xBD";  // U+FFFD
+
+// Length of the valid UTF-8 sequence starting at text[i], 0 if it is invalid (RFC 3629:
+// no overlong forms, no surrogates, nothing above U+10FFFF).
+std::size_t utf8_sequence_length(std::string_view text, std::size_t i) {
+  const auto byte = [&](std::size_t k) { return static_cast<std::uint8_t>(text[k]); };
+  const std::uint8_t lead = byte(i);
+  if (lead < 0x80) return 1;
+  std::size_t length = 0;
+  std::uint8_t low = 0x80;
+  std::uint8_t high = 0xBF;
+  if (lead >= 0xC2 && lead <= 0xDF) {
+    length = 2;
+  } else if (lead >= 0xE0 && lead <= 0xEF) {
+    length = 3;
+    if (lead == 0xE0) low = 0xA0;   // overlong
+    if (lead == 0xED) high = 0x9F;  // surrogates
+  } else if (lead >= 0xF0 && lead <= 0xF4) {
+    length = 4;
+    if (lead == 0xF0) low = 0x90;   // overlong
+    if (lead == 0xF4) high = 0x8F;  // above U+10FFFF
+  } else {
+    return 0;
+  }
+  if (i + length > text.size()) return 0;
+  for (std::size_t k = 1; k < length; ++k) {
+    const std::uint8_t b = byte(i + k);
+    const std::uint8_t lo = k == 1 ? low : std::uint8_t{0x80};
+    const std::uint8_t hi = k == 1 ? high : std::uint8_t{0xBF};
+    if (b < lo || b > hi) return 0;
+  }
+  return length;
+}
+
+}  // namespace
+
+std::string to_valid_utf8(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const std::size_t length = utf8_sequence_length(text, i);
+    if (length == 0) {
+      out += kReplacement;
+      ++i;
+    } else {
+      out.append(text.substr(i, length));
+      i += length;
+    }
+  }
+  return out;
+}
+
+std::string printable_text(std::string_view text) {
+  const std::string valid = to_valid_utf8(text);
+  std::string out;
+  out.reserve(valid.size());
+  for (const char c : valid) {
+    const auto byte = static_cast<std::uint8_t>(c);
+    if ((byte < 0x20 && c != '\n' && c != '\t') || byte == 0x7F) {
+      out += fmt::format("\\x{:02X}", byte);
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+std::string_view first_line(std::string_view text) {
+  std::string_view line = text.substr(0, text.find('\n'));
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  return line;
+}
+
+std::string transcript_line(const conformance::EvidenceFrame& frame, can::TimePoint start) {
+  const std::int64_t ns = (frame.at - start).count();
+  const char* sign = ns < 0 ? "-" : "";
+  const std::int64_t magnitude = ns < 0 ? -ns : ns;
+  const std::string seconds = fmt::format("{}{}", sign, magnitude / 1'000'000'000);
+  std::string line =
+      fmt::format("({:>4}.{:06}) {} {:<20}", seconds, magnitude % 1'000'000'000 / 1000,
+                  frame.from_harness ? "tx" : "rx", can::to_candump(frame.frame));
+  if (!frame.decoded.empty()) line += " → " + frame.decoded;
+  return line;
+}
+
+std::string elided_line(std::size_t count) {
+  return fmt::format(
+      "   … {} frame(s) not kept in this report (the run's --trace log has every "
+      "frame) …",
+      count);
+}
+
+}  // namespace drivecheck::reports

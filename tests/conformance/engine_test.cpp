@@ -1,0 +1,493 @@
+// The engine (conformance/engine.hpp) against scripted peers and the reference drive on the
+// simulated bus: each step kind passing and failing, timeouts, dut_lost, evidence.
+#include "conformance/engine.hpp"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "conformance/od_checks.hpp"
+#include "conformance/vector_file.hpp"
+#include "protocol/can/sim_bus.hpp"
+#include "reference_drive/device.hpp"
+#include "tests/support/scripted_peer.hpp"
+
+namespace drivecheck::conformance {
+namespace {
+
+using namespace std::chrono_literals;
+
+profile::DriveProfile make_profile() {
+  auto parsed = profile::parse_profile(
+      "name: t\ntitle: T\nfeatures: [sdo.segmented, heartbeat.producer]\n",
+      {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
+  EXPECT_TRUE(parsed) << parsed.error().to_string();
+  return *parsed;
+}
+
+// A vector without setup (scripted peers do not boot), with `steps` (YAML, indented 4).
+Vector make_vector(const std::string& steps, const std::string& extra = "") {
+  const auto set = parse_vectors(
+      "- id: t/x\n  title: t\n  source: \"CiA 301 §1\"\n  setup: none\n  nmt: none\n" + extra +
+          "  steps:\n" + steps,
+      "t.yaml");
+  EXPECT_TRUE(set.ok()) << (set.errors.empty() ? "" : set.errors.front().to_string());
+  return set.vectors.empty() ? Vector{} : set.vectors.front();
+}
+
+class EngineTest : public ::testing::Test {
+ protected:
+  EngineTest()
+      : harness_(bus_.attach("harness")),
+        peer_port_(bus_.attach("peer")),
+        profile_(make_profile()) {}
+
+  VectorResult run(const Vector& vector, EngineOptions options = {}) {
+    Engine engine(*harness_, profile_, std::move(options));
+    return engine.run_vector(vector);
+  }
+  std::string failure(const VectorResult& result) {
+    return result.checks.empty()
+               ? result.message
+               : result.checks.back().expected + " / " + result.checks.back().actual;
+  }
+
+  can::SimBus bus_{{.bitrate = 1'000'000}};
+  std::unique_ptr<can::SimPort> harness_;
+  std::unique_ptr<can::SimPort> peer_port_;
+  profile::DriveProfile profile_;
+};
+
+TEST_F(EngineTest, SdoWriteExpectedAbortPasses) {
+  // Given a peer that aborts a write of 6041h with 06010002h
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2B41600000000000")  // ccs=1 n=2 e=1 s=1, 6041h sub 0, data 0000h
+      .reply("581#8041600002000106");  // abort 6041h sub 0, 06010002h
+  // When the vector expects that abort
+  const auto result =
+      run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
+                      "{abort: [0x06010002]}\n"));
+  // Then it passes, with the check and both frames as evidence
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+  ASSERT_EQ(result.checks.size(), 1U);
+  EXPECT_TRUE(result.checks[0].ok);
+  ASSERT_EQ(result.frames.size(), 2U);
+  EXPECT_TRUE(result.frames[0].from_harness);
+  EXPECT_FALSE(result.frames[1].from_harness);
+  EXPECT_FALSE(result.frames[1].decoded.empty());
+  EXPECT_TRUE(peer.finished());
+}
+
+TEST_F(EngineTest, WrongAbortCodeFailsWithExpectedActual) {
+  // Given a peer that answers a write to a read-only object with 06090030h instead
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2B41600000000000")  // ccs=1 n=2 e=1 s=1, 6041h sub 0, data 0000h
+      .reply("581#8041600030000906");  // abort 6041h sub 0, 06090030h (value range)
+  // When the vector expects 06010002h
+  const auto result =
+      run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
+                      "{abort: [0x06010002]}\n"));
+  // Then it fails, and the message shows both codes
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(
+      result.message.find("Expected: write 6041h sub 0 := 00 00: abort with one of {06010002h}"),
+      std::string::npos)
+      << result.message;
+  EXPECT_NE(result.message.find("Actual:   abort 06090030h"), std::string::npos) << result.message;
+  ASSERT_FALSE(result.checks.empty());
+  EXPECT_FALSE(result.checks.back().ok);
+}
+
+TEST_F(EngineTest, SdoReadValueWithMask) {
+  // Given a peer answering 6041h reads with 0240h twice
+  test_support::ScriptedPeer peer(*peer_port_);
+  for (int i = 0; i < 2; ++i) {
+    peer.expect("601#4041600000000000")  // ccs=2 upload, 6041h sub 0
+        .reply("581#4B41600040020000");  // scs=2 n=2 e=1 s=1, data 0240h
+  }
+  // When one read expects state bits 0040h and one expects 0027h
+  const auto pass = run(make_vector(
+      "    - sdo_read: {index: 0x6041, sub: 0}\n      expect: {value: 0x40, mask: 0x4F}\n"));
+  const auto fail = run(make_vector(
+      "    - sdo_read: {index: 0x6041, sub: 0}\n      expect: {value: 0x27, mask: 0x6F}\n"));
+  // Then the first passes, the second fails naming the value read; both recorded a sample
+  EXPECT_EQ(pass.verdict, Verdict::pass) << pass.message;
+  EXPECT_EQ(fail.verdict, Verdict::fail);
+  EXPECT_NE(fail.message.find("576 (240h)"), std::string::npos) << fail.message;
+  ASSERT_EQ(pass.samples.size(), 1U);
+  EXPECT_EQ(pass.samples[0].signal, "statusword");
+  EXPECT_EQ(pass.samples[0].value, 0x240);
+}
+
+TEST_F(EngineTest, ExpectFrameTimesOut) {
+  // Given a peer that never answers
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#4041600000000000");  // ccs=2 upload, 6041h sub 0; no reply
+  const auto start = bus_.now();
+  // When the vector waits 10 ms for the answer
+  const auto result =
+      run(make_vector("    - send: \"600+N#4041600000000000\"\n    - expect_frame: "
+                      "\"580+N#4B416000....0000\"\n      within: 10ms\n"));
+  // Then it fails after 10 ms of bus time with "nothing matching"
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(result.message.find("nothing matching within 10ms"), std::string::npos)
+      << result.message;
+  EXPECT_GE(bus_.now() - start, 10ms);
+  EXPECT_LT(bus_.now() - start, 12ms);
+}
+
+TEST_F(EngineTest, ExpectFrameMatchesAndMeasuresMarks) {
+  // Given a peer answering 123h after 3 ms and 124h after 7 ms
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("123#01").reply_after(3ms, "181#00");  // stimulus → TPDO-like answer
+  peer.expect("124#01").reply_after(7ms, "182#00");
+  // When the vector marks both answers and measures between them
+  const auto result =
+      run(make_vector("    - send: \"123#01\"\n    - expect_frame: \"180+N#*\"\n      mark: a\n"
+                      "    - send: \"124#01\"\n    - expect_frame: \"182#00\"\n      mark: b\n"
+                      "    - measure: {from: a, to: b, min: 5ms, max: 20ms}\n"));
+  // Then it passes with one timing of about 7 ms
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+  ASSERT_EQ(result.timings.size(), 1U);
+  EXPECT_GE(result.timings[0].measured, 7ms);
+  EXPECT_LT(result.timings[0].measured, 8ms);
+  // And a tighter bound fails
+  peer.expect("123#01").reply_after(3ms, "181#00");
+  peer.expect("124#01").reply_after(7ms, "182#00");
+  const auto tight =
+      run(make_vector("    - send: \"123#01\"\n    - expect_frame: \"180+N#*\"\n      mark: a\n"
+                      "    - send: \"124#01\"\n    - expect_frame: \"182#00\"\n      mark: b\n"
+                      "    - measure: {from: a, to: b, max: 5ms}\n"));
+  EXPECT_EQ(tight.verdict, Verdict::fail);
+  EXPECT_FALSE(tight.timings.at(0).ok);
+}
+
+TEST_F(EngineTest, ExpectSilence) {
+  // Given a peer that sends 181h 5 ms after a stimulus
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("123#01").reply_after(5ms, "181#00");
+  peer.expect("123#01").reply_after(5ms, "181#00");
+  // When one vector wants silence on 180+N and another on 280+N
+  const auto loud = run(
+      make_vector("    - send: \"123#01\"\n    - expect_silence: [\"180+N\"]\n      for: 20ms\n"));
+  const auto quiet = run(
+      make_vector("    - send: \"123#01\"\n    - expect_silence: [\"280+N\"]\n      for: 20ms\n"));
+  // Then the first fails naming the frame, the second passes
+  EXPECT_EQ(loud.verdict, Verdict::fail);
+  EXPECT_NE(loud.message.find("181#00"), std::string::npos) << loud.message;
+  EXPECT_EQ(quiet.verdict, Verdict::pass) << quiet.message;
+}
+
+TEST_F(EngineTest, ExpectEmcy) {
+  // Given a peer that sends EMCY 2310h, register 01h
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("123#01").reply("081#1023010000000000");  // EMCY code 2310h, register 01h
+  peer.expect("123#01").reply("081#1023010000000000");
+  // When one vector expects that code and another expects 8611h
+  const auto right =
+      run(make_vector("    - send: \"123#01\"\n    - expect_emcy: {code: [0x2310, 0x2320], "
+                      "register: {mask: 0x01, value: 0x01}}\n"));
+  const auto wrong = run(make_vector(
+      "    - send: \"123#01\"\n    - expect_emcy: {code: 0x8611}\n      within: 20ms\n"));
+  // Then pass and fail
+  EXPECT_EQ(right.verdict, Verdict::pass) << right.message;
+  EXPECT_EQ(wrong.verdict, Verdict::fail);
+  EXPECT_NE(wrong.message.find("081#1023010000000000"), std::string::npos) << wrong.message;
+}
+
+TEST_F(EngineTest, ControlwordIsAnSdoWriteOf6040) {
+  // Given a peer that accepts the first controlword write and refuses the second
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2B40600006000000")  // ccs=1 n=2 e=1 s=1, 6040h sub 0, data 0006h
+      .reply("581#6040600000000000");  // scs=3 download confirmed
+  peer.expect("601#2B4060000F000000")  // 6040h := 000Fh
+      .reply("581#8040600022000008");  // abort 08000022h (device state)
+  // When a vector writes shutdown then enable operation
+  const auto result = run(make_vector("    - controlword: 0x0006\n    - controlword: 0x000F\n"));
+  // Then the first check passes, the second fails naming the abort; samples are recorded
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  ASSERT_EQ(result.checks.size(), 2U);
+  EXPECT_TRUE(result.checks[0].ok);
+  EXPECT_NE(result.checks[1].actual.find("08000022h"), std::string::npos)
+      << result.checks[1].actual;
+  ASSERT_EQ(result.samples.size(), 2U);
+  EXPECT_EQ(result.samples[0].signal, "controlword");
+  EXPECT_EQ(result.samples[1].value, 0x000F);
+}
+
+TEST_F(EngineTest, TeardownQuickStopsThenDisablesAfterMotion) {
+  // Given a CiA 402 profile and a motion vector whose step fails
+  auto parsed = profile::parse_profile(
+      "name: m\ntitle: M\nfeatures: [cia402]\n",
+      {.file_name = "m.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2B40600002000000")  // 6040h := 0002h quick stop
+      .reply("581#6040600000000000");  // confirmed
+  peer.expect("601#4041600000000000")  // upload 6041h
+      .reply("581#4B41600007020000");  // 0207h: QUICK STOP ACTIVE
+  peer.expect("601#406C600000000000")  // upload 606Ch velocity actual value
+      .reply("581#436C600010000000");  // 16 units/s: still moving
+  peer.expect("601#4041600000000000")  // upload 6041h again, a moment later
+      .reply("581#4B41600040020000");  // 0240h: SWITCH ON DISABLED (quick stop complete)
+  peer.expect("601#2B40600000000000")  // 6040h := 0000h disable voltage
+      .reply("581#6040600000000000");  // confirmed
+  // When it runs (the expectation times out)
+  Engine engine(*harness_, *parsed, {});
+  const auto result = engine.run_vector(
+      make_vector("    - expect_frame: \"181#*\"\n      within: 5ms\n", "  motion: true\n"));
+  // Then it fails, and afterwards the drive got quick stop, was watched until the quick stop
+  // was complete (not disabled while still moving), then got disable voltage
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_TRUE(peer.finished());
+}
+
+TEST_F(EngineTest, DriveStateWalksTheStandardPath) {
+  // Given a CiA 402 profile and a peer playing a drive in SWITCH ON DISABLED
+  auto parsed = profile::parse_profile(
+      "name: m\ntitle: M\nfeatures: [cia402]\n",
+      {.file_name = "m.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // 6041h = 0240h (SOD)
+  peer.expect("601#2B40600000000000").reply("581#6040600000000000");  // 6040h := 0000h, ok
+  peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // 6041h = 0240h (SOD)
+  peer.expect("601#2B40600006000000").reply("581#6040600000000000");  // 6040h := 0006h, ok
+  peer.expect("601#4041600000000000").reply("581#4B41600021020000");  // 6041h = 0221h (RTSO)
+  // When a vector asks for ready-to-switch-on (then does nothing)
+  Engine engine(*harness_, *parsed, {});
+  const auto result =
+      engine.run_vector(make_vector("    - wait: 1ms\n", "  drive_state: ready-to-switch-on\n"));
+  // Then the setup walked 7 (disable voltage) and 2 (shutdown), and the vector passes
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+  EXPECT_TRUE(peer.finished());
+}
+
+TEST_F(EngineTest, ExpectStatePollsUntilReached) {
+  // Given a drive that shows NOT READY first, then SWITCH ON DISABLED
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#4041600000000000").reply("581#4B41600000000000");  // 6041h = 0000h
+  peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // 6041h = 0240h
+  // When the vector expects switch-on-disabled
+  const auto result = run(make_vector("    - expect_state: switch-on-disabled\n"));
+  // Then it passes after two reads, each a statusword sample
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+  EXPECT_EQ(result.samples.size(), 2U);
+  EXPECT_TRUE(peer.finished());
+}
+
+TEST_F(EngineTest, ExpectStatuswordFailsAtDeadline) {
+  // Given a drive stuck in NOT READY (a peer answering every read with 0000h)
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#4041600000000000").reply("581#4B41600000000000");  // 6041h = 0000h
+  peer.set_repeat(true);
+  // When the vector expects bit 6 within 20 ms
+  const auto result = run(
+      make_vector("    - expect_statusword: {mask: 0x0040, value: 0x0040}\n      within: 20ms\n"));
+  // Then it fails with the last statusword
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(result.message.find("statusword 0000h"), std::string::npos) << result.message;
+}
+
+TEST_F(EngineTest, VectorTimeoutEndsAWait) {
+  // Given a vector limited to 50 ms that waits 1 s
+  const auto start = bus_.now();
+  const auto result = run(make_vector("    - wait: 1s\n", "  timeout: 50ms\n"));
+  // Then it fails at 50 ms with "vector timeout"
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(result.message.find("vector timeout"), std::string::npos) << result.message;
+  EXPECT_EQ(bus_.now() - start, 50ms);
+}
+
+class FakeSimulation final : public SimulationControl {
+ public:
+  std::string set_input(std::string_view input, std::int64_t value) override {
+    if (input != "hardware-enable") return "unknown input (known: hardware-enable)";
+    last = value;
+    return {};
+  }
+  std::string reset_inputs() override {
+    ++resets;
+    last = -1;
+    return {};
+  }
+  std::int64_t last = -1;
+  int resets = 0;
+};
+
+TEST_F(EngineTest, SimulateGoesThroughTheControl) {
+  // Given a simulation control knowing hardware-enable
+  FakeSimulation simulation;
+  EngineOptions options;
+  options.simulation = &simulation;
+  // When a vector sets it, and another sets an unknown input
+  const auto ok = run(make_vector("    - simulate: {input: hardware-enable, value: 1}\n"), options);
+  const auto unknown = run(make_vector("    - simulate: {input: limit-up, value: 1}\n"), options);
+  // Then the first passes (value delivered), the second is a harness error naming the input,
+  // and the inputs were reset before each vector (the second one found last = -1 again)
+  EXPECT_EQ(ok.verdict, Verdict::pass) << ok.message;
+  EXPECT_EQ(simulation.resets, 2);
+  EXPECT_EQ(simulation.last, -1);
+  EXPECT_EQ(unknown.verdict, Verdict::error);
+  EXPECT_NE(unknown.message.find("limit-up"), std::string::npos) << unknown.message;
+}
+
+TEST_F(EngineTest, UnknownMarkAtRunTimeIsAHarnessError) {
+  // Given a vector built in code whose measure names marks nobody set (the loader would refuse)
+  Vector vector;
+  vector.id = "t/marks";
+  vector.setup = Setup::none;
+  vector.nmt.reset();
+  vector.steps.push_back(Step{MeasureStep{"a", "b", std::nullopt, DurationSpec{1ms, {}}}, {}, 1});
+  // When run; Then a harness error, not a DUT failure
+  const auto result = run(vector);
+  EXPECT_EQ(result.verdict, Verdict::error);
+  EXPECT_NE(result.message.find("unknown mark 'a'"), std::string::npos) << result.message;
+}
+
+class EngineDriveTest : public EngineTest {
+ protected:
+  EngineDriveTest() {
+    reference_drive::DriveConfig config;
+    config.dictionary.node_id = 1;
+    auto drive = reference_drive::ReferenceDrive::create(*peer_port_, std::move(config));
+    EXPECT_TRUE(drive) << drive.error();
+    drive_ = std::move(*drive);
+    drive_->power_on();
+    bus_.run_for(10ms);
+  }
+  std::unique_ptr<reference_drive::ReferenceDrive> drive_;
+};
+
+TEST_F(EngineDriveTest, ResetNodeSetupAndBootup) {
+  // Given the reference drive; When a vector with the default setup resets it and resets it
+  // again by an nmt step
+  const auto set = parse_vectors(
+      "- id: t/boot\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n    - nmt: reset-node\n    - "
+      "expect_bootup: {}\n      mark: up\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok());
+  const auto result = run(set.vectors.front());
+  // Then both boot-ups are seen
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+}
+
+TEST_F(EngineDriveTest, HeartbeatAndPeriodic) {
+  // Given the drive producing a heartbeat every 50 ms (1017h written by the vector)
+  const auto result =
+      run(make_vector("    - sdo_write: {index: 0x1017, sub: 0, value: 50, size: 2}\n"
+                      "    - expect_heartbeat: pre-operational\n"
+                      "    - expect_periodic: \"700+N\"\n      period: 50ms\n      tolerance: "
+                      "2ms\n      count: 3\n"));
+  // Then the heartbeat is seen within 75 ms and its period is within tolerance
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+  EXPECT_EQ(result.timings.size(), 2U);
+  // And a wrong period fails with the measured interval
+  const auto wrong =
+      run(make_vector("    - sdo_write: {index: 0x1017, sub: 0, value: 50, size: 2}\n"
+                      "    - expect_periodic: \"700+N\"\n      period: 40ms\n      tolerance: "
+                      "2ms\n      count: 3\n"));
+  EXPECT_EQ(wrong.verdict, Verdict::fail);
+}
+
+TEST_F(EngineDriveTest, PollAndSave) {
+  // Given the drive's device type 1000h; When read, saved and polled for the same value
+  const auto result =
+      run(make_vector("    - sdo_read: {index: 0x1000, sub: 0}\n      save: type\n"
+                      "    - sdo_read: {index: 0x1000, sub: 0}\n      expect: {value: $type}\n"
+                      "    - poll: {index: 0x1018, sub: 0, value: 4}\n      within: 20ms\n"));
+  // Then it passes
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+}
+
+TEST_F(EngineDriveTest, DutLostAfterSilentVectors) {
+  // Given one vector where the drive answers, then four where it says nothing
+  std::vector<Vector> vectors;
+  vectors.push_back(make_vector("    - sdo_read: {index: 0x1000, sub: 0}\n"));
+  for (int i = 0; i < 4; ++i) {
+    auto v = make_vector("    - wait: 10ms\n");
+    v.id = "t/silent-" + std::to_string(i);
+    vectors.push_back(v);
+  }
+  EngineOptions options;
+  options.max_silent_vectors = 3;
+  Engine engine(*harness_, profile_, options);
+  // When the run goes on
+  const auto result = engine.run(vectors);
+  // Then it stops after the third silent vector with dut_lost (exit 3)
+  EXPECT_TRUE(result.dut_lost);
+  EXPECT_EQ(result.vectors.size(), 4U);
+  EXPECT_EQ(exit_code(result), 3);
+  EXPECT_EQ(result.info.dut.device_type.has_value(), true);
+}
+
+TEST_F(EngineTest, NoDutAtAllIsLostAtOnce) {
+  // Given nothing on the bus but the harness
+  Engine engine(*harness_, profile_, {});
+  // When a run starts; Then the identity reads go unanswered and the run is lost
+  const auto result = engine.run({make_vector("    - wait: 1ms\n")});
+  EXPECT_TRUE(result.dut_lost);
+  EXPECT_TRUE(result.vectors.empty());
+}
+
+TEST_F(EngineDriveTest, FilterAndNotApplicable) {
+  // Given two vectors, one needing sdo.block (not in the profile)
+  auto a = make_vector("    - sdo_read: {index: 0x1000, sub: 0}\n");
+  a.id = "x/a";
+  auto b = make_vector("    - sdo_read: {index: 0x1000, sub: 0}\n      transfer: block\n",
+                       "  requires: [sdo.block]\n");
+  b.id = "y/b";
+  EngineOptions options;
+  options.filter = "y/*";
+  Engine engine(*harness_, profile_, options);
+  // When run with filter y/*; Then only b runs, and is not applicable naming sdo.block
+  const auto result = engine.run({a, b});
+  ASSERT_EQ(result.vectors.size(), 1U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::not_applicable);
+  EXPECT_NE(result.vectors[0].message.find("sdo.block"), std::string::npos);
+}
+
+TEST_F(EngineDriveTest, ProbeFindsObjectsTheDescriptionLacks) {
+  // Given a description that lists every object of the drive but 1018h
+  Engine engine(*harness_, profile_, {});
+  const auto documented = [this](std::uint16_t index) {
+    return index != 0x1018 && drive_->dictionary().find(index) != nullptr;
+  };
+  // When the probe runs
+  const auto result = engine.probe_undocumented_objects(documented, "test EDS");
+  // Then 1018h is the one undescribed object, and its frames are the evidence
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  ASSERT_EQ(result.checks.size(), 1U);
+  EXPECT_EQ(result.checks[0].actual.rfind("1 undescribed: 1018h", 0), 0U)
+      << result.checks[0].actual;
+  EXPECT_EQ(result.frames.size(), 2U);
+}
+
+TEST_F(EngineTest, OdChecksCatchAWrongAccessType) {
+  // Given a profile whose manual lists 6041h as ro, and a DUT that accepts a write to it
+  auto parsed = profile::parse_profile(
+      "name: t\ntitle: T\nfeatures: [cia402]\nobjects:\n  - {index: 0x6041, sub: 0, type: "
+      "UNSIGNED16, access: ro, source: \"CiA 402-2 §1\"}\n",
+      {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  const auto vectors = generate_od_vectors(nullptr, "", *parsed);
+  // When the generated checks are listed; Then a read (2 bytes) and a write-ro check exist
+  ASSERT_EQ(vectors.size(), 2U);
+  EXPECT_EQ(vectors[0].id, "eds/od/6041-00/read");
+  EXPECT_EQ(vectors[1].id, "eds/od/6041-00/write-ro");
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2B41600000000000")  // ccs=1 n=2 e=1 s=1, 6041h sub 0, data 0000h
+      .reply("581#6041600000000000");  // scs=3: download confirmed (wrong: 6041h is ro)
+  // When the write-ro check runs against that DUT
+  Engine engine(*harness_, *parsed, {});
+  const auto result = engine.run_vector(vectors[1]);
+  // Then it fails with Expected abort 06010002h / Actual ok
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(result.message.find("abort with one of {06010002h}"), std::string::npos)
+      << result.message;
+  EXPECT_NE(result.message.find("Actual:   ok"), std::string::npos) << result.message;
+}
+
+}  // namespace
+}  // namespace drivecheck::conformance

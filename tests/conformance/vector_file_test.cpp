@@ -1,0 +1,237 @@
+// The vector loader (conformance/vector_file.hpp): every error class names file:line, and a
+// well-formed vector becomes the typed model.
+#include "conformance/vector_file.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace drivecheck::conformance {
+namespace {
+
+// The single error of `yaml`, as "file:line: message".
+std::string only_error(const std::string& yaml) {
+  const auto set = parse_vectors(yaml, "v.yaml");
+  EXPECT_EQ(set.errors.size(), 1U) << [&] {
+    std::string all;
+    for (const auto& e : set.errors)
+      all += e.to_string() + "\n";
+    return all;
+  }();
+  return set.errors.empty() ? std::string() : set.errors.front().to_string();
+}
+
+constexpr const char* kHead = R"(- id: cia301/sdo/x
+  title: "t"
+  source: "CiA 301 §7.2.4"
+  level: must
+)";
+
+TEST(VectorFile, FullVectorParses) {
+  // Given a vector with setup, state, stimuli and expectations
+  const std::string yaml = std::string(kHead) + R"(  requires: [sdo.segmented]
+  motion: true
+  setup: none
+  nmt: operational
+  timeout: 2s
+  steps:
+    - send: "600+N#4041600000000000"
+    - expect_frame: "580+N#4B416000....0000"
+      within: $timing.sdo_response
+      mark: answer
+    - sdo_read: {index: 0x6041, sub: 0}
+      expect: {value: 0x0040, mask: 0x004F}
+      save: sw
+    - sdo_write: {index: 0x6040, sub: 0, value: $sw, size: 2}
+    - measure: {from: answer, to: answer, max: 1ms}
+)";
+  // When it is parsed
+  const auto set = parse_vectors(yaml, "v.yaml");
+  // Then every value is in the model, motion implies the feature, lines are kept
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  ASSERT_EQ(set.vectors.size(), 1U);
+  const auto& v = set.vectors.front();
+  EXPECT_EQ(v.family(), "cia301/sdo");
+  EXPECT_EQ(v.requires_features, (std::vector<std::string>{"sdo.segmented", "motion"}));
+  EXPECT_EQ(v.setup, Setup::none);
+  EXPECT_EQ(v.nmt, cia301::NmtState::operational);
+  EXPECT_EQ(v.timeout.value, std::chrono::seconds(2));
+  ASSERT_EQ(v.steps.size(), 5U);
+  EXPECT_EQ(v.steps[1].line, 12U);
+  const auto& expect = std::get<ExpectFrameStep>(v.steps[1].action);
+  EXPECT_EQ(expect.within.timing, "sdo_response");
+  EXPECT_EQ(expect.mark, "answer");
+  // 581#4B41600040020000 matches 580+N#4B416000....0000 for node 1
+  EXPECT_TRUE(expect.pattern.matches(*can::parse_candump("581#4B41600040020000"), 1));
+  EXPECT_FALSE(expect.pattern.matches(*can::parse_candump("581#4B41600040020001"), 1));
+  EXPECT_FALSE(expect.pattern.matches(*can::parse_candump("582#4B41600040020000"), 1));
+  EXPECT_EQ(std::get<SdoWriteStep>(v.steps[3].action).value->saved, "sw");
+}
+
+TEST(VectorFile, UnknownVectorKeyNamesLine) {
+  // Given a typo in a vector key; When parsed; Then file:line and the allowed keys
+  const auto error = only_error(std::string(kHead) + "  stpes: []\n  steps: [{wait: 1ms}]\n");
+  EXPECT_NE(error.find("v.yaml:5: unknown vector key 'stpes'"), std::string::npos) << error;
+}
+
+TEST(VectorFile, UnknownStepModifierIsAnError) {
+  // Given `withn:` on an expectation; When parsed; Then the step's line and the allowed keys
+  const auto error =
+      only_error(std::string(kHead) + "  steps:\n    - expect_bootup: {}\n      withn: 1s\n");
+  EXPECT_NE(error.find("v.yaml:7: expect_bootup: unknown key 'withn'"), std::string::npos) << error;
+}
+
+TEST(VectorFile, StepWithTwoActionsIsAnError) {
+  // Given a step with send and wait; When parsed; Then an error at the second action
+  const auto error =
+      only_error(std::string(kHead) + "  steps:\n    - send: \"000#0101\"\n      wait: 1ms\n");
+  EXPECT_NE(error.find("v.yaml:7: step has two actions: 'send' and 'wait'"), std::string::npos)
+      << error;
+}
+
+TEST(VectorFile, MarkIsAModifierNextToAnAction) {
+  // Given `mark:` beside expect_bootup and a measure using it; When parsed; Then no error
+  const auto set = parse_vectors(std::string(kHead) +
+                                     "  steps:\n    - expect_bootup: {}\n      mark: b\n    - "
+                                     "mark: t\n    - measure: {from: b, to: t, max: 1s}\n",
+                                 "v.yaml");
+  EXPECT_TRUE(set.ok()) << set.errors.front().to_string();
+}
+
+TEST(VectorFile, StepWithoutActionIsAnError) {
+  // Given a step of modifiers only; When parsed; Then "step has no action" at its line
+  const auto error = only_error(std::string(kHead) + "  steps:\n    - within: 1s\n");
+  EXPECT_NE(error.find("v.yaml:6: step has no action"), std::string::npos) << error;
+}
+
+TEST(VectorFile, BadDurationAndUnknownTiming) {
+  // Given a duration without unit and an unknown timing name; When parsed; Then one error each
+  auto error = only_error(std::string(kHead) + "  steps:\n    - wait: 100\n");
+  EXPECT_NE(error.find("v.yaml:6: wait:"), std::string::npos) << error;
+  error = only_error(std::string(kHead) + "  steps:\n    - wait: $timing.nope\n");
+  EXPECT_NE(error.find("unknown timing name 'nope'"), std::string::npos) << error;
+}
+
+TEST(VectorFile, SendRefusesPatterns) {
+  // Given `..` in a frame to send; When parsed; Then an error naming the frame
+  const auto error = only_error(std::string(kHead) + "  steps:\n    - send: \"600+N#40..\"\n");
+  EXPECT_NE(error.find("v.yaml:6: send: '600+N#40..'"), std::string::npos) << error;
+}
+
+TEST(VectorFile, BadCobIdAndTooManyBytes) {
+  // Given a 4-digit COB-ID and a 9-byte frame; When parsed; Then errors with their lines
+  auto error = only_error(std::string(kHead) +
+                          "  steps:\n    - expect_silence: [\"1800\"]\n      for: 1s\n");
+  EXPECT_NE(error.find("v.yaml:6:"), std::string::npos) << error;
+  EXPECT_NE(error.find("is not a COB-ID"), std::string::npos) << error;
+  error = only_error(std::string(kHead) + "  steps:\n    - send: \"601#000000000000000000\"\n");
+  EXPECT_NE(error.find("9 data bytes"), std::string::npos) << error;
+  error = only_error(std::string(kHead) + "  steps:\n    - send: \"7FF+N#00\"\n");
+  EXPECT_NE(error.find("out of range"), std::string::npos) << error;
+}
+
+TEST(VectorFile, UnknownFeatureIsAnError) {
+  // Given requires: [sdo.segmentd]; When parsed; Then the feature is named
+  const auto error =
+      only_error(std::string(kHead) + "  requires: [sdo.segmentd]\n  steps: [{wait: 1ms}]\n");
+  EXPECT_NE(error.find("v.yaml:5: requires: unknown feature 'sdo.segmentd'"), std::string::npos)
+      << error;
+}
+
+TEST(VectorFile, BadSourceIsAnError) {
+  // Given a manual source without line range and one with a reversed range
+  auto error = only_error(
+      "- id: a/b\n  title: t\n  source: \"000_33c1d912b8b6010a.txt §3.2\"\n  steps: [{wait: "
+      "1ms}]\n");
+  EXPECT_NE(error.find("v.yaml:3: source"), std::string::npos) << error;
+  EXPECT_NE(error.find("line range"), std::string::npos) << error;
+  error = only_error(
+      "- id: a/b\n  title: t\n  source: \"000_33c1d912b8b6010a.txt §3.2 L20-10\"\n  steps: [{wait: "
+      "1ms}]\n");
+  EXPECT_NE(error.find("runs backwards"), std::string::npos) << error;
+}
+
+TEST(VectorFile, UnknownMarkAndSavedValue) {
+  // Given a measure from a mark never set, and $x never saved; When parsed; Then both named
+  const auto marks = parse_vectors(
+      std::string(kHead) + "  steps:\n    - measure: {from: a, to: a, max: 1s}\n", "v.yaml");
+  ASSERT_EQ(marks.errors.size(), 2U);
+  EXPECT_EQ(marks.errors[0].to_string(),
+            "v.yaml:6: from: unknown mark 'a' (marks must be set by an earlier step)");
+  const auto set =
+      parse_vectors(std::string(kHead) +
+                        "  steps:\n    - sdo_write: {index: 0x6040, sub: 0, value: $x, size: 2}\n",
+                    "v.yaml");
+  ASSERT_EQ(set.errors.size(), 1U);
+  EXPECT_NE(set.errors[0].to_string().find("v.yaml:6: value: '$x' names no value saved"),
+            std::string::npos);
+}
+
+TEST(VectorFile, MissingRequiredKeys) {
+  // Given a vector without title and steps; When parsed; Then one error per key at its line
+  const auto set = parse_vectors("- id: a/b\n  source: \"CiA 301 §1\"\n", "v.yaml");
+  ASSERT_EQ(set.errors.size(), 2U);
+  EXPECT_EQ(set.errors[0].to_string(), "v.yaml:1: vector a/b: 'title' is missing");
+  EXPECT_EQ(set.errors[1].to_string(), "v.yaml:1: vector a/b: 'steps' is missing");
+}
+
+TEST(VectorFile, ValueMustFitItsSize) {
+  // Given 0x1FF in one byte; When parsed; Then an error
+  const auto error =
+      only_error(std::string(kHead) +
+                 "  steps:\n    - sdo_write: {index: 0x6060, sub: 0, value: 0x1FF, size: 1}\n");
+  EXPECT_NE(error.find("does not fit in 1 byte"), std::string::npos) << error;
+}
+
+TEST(VectorFile, InvalidLevelAndId) {
+  // Given level "must!" and an upper-case id; When parsed; Then both are errors with lines
+  const auto set = parse_vectors(
+      "- id: CiA/X\n  title: t\n  source: \"CiA 301 §1\"\n  level: must!\n  steps: [{wait: 1ms}]\n",
+      "v.yaml");
+  ASSERT_EQ(set.errors.size(), 2U);
+  EXPECT_EQ(set.errors[0].line, 1);
+  EXPECT_EQ(set.errors[1].line, 4);
+}
+
+TEST(VectorFile, YamlSyntaxErrorHasLine) {
+  // Given broken YAML; When parsed; Then the parser's line
+  const auto set = parse_vectors("- id: a/b\n  title: [unclosed\n", "v.yaml");
+  ASSERT_FALSE(set.ok());
+  EXPECT_GT(set.errors[0].line, 0);
+  EXPECT_EQ(set.errors[0].file, "v.yaml");
+}
+
+TEST(VectorFile, TopLevelMustBeASequence) {
+  // Given a map at the top; When parsed; Then an error at line 1
+  const auto error = only_error("id: a/b\n");
+  EXPECT_NE(error.find("v.yaml:1: a vector file is a YAML sequence"), std::string::npos) << error;
+}
+
+TEST(VectorTree, DuplicateIdsAcrossFilesAndSkippedDirectories) {
+  // Given two files with the same id, a drives/ profile and manuals.yaml
+  const auto dir =
+      std::filesystem::temp_directory_path() / "drivecheck_vector_tree_test" / "vectors";
+  std::filesystem::remove_all(dir.parent_path());
+  std::filesystem::create_directories(dir / "drives");
+  std::filesystem::create_directories(dir / "cia301");
+  const std::string vector =
+      "- id: a/b\n  title: t\n  source: \"CiA 301 §1\"\n  steps: [{wait: 1ms}]\n";
+  std::ofstream(dir / "cia301" / "one.yaml") << vector;
+  std::ofstream(dir / "two.yaml") << vector;
+  std::ofstream(dir / "drives" / "x.yaml") << "name: x\n";
+  std::ofstream(dir / "manuals.yaml") << "- file: x\n";
+  // When the tree is loaded
+  const auto set = load_vector_tree(dir);
+  // Then the second copy is an error naming the first, and drives/ and manuals.yaml are skipped
+  ASSERT_EQ(set.errors.size(), 1U);
+  EXPECT_EQ(set.errors[0].to_string(),
+            "vectors/two.yaml:1: duplicate id 'a/b' (first at vectors/cia301/one.yaml:1)");
+  EXPECT_EQ(set.vectors.size(), 1U);
+  EXPECT_EQ(set.files.size(), 2U);
+  std::filesystem::remove_all(dir.parent_path());
+}
+
+}  // namespace
+}  // namespace drivecheck::conformance

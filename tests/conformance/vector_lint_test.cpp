@@ -1,0 +1,93 @@
+// The linter's manual checks (conformance/vector_lint.hpp): citations against manuals.yaml,
+// the manuals' sha256, and the SHA-256 itself.
+#include "conformance/vector_lint.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "conformance/sha256.hpp"
+#include "conformance/vector_file.hpp"
+
+namespace drivecheck::conformance {
+namespace {
+
+TEST(Sha256, KnownDigests) {
+  // Given the FIPS 180-4 examples; When hashed; Then the published digests
+  EXPECT_EQ(sha256_hex(std::string_view("abc")),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(sha256_hex(std::string_view("")),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(
+      sha256_hex(std::string_view("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq")),
+      "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+}
+
+class LintTree : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ = std::filesystem::temp_directory_path() / "drivecheck_lint_test";
+    std::filesystem::remove_all(root_);
+    std::filesystem::create_directories(root_ / "vectors");
+    std::filesystem::create_directories(root_ / "manuals");
+    std::ofstream(root_ / "manuals" / "m.txt") << "one\ntwo\nthree\n";
+  }
+  void TearDown() override { std::filesystem::remove_all(root_); }
+  void write(const std::string& name, const std::string& text) {
+    std::ofstream(root_ / "vectors" / name) << text;
+  }
+  std::string manuals(const std::string& sha) {
+    return "- file: m.txt\n  device: \"d\"\n  sha256: " + sha + "\n  lines: 3\n";
+  }
+  std::filesystem::path root_;
+};
+
+TEST_F(LintTree, CitationPastTheManualsEnd) {
+  // Given a vector citing L2-4 of a 3-line manual
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  write("v.yaml", "- id: a/b\n  title: t\n  source: \"m.txt §1 L2-4\"\n  steps: [{wait: 1ms}]\n");
+  // When linted with the manuals available
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
+  // Then one error at the source's line; the sha256 matched
+  ASSERT_EQ(report.errors.size(), 1U);
+  EXPECT_NE(report.errors[0].to_string().find(
+                "v.yaml:3: source 'm.txt §1 L2-4': line 4 is past the end of m.txt (3 lines)"),
+            std::string::npos)
+      << report.errors[0].to_string();
+  EXPECT_TRUE(report.manuals_checked);
+}
+
+TEST_F(LintTree, UnlistedManualAndChangedManual) {
+  // Given a wrong sha256 in manuals.yaml and a citation of an unlisted manual
+  write("manuals.yaml", manuals(std::string(64, '0')));
+  write("v.yaml",
+        "- id: a/b\n  title: t\n  source: \"other.txt §1 L1-1\"\n  steps: [{wait: 1ms}]\n");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
+  // Then both are errors
+  ASSERT_EQ(report.errors.size(), 2U);
+  EXPECT_NE(report.errors[0].message.find("the text changed"), std::string::npos);
+  EXPECT_NE(report.errors[1].message.find("manual 'other.txt' is not listed in manuals.yaml"),
+            std::string::npos);
+}
+
+TEST_F(LintTree, WithoutManualsTheShaIsNotChecked) {
+  // Given a wrong sha256 but no manuals directory; When linted; Then no error, not checked
+  write("manuals.yaml", manuals(std::string(64, '0')));
+  write("v.yaml", "- id: a/b\n  title: t\n  source: \"m.txt §1 L1-3\"\n  steps: [{wait: 1ms}]\n");
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  EXPECT_TRUE(report.ok());
+  EXPECT_FALSE(report.manuals_checked);
+}
+
+TEST_F(LintTree, BadManualListHasLines) {
+  // Given an unknown key in manuals.yaml; When linted; Then its line
+  write("manuals.yaml", "- file: m.txt\n  device: d\n  sha256: x\n  lines: 3\n  pages: 2\n");
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  ASSERT_FALSE(report.errors.empty());
+  EXPECT_EQ(report.errors[0].line, 5);
+}
+
+}  // namespace
+}  // namespace drivecheck::conformance

@@ -1,0 +1,170 @@
+// The JSON report: its stable keys, the write → read round trip, and clear errors on bad files.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "reports/report_writers.hpp"
+#include "tests/reports/synthetic_run.hpp"
+#include "tests/support/temp_dir.hpp"
+
+namespace drivecheck::reports {
+namespace {
+
+using conformance::Verdict;
+using nlohmann::json;
+using test_support::synthetic_run;
+using test_support::TempDir;
+
+conformance::RunResult valid_utf8_run() {
+  auto run = synthetic_run();
+  run.info.dut.device_name = "CMMP-AS \x1b[31m</script>]]> §";  // hostile but valid UTF-8
+  return run;
+}
+
+TEST(JsonReport, HasSchemaVersionCountsAndTimesInNanosecondsAndSeconds) {
+  // Given the synthetic run with every verdict
+  // When written as JSON
+  // Then the document has schema_version 1, counts per verdict, the exit code, and each
+  //      frame's time both as t_ns and t_s
+  const json document = json::parse(render_json(valid_utf8_run()));
+  EXPECT_EQ(document["schema_version"], 1);
+  EXPECT_EQ(document["counts"]["pass"], 2);
+  EXPECT_EQ(document["counts"]["fail"], 2);
+  EXPECT_EQ(document["counts"]["deviation"], 1);
+  EXPECT_EQ(document["counts"]["not-applicable"], 1);
+  EXPECT_EQ(document["counts"]["error"], 1);
+  EXPECT_EQ(document["counts"]["warnings"], 1);
+  EXPECT_EQ(document["counts"]["total"], 7);
+  EXPECT_EQ(document["exit_code"], 1);
+  const json& frame = document["vectors"][0]["frames"][1];
+  EXPECT_EQ(frame["t_ns"], 2'000'000);
+  EXPECT_DOUBLE_EQ(frame["t_s"].get<double>(), 0.002);
+  EXPECT_EQ(frame["frame"], "585#4B41600050020000");
+  EXPECT_EQ(document["run"]["dut"]["vendor_id"], 0x1D);
+  EXPECT_FALSE(document["run"]["dut"].contains("hardware_version"));  // not readable
+  EXPECT_EQ(document["vectors"][2]["deviation_source"], "000_33c1d912b8b6010a.txt §6.1 L5426-5444");
+}
+
+TEST(JsonReport, WriteThenReadGivesTheSameRun) {
+  // Given the synthetic run (hostile but valid UTF-8 strings)
+  // When written to a file and read back
+  // Then the run read renders to the identical document and its fields are the originals
+  TempDir dir;
+  const auto original = valid_utf8_run();
+  ASSERT_TRUE(write_json_report(dir / "run.json", original));
+  const auto read = read_json_report(dir / "run.json");
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(render_json(*read), render_json(original));
+  EXPECT_EQ(read->info.dut.device_name, original.info.dut.device_name);
+  EXPECT_EQ(read->info.dut.serial, 0xCAFE0001u);
+  EXPECT_FALSE(read->info.dut.hardware_version.has_value());
+  ASSERT_EQ(read->vectors.size(), original.vectors.size());
+  for (std::size_t i = 0; i < original.vectors.size(); ++i) {
+    const auto& a = original.vectors[i];
+    const auto& b = read->vectors[i];
+    EXPECT_EQ(b.id, a.id);
+    EXPECT_EQ(b.verdict, a.verdict);
+    EXPECT_EQ(b.level, a.level);
+    EXPECT_EQ(b.warning, a.warning);
+    EXPECT_EQ(b.message, a.message);
+    EXPECT_EQ(b.started, a.started);
+    EXPECT_EQ(b.finished, a.finished);
+    ASSERT_EQ(b.frames.size(), a.frames.size());
+    for (std::size_t f = 0; f < a.frames.size(); ++f) {
+      EXPECT_EQ(b.frames[f].frame, a.frames[f].frame);
+      EXPECT_EQ(b.frames[f].at, a.frames[f].at);
+      EXPECT_EQ(b.frames[f].decoded, a.frames[f].decoded);
+    }
+    ASSERT_EQ(b.timings.size(), a.timings.size());
+    for (std::size_t t = 0; t < a.timings.size(); ++t) {
+      EXPECT_EQ(b.timings[t].min, a.timings[t].min);
+      EXPECT_EQ(b.timings[t].max, a.timings[t].max);
+    }
+    EXPECT_EQ(b.samples.size(), a.samples.size());
+  }
+}
+
+TEST(JsonReport, InvalidUtf8IsWrittenAsReplacementCharacter) {
+  // Given a device name with invalid UTF-8 bytes
+  // When written as JSON
+  // Then the document is valid JSON whose name has U+FFFD in place of each bad byte
+  const auto text = render_json(synthetic_run());
+  const json document = json::parse(text);
+  const std::string name = document["run"]["dut"]["device_name"];
+  EXPECT_NE(name.find("\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD("), std::string::npos) << name;
+  EXPECT_NE(name.find("</script>"), std::string::npos);
+}
+
+TEST(JsonReportRead, SyntaxErrorNamesFileAndLine) {
+  // Given a file whose third line breaks the JSON syntax
+  // When read
+  // Then the error is "<file>:3: not valid JSON: ..."
+  TempDir dir;
+  const auto path = dir.write("bad.json", "{\n  \"schema_version\": 1,\n  \"run\": ]\n}\n");
+  const auto read = read_json_report(path);
+  ASSERT_FALSE(read);
+  EXPECT_EQ(read.error().file, path.string());
+  EXPECT_EQ(read.error().line, 3);
+  EXPECT_NE(read.error().message.find("not valid JSON"), std::string::npos);
+}
+
+TEST(JsonReportRead, StructuralErrorsNameTheKey) {
+  // Given reports with a wrong schema version, a misspelt verdict, a missing key and a bad frame
+  // When parsed
+  // Then each error names the JSON path and what is wrong
+  json document = json::parse(render_json(valid_utf8_run()));
+  json wrong_version = document;
+  wrong_version["schema_version"] = 2;
+  EXPECT_NE(parse_json_report(wrong_version.dump()).error().message.find("schema_version: 2"),
+            std::string::npos);
+  json bad_verdict = document;
+  bad_verdict["vectors"][3]["verdict"] = "pased";
+  EXPECT_EQ(parse_json_report(bad_verdict.dump()).error().message,
+            "vectors[3].verdict: unknown verdict \"pased\"");
+  json missing = document;
+  missing["vectors"][0]["checks"][0].erase("actual");
+  EXPECT_EQ(parse_json_report(missing.dump()).error().message,
+            "vectors[0].checks[0].actual: missing");
+  json bad_frame = document;
+  bad_frame["vectors"][1]["frames"][0]["frame"] = "605#ZZ";
+  EXPECT_NE(
+      parse_json_report(bad_frame.dump()).error().message.find("vectors[1].frames[0].frame: "),
+      std::string::npos);
+  json not_object = json::array();
+  EXPECT_FALSE(parse_json_report(not_object.dump()));
+  EXPECT_NE(parse_json_report("{}").error().message.find("not a drivecheck JSON report"),
+            std::string::npos);
+}
+
+TEST(JsonReportRead, ExtremeTimesAreRejectedAndExtremeSamplesRender) {
+  // Given a report whose frame time is INT64_MAX ns, and one whose samples are INT64_MIN and
+  //       INT64_MAX
+  // When read (and the second rendered as HTML)
+  // Then the time is "out of range" (differences of times could overflow), the samples are
+  //      read and drawn
+  json document = json::parse(render_json(valid_utf8_run()));
+  json far = document;
+  far["vectors"][0]["frames"][0]["t_ns"] = INT64_MAX;
+  EXPECT_EQ(parse_json_report(far.dump()).error().message,
+            "vectors[0].frames[0].t_ns: out of range");
+  json extreme = document;
+  extreme["vectors"][6]["samples"][2]["value"] = INT64_MIN;
+  extreme["vectors"][6]["samples"][6]["value"] = INT64_MAX;
+  const auto read = parse_json_report(extreme.dump());
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_NE(render_html(*read).find("<svg class=\"timing\""), std::string::npos);
+}
+
+TEST(JsonReportRead, MissingFileIsAnError) {
+  // Given a path with no file
+  // When read
+  // Then the error names the file
+  TempDir dir;
+  const auto read = read_json_report(dir / "absent.json");
+  ASSERT_FALSE(read);
+  EXPECT_NE(read.error().to_string().find("absent.json"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace drivecheck::reports
