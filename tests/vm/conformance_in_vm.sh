@@ -1,0 +1,46 @@
+#!/bin/sh
+# Runs inside the test VM (tests/vm/run-in-vm, with drivecheck as --extra and the vectors as
+# --data): the reference drive as its own process on vcan0 (`drivecheck drive`), the suite
+# against it over SocketCAN as another process (`drivecheck run --bus socketcan:vcan0`), and
+# the same vectors against the embedded drive on the simulated bus. The two runs must give
+# every vector the same verdict (`drivecheck report diff` lists no change).
+#   conformance_in_vm.sh FILTER
+set -u
+filter=${1:?usage: conformance_in_vm.sh FILTER}
+out=/tmp/conformance
+mkdir -p "$out"
+
+drivecheck drive --bus socketcan:vcan0 --node 1 > "$out/drive.log" 2>&1 &
+drive=$!
+sleep 1
+if ! kill -0 "$drive" 2>/dev/null; then
+  echo "conformance_in_vm: drivecheck drive did not start:"; cat "$out/drive.log"; exit 1
+fi
+
+drivecheck run --bus socketcan:vcan0 --node 1 --allow-motion --filter "$filter" \
+  --json "$out/socketcan.json" --junit "$out/socketcan.xml" --html "$out/socketcan.html" \
+  --trace "$out/socketcan.log" > "$out/socketcan.txt" 2>&1
+socketcan_status=$?
+kill "$drive" 2>/dev/null
+wait "$drive" 2>/dev/null
+
+drivecheck run --bus sim --node 1 --filter "$filter" --json "$out/sim.json" \
+  --junit "$out/sim.xml" --html "$out/sim.html" > "$out/sim.txt" 2>&1
+sim_status=$?
+
+tail -3 "$out/socketcan.txt"
+tail -3 "$out/sim.txt"
+echo "conformance_in_vm: socketcan run exit $socketcan_status, embedded run exit $sim_status"
+drivecheck report diff "$out/sim.json" "$out/socketcan.json" > "$out/diff.txt" 2>&1
+diff_status=$?
+cat "$out/diff.txt"
+if [ "$socketcan_status" != "$sim_status" ] || [ "$diff_status" != 0 ] ||
+  ! grep -q "^0 new failures, 0 fixed, 0 changed, 0 added, 0 removed" "$out/diff.txt"; then
+  echo "conformance_in_vm: FAILED: the SocketCAN run differs from the embedded run"
+  exit 1
+fi
+if [ "$sim_status" != 0 ]; then
+  echo "conformance_in_vm: FAILED: vectors fail against the reference drive"
+  exit 1
+fi
+echo "conformance_in_vm: the SocketCAN and embedded runs agree"
