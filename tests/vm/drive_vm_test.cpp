@@ -131,7 +131,7 @@ TEST_F(DriveVm, SdoExpeditedSegmentedAndBlock) {
   EXPECT_EQ(sdo.last_transfer().kind(), cia301::SdoTransferKind::block);
   EXPECT_EQ(sdo.upload_value<std::uint16_t>({0x1017, 0}).value_or(1), 0);
 
-  const auto missing = sdo.upload({0x6040, 0});
+  const auto missing = sdo.upload({0x5FFF, 0});  // no such object (manufacturer range)
   ASSERT_FALSE(missing);
   EXPECT_EQ(cia301::server_abort_code(missing.error()), 0x06020000u);
 }
