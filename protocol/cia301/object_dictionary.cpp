@@ -21,6 +21,23 @@ EntryDefinition EntryDefinition::unsigned_entry(std::uint8_t sub_index, std::str
   entry.default_value = Value::of_unsigned(default_value);
   return entry;
 }
+
+EntryDefinition EntryDefinition::make(std::uint8_t sub_index, std::string name, DataType type,
+                                      AccessType access, Value default_value, bool pdo_mappable) {
+  EntryDefinition entry;
+  entry.sub_index = sub_index;
+  entry.name = std::move(name);
+  entry.type = type;
+  entry.access = access;
+  entry.default_value = std::move(default_value);
+  entry.pdo_mappable = pdo_mappable;
+  return entry;
+}
+
+EntryDefinition EntryDefinition::highest_sub_index(std::uint8_t n) {
+  return unsigned_entry(0, "highest sub-index supported", DataType::unsigned8, AccessType::ro, n);
+}
+
 namespace {
 
 std::uint8_t default_store_group(std::uint16_t index, AccessType access) {

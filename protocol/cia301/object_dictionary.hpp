@@ -81,6 +81,11 @@ struct EntryDefinition {
   // objects (counts, COB-IDs, times).
   static EntryDefinition unsigned_entry(std::uint8_t sub_index, std::string name, DataType type,
                                         AccessType access, std::uint64_t default_value);
+  // Any entry with its default value and PDO mapping flag (the application objects' shape).
+  static EntryDefinition make(std::uint8_t sub_index, std::string name, DataType type,
+                              AccessType access, Value default_value, bool pdo_mappable);
+  // Sub-index 0 of an ARRAY/RECORD: "highest sub-index supported", UNSIGNED8 ro, = n.
+  static EntryDefinition highest_sub_index(std::uint8_t n);
 
   friend bool operator==(const EntryDefinition&, const EntryDefinition&) = default;
 };

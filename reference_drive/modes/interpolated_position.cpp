@@ -18,22 +18,9 @@ constexpr std::uint16_t kEnableIp = 0x0010;
 constexpr std::uint16_t kIpActive = 0x1000;
 constexpr std::uint16_t kFollowingError = 0x2000;
 
-EntryDefinition entry(std::uint8_t sub, std::string name, DataType type, AccessType access,
-                      Value value, bool pdo) {
-  EntryDefinition e;
-  e.sub_index = sub;
-  e.name = std::move(name);
-  e.type = type;
-  e.access = access;
-  e.default_value = std::move(value);
-  e.pdo_mappable = pdo;
-  return e;
-}
-
-EntryDefinition count(std::uint8_t n) {
-  return entry(0, "highest sub-index supported", DataType::unsigned8, AccessType::ro,
-               Value::of_unsigned(n), false);
-}
+// The dictionary's factories under short names (object definitions below read as tables).
+constexpr auto* entry = &EntryDefinition::make;
+constexpr auto* count = &EntryDefinition::highest_sub_index;
 
 }  // namespace
 
