@@ -191,11 +191,9 @@ Expected<void, std::string> apply_pdo_defaults(const std::vector<profile::PdoDef
                       name, profile::to_string(pdo.cob_id)));
       continue;
     }
-    if ((pdo.cob_id.base & 0x40000000U) != 0 && !rx) {
-      plan.not_applied.push_back(fmt::format("{}: COB-ID bit 30 (no RTR) is not shown", name));
-    }
     cia301::PdoDefaults d;
     d.valid = (pdo.cob_id.base & 0x80000000U) == 0;
+    d.rtr_allowed = (pdo.cob_id.base & 0x40000000U) == 0;
     d.transmission_type = pdo.transmission;
     d.inhibit_time = pdo.inhibit_time.value_or(0);
     d.event_timer = pdo.event_timer.value_or(0);

@@ -76,7 +76,7 @@
 //       Why the values are what they are; not used.
 //
 // The profile's pdo_defaults become the dictionary's PDO defaults (DictionaryOptions::pdo):
-// PDOs 1-4 with the pre-defined COB-ID base (+N); bit 31 gives `valid`; bit 30 (no RTR) and
+// PDOs 1-4 with the pre-defined COB-ID base (+N); bit 31 gives `valid`, bit 30 `rtr_allowed`;
 // other bases cannot be shown (not_applied).
 #pragma once
 

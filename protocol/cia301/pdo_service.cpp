@@ -13,6 +13,7 @@ namespace drivecheck::cia301 {
 namespace {
 
 constexpr std::uint32_t kInvalidBit = 0x80000000u;
+constexpr std::uint32_t kNoRtrBit = 0x40000000;    // COB-ID bit 30: no RTR allowed
 constexpr std::uint32_t kCobIdBits = 0x3FFFFFFFu;  // bits 0..29: CAN-ID and frame format
 constexpr std::uint16_t kLengthError = static_cast<std::uint16_t>(EmcyCode::pdo_length_error);
 constexpr std::uint16_t kLengthExceeded = static_cast<std::uint16_t>(EmcyCode::pdo_length_exceeded);
@@ -143,7 +144,8 @@ Expected<void, std::string> add_pdo(ObjectDictionary& od, PdoDirection direction
       entry(pdo_sub::kCobId, fmt::format("COB-ID used by {}", kind), DataType::unsigned32, 0);
   if (number <= 4) {
     cob.default_value =
-        Value::of_unsigned(predefined_base(direction, number) | (defaults.valid ? 0 : kInvalidBit));
+        Value::of_unsigned(predefined_base(direction, number) | (defaults.valid ? 0 : kInvalidBit) |
+                           (defaults.rtr_allowed ? 0 : kNoRtrBit));
     cob.default_adds_node_id = true;
   } else if (defaults.valid) {
     return Unexpected(

@@ -137,6 +137,7 @@ namespace drivecheck::cia301 {
 // The value a PDO's objects start with (their EDS defaults).
 struct PdoDefaults {
   bool valid = false;                     // COB-ID bit 31 = 0
+  bool rtr_allowed = true;                // COB-ID bit 30 = 0 (TPDO: answered on RTR)
   std::uint8_t transmission_type = 0xFF;  // event-driven (device profile)
   std::uint16_t inhibit_time = 0;         // TPDO, 100 µs
   std::uint16_t event_timer = 0;          // ms

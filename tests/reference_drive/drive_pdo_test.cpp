@@ -240,6 +240,24 @@ TEST(PdoCommunication, CobIdChangeWhileValidAborts) {
   EXPECT_EQ(rig.read(0x1800, 1).value, 0x186u);
 }
 
+TEST(PdoCommunication, DefaultWithoutRtrReadsBit30AndIgnoresRtr) {
+  // Given TPDO1 defaulting to valid, no RTR allowed (a manual's C0000180h+N without bit 31),
+  // type 255, mapping 2002h
+  DriveConfig config;
+  cia301::PdoDefaults tpdo1;
+  tpdo1.valid = true;
+  tpdo1.rtr_allowed = false;
+  tpdo1.mapping = {{0x2002, 0, 8}};
+  config.dictionary.pdo.tpdo_defaults = {tpdo1};
+  DriveRig rig(5, config);
+  // When 1800h sub 1 is read, and an RTR for 185h comes in Operational
+  // Then the COB-ID reads 40000185h (bit 30 set), and the RTR gets no TPDO (CiA 301 §7.2.2)
+  EXPECT_EQ(rig.read(0x1800, 1).value, 0x40000185u);
+  rig.nmt(kStart);
+  rig.run(10ms);
+  EXPECT_EQ(rig.exchange("185#R1"), Frames{});
+}
+
 TEST(PdoCommunication, InvalidCobIdsAbort) {
   // Given TPDO1 invalid
   // When an 11-bit COB-ID with bits 28..11 set, or a valid restricted CAN-ID, is written
