@@ -98,9 +98,15 @@ class Harness {
     snapshot(od_, before_);
     const std::uint64_t completed_before = server_.statistics().completed;
     const bool is_request = server_.is_request(frame);
+    // What the server reads: in pad mode a short request is read with its missing bytes as 00h.
+    can::Frame read = frame;
+    if (config().short_frames == ShortFramePolicy::pad && read.kind == can::FrameKind::data &&
+        read.dlc < 8) {
+      read.dlc = 8;
+    }
     const SdoClientMessage message = decode_client_message(
-        frame, before == SdoServer::State::block_download_sub_block ? SdoFraming::block_segment
-                                                                    : SdoFraming::command);
+        read, before == SdoServer::State::block_download_sub_block ? SdoFraming::block_segment
+                                                                   : SdoFraming::command);
 
     const auto sent = server_.on_frame(frame, now_);
     const SdoServer::State after = server_.state();
