@@ -171,6 +171,9 @@ class DeviationPort final : public can::Bus {
   void set_frame_handler(FrameHandler handler) override;
   void set_filters(std::span<const can::Filter> filters) override { port_.set_filters(filters); }
   void set_loopback(bool enabled) override;
+  std::size_t queued(std::uint32_t id, can::IdFormat format) const override {
+    return port_.queued(id, format);
+  }
   can::TimerId start_timer(can::TimePoint at, TimerCallback callback) override {
     return port_.start_timer(at, std::move(callback));
   }

@@ -108,6 +108,17 @@ class Bus : public Clock {
   // Replaces the receive filters (empty: every frame passes).
   virtual void set_filters(std::span<const Filter> filters) = 0;
 
+  // How many frames with this identifier this port has queued that have not yet started on the
+  // wire. 0 when the bus cannot tell (SocketCAN: the kernel's and controller's queues are not
+  // visible; ENOBUFS on send() is all it says). A producer uses it to skip a periodic frame
+  // whose predecessor is still waiting, as a CAN controller with one transmit buffer per
+  // message object does, instead of building an unbounded backlog.
+  virtual std::size_t queued(std::uint32_t id, IdFormat format) const {
+    (void)id;
+    (void)format;
+    return 0;
+  }
+
   // Whether this port also sees its own frames after they were sent (default: no).
   virtual void set_loopback(bool enabled) = 0;
 

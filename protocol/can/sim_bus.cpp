@@ -36,6 +36,7 @@ class RingQueue {
   bool empty() const { return size_ == 0; }
   std::size_t size() const { return size_; }
   T& front() { return items_[head_]; }
+  const T& operator[](std::size_t i) const { return items_[(head_ + i) & (items_.size() - 1)]; }
   void push_back(const T& item) {
     if (size_ == items_.size()) grow();
     items_[(head_ + size_) & (items_.size() - 1)] = item;
@@ -229,6 +230,16 @@ class SimNetwork {
   }
 
   // ---- sending
+
+  std::size_t queued(std::uint32_t index, std::uint32_t id, IdFormat format) const {
+    const PortState& port = *ports_[index];
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < port.tx.size(); ++i) {
+      const Frame& frame = port.tx[i].frame;
+      if (frame.id == id && frame.format == format) ++count;
+    }
+    return count;
+  }
 
   std::error_code send(std::uint32_t index, const Frame& frame) {
     PortState& port = *ports_[index];
@@ -706,6 +717,9 @@ Duration SimPort::unix_offset() const {
 }
 std::error_code SimPort::send(const Frame& frame) {
   return network_->send(index_, frame);
+}
+std::size_t SimPort::queued(std::uint32_t id, IdFormat format) const {
+  return network_->queued(index_, id, format);
 }
 std::optional<TimedFrame> SimPort::receive(TimePoint deadline) {
   return network_->receive(index_, deadline);

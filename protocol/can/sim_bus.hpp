@@ -118,6 +118,7 @@ class SimPort final : public Bus {
   Duration unix_offset() const override;
 
   std::error_code send(const Frame& frame) override;
+  std::size_t queued(std::uint32_t id, IdFormat format) const override;
   // Returns nullopt at `deadline`, with now() == deadline, when nothing came. With kForever
   // and no event left anywhere in the network (nothing could ever arrive), nullopt at once.
   std::optional<TimedFrame> receive(TimePoint deadline) override;

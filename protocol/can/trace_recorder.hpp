@@ -97,6 +97,9 @@ class RecordingBus final : public Bus {
   void set_frame_handler(FrameHandler handler) override;
   void set_filters(std::span<const Filter> filters) override { inner_.set_filters(filters); }
   void set_loopback(bool enabled) override { inner_.set_loopback(enabled); }
+  std::size_t queued(std::uint32_t id, IdFormat format) const override {
+    return inner_.queued(id, format);
+  }
   TimerId start_timer(TimePoint at, TimerCallback callback) override {
     return inner_.start_timer(at, std::move(callback));
   }

@@ -358,7 +358,14 @@ bool DeviceServices::run_due(can::TimePoint now) {
       progressed = true;
     }
     if (sync_producer_ && nmt_.allows(NmtService::sync)) {
-      if (auto frame = sync_producer_->on_time(now)) {
+      // A SYNC whose predecessor has not yet reached the bus is skipped (a controller does not
+      // queue a second copy of a message object that is still pending): with 1006h shorter than
+      // the SYNC frame itself, the producer would otherwise build an unbounded backlog.
+      const SyncCobIdEntry& cob = sync_consumer_.config().cob_id;
+      const auto format = cob.extended ? can::IdFormat::extended : can::IdFormat::standard;
+      if (bus_.queued(cob.can_id, format) > 0 && sync_producer_->skip_due(now)) {
+        progressed = true;
+      } else if (auto frame = sync_producer_->on_time(now)) {
         // SyncProducer makes CAN-IDs up to 7FFh 11-bit; 1005h bit 29 may ask for 29 bits.
         if (sync_consumer_.config().cob_id.extended) frame->format = can::IdFormat::extended;
         send(*frame);

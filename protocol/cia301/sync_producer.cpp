@@ -49,6 +49,15 @@ std::optional<can::Frame> SyncProducer::on_time(can::TimePoint now) {
   return encode(sync, config_.cob_id);
 }
 
+bool SyncProducer::skip_due(can::TimePoint now) {
+  if (next_ == can::kForever || now < next_) return false;
+  const auto due_slot = static_cast<std::uint64_t>((now - start_) / config_.period);
+  missed_ += due_slot - slot_ + 1;
+  slot_ = due_slot + 1;
+  next_ = start_ + config_.period * static_cast<can::Duration::rep>(slot_);
+  return true;
+}
+
 SyncProducerPort::SyncProducerPort(can::Bus& bus, SyncProducer producer)
     : bus_(bus), producer_(std::move(producer)) {}
 
@@ -72,7 +81,12 @@ void SyncProducerPort::arm() {
   if (!producer_.running()) return;
   timer_ = bus_.start_timer(producer_.next_deadline(), [this] {
     timer_ = can::kNoTimer;
-    if (auto frame = producer_.on_time(bus_.now())) {
+    const auto& config = producer_.config();
+    const auto format =
+        config.cob_id > can::kMaxStandardId ? can::IdFormat::extended : can::IdFormat::standard;
+    if (bus_.queued(config.cob_id, format) > 0) {
+      producer_.skip_due(bus_.now());
+    } else if (auto frame = producer_.on_time(bus_.now())) {
       if (auto error = bus_.send(*frame)) last_send_error_ = error;
     }
     arm();

@@ -43,6 +43,10 @@ class SyncProducer {
 
   // The SYNC due at or before `now`, if any (at most one per call).
   std::optional<can::Frame> on_time(can::TimePoint now);
+  // Drops the SYNC due at or before `now` (and any missed before it) without sending it: its
+  // predecessor is still waiting for the bus. Counted in missed(); the counter does not move,
+  // since it counts SYNCs on the bus. Returns whether one was due.
+  bool skip_due(can::TimePoint now);
   can::TimePoint next_deadline() const { return next_; }
 
   // Next SYNC carries counter 1 (CiA 301 asks for this when the producer's NMT state changes

@@ -90,5 +90,47 @@ TEST(SyncProducerPort, PeriodExactOnSimulatedBus) {
   EXPECT_EQ(seen.size(), 21u);
 }
 
+TEST(SyncProducerPort, PeriodShorterThanTheFrameSkipsInsteadOfQueueing) {
+  // Given a 29-bit SYNC with counter (1019h = 240) every 20 us on a 125 kbit/s bus, where one
+  // SYNC frame takes about 0.6 ms, and another node that wants to send a frame later
+  can::SimBus bus({.bitrate = 125'000});
+  auto master = bus.attach("master");
+  auto other = bus.attach("other");
+  std::vector<can::TimedFrame> seen;
+  bus.add_monitor([&](const can::TimedFrame& frame) { seen.push_back(frame); });
+  auto producer = SyncProducer::create({20us, 240, 0x1234'5678});
+  ASSERT_TRUE(producer);
+  SyncProducerPort port(*master, std::move(*producer));
+  port.start(at(0ms));
+  // When the bus runs for 50 ms, with the producer's queue checked at every SYNC
+  std::size_t most_queued = 0;
+  bus.add_monitor([&](const can::TimedFrame&) {
+    most_queued = std::max(most_queued, master->queued(0x1234'5678, can::IdFormat::extended));
+  });
+  bus.run_until(at(50ms));
+  // Then at most one SYNC waits at any time, nothing failed for a full queue, the SYNCs that
+  // went out count 1, 2, 3... without gaps (the counter counts SYNCs on the bus) and the skipped
+  // ones are counted as missed
+  EXPECT_LE(most_queued, 1u);
+  EXPECT_FALSE(port.last_send_error());
+  ASSERT_GT(seen.size(), 50u);
+  ASSERT_LT(seen.size(), 100u);
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    EXPECT_EQ(seen[i].frame.data[0], static_cast<std::uint8_t>(i % 240 + 1)) << i;
+  }
+  EXPECT_GT(port.producer().missed(), 2000u);
+  // And when the producer stops (as at an NMT reset), another node's frame gets on the bus
+  // within two SYNC frame times: no backlog of queued SYNCs is left to drain (a SYNC with a
+  // higher priority than the frame keeps the bus while it is produced: that is CAN)
+  port.stop();
+  const std::size_t before = seen.size();
+  ASSERT_FALSE(other->send(can::Frame::standard(0x705, {0x00})));
+  bus.run_until(at(51500us));
+  bool boot_up_seen = false;
+  for (std::size_t i = before; i < seen.size(); ++i)
+    boot_up_seen |= seen[i].frame.id == 0x705;
+  EXPECT_TRUE(boot_up_seen);
+}
+
 }  // namespace
 }  // namespace drivecheck::cia301
