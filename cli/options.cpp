@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "protocol/can/candump_log.hpp"
+#include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::cli {
 
@@ -29,36 +30,7 @@ Expected<BusSpec, std::string> parse_bus_spec(std::string_view text) {
 }
 
 Expected<can::Duration, std::string> parse_duration(std::string_view text) {
-  std::size_t digits = 0;
-  std::int64_t value = 0;
-  for (; digits < text.size() && text[digits] >= '0' && text[digits] <= '9'; ++digits) {
-    if (value > std::numeric_limits<std::int64_t>::max() / 10 - 1) {
-      return Unexpected(fmt::format("duration '{}' is too long", text));
-    }
-    value = value * 10 + (text[digits] - '0');
-  }
-  if (digits == 0) {
-    return Unexpected(fmt::format("duration '{}' must start with a whole number, e.g. 90s", text));
-  }
-  const std::string_view unit = text.substr(digits);
-  struct Unit {
-    std::string_view name;
-    std::int64_t nanoseconds;
-  };
-  constexpr Unit kUnits[] = {{"ns", 1},
-                             {"us", 1'000},
-                             {"ms", 1'000'000},
-                             {"s", 1'000'000'000},
-                             {"min", 60'000'000'000},
-                             {"h", 3'600'000'000'000}};
-  for (const auto& u : kUnits) {
-    if (unit != u.name) continue;
-    if (value > std::numeric_limits<std::int64_t>::max() / u.nanoseconds) {
-      return Unexpected(fmt::format("duration '{}' is too long", text));
-    }
-    return can::Duration(value * u.nanoseconds);
-  }
-  return Unexpected(fmt::format("duration '{}' needs a unit: ns, us, ms, s, min or h", text));
+  return profile::parse_duration(text, profile::DurationUnits::up_to_hours);
 }
 
 CLI::Validator bus_validator() {

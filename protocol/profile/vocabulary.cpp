@@ -170,7 +170,20 @@ const TimingName* find_timing(std::string_view name) {
   return nullptr;
 }
 
-Expected<can::Duration, std::string> parse_duration(std::string_view text) {
+Expected<can::Duration, std::string> parse_duration(std::string_view text, DurationUnits units) {
+  struct Unit {
+    std::string_view name;
+    std::uint64_t nanoseconds;
+  };
+  constexpr std::array<Unit, 6> kUnits{{{"ns", 1},
+                                        {"us", 1'000},
+                                        {"ms", 1'000'000},
+                                        {"s", 1'000'000'000},
+                                        {"min", 60'000'000'000},
+                                        {"h", 3'600'000'000'000}}};
+  const std::size_t unit_count = units == DurationUnits::up_to_hours ? 6 : 5;
+  const std::string_view unit_list = units == DurationUnits::up_to_hours ? "ns us ms s min h"
+                                                                         : "ns us ms s min";
   std::size_t digits = 0;
   while (digits < text.size() && text[digits] >= '0' && text[digits] <= '9')
     ++digits;

@@ -76,8 +76,13 @@ struct TimingName {
 std::span<const TimingName> timing_table();
 const TimingName* find_timing(std::string_view name);
 
-// "100ms" -> 100 ms. Error: a message without location ("'10 ms': ...").
-Expected<can::Duration, std::string> parse_duration(std::string_view text);
+// Which units a duration may use: files (vectors, profiles) count up to minutes; the command
+// line (--duration of a fuzz or soak run) also takes hours.
+enum class DurationUnits { up_to_minutes, up_to_hours };
+// "100ms" -> 100 ms: a whole number and a unit (ns us ms s min, and h if asked).
+// Error: a message without location ("'10 ms': ...").
+Expected<can::Duration, std::string> parse_duration(
+    std::string_view text, DurationUnits units = DurationUnits::up_to_minutes);
 // The shortest exact text: 1500ms -> "1500ms", 2000ms -> "2s", 0 -> "0ms".
 std::string format_duration(can::Duration duration);
 

@@ -125,7 +125,7 @@ TEST(CliUsage, BadOptionValuesExitTwo) {
   expect_usage_error(drivecheck({"run", "--node", "99999999999999999999999"}), "--node");
   expect_usage_error(
       drivecheck({"fuzz", "--bus", "sim", "--node", "5", "--duration", "9999999999999h"}),
-      "too long");
+      "duration too large");
   expect_usage_error(drivecheck({"run", "--bus", "socketcan:caf\xC3\xA9"}),
                      "is not a network interface name");
   expect_usage_error(drivecheck({"run", "--bus", "socketcan:sixteen-chars-xx"}), "1..15");

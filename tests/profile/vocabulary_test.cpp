@@ -64,6 +64,13 @@ TEST(Duration, RejectsBadText) {
   }
 }
 
+TEST(Duration, HoursOnlyWhereAsked) {
+  // Given "2h" / When parsed for a file and for the command line / Then only the latter takes it
+  EXPECT_FALSE(parse_duration("2h").has_value());
+  EXPECT_EQ(*parse_duration("2h", DurationUnits::up_to_hours), 7200s);
+  EXPECT_FALSE(parse_duration("9999999999999h", DurationUnits::up_to_hours).has_value());
+}
+
 TEST(Duration, FormatsShortestExactUnit) {
   // Given durations / When formatted / Then the text parses back to the same value
   EXPECT_EQ(format_duration(2s), "2s");
