@@ -163,7 +163,12 @@ class Engine::Impl {
                 outcome.describe(), true});
     }
     // The harness becomes a heartbeat producer; the DUT consumes it (1016h sub 1:
-    // node-ID in bits 16..23, time in ms in bits 0..15, 3x our period).
+    // node-ID in bits 16..23, time in ms in bits 0..15, 3x our period). What 1016h sub 1 held
+    // before is put back at the end of the run (restore_heartbeat_consumer).
+    const auto before = run.sdo_upload({0x1016, 1});
+    if (before.ok && before.data.size() == 4) original_consumer_ = before.data;
+    result.checks.push_back(Check{0, "envelope", "1016h sub 1 recorded (restored after the run)",
+                                  before.describe(), true});
     start_heartbeat();
     const auto period_ms = static_cast<std::uint32_t>(
         std::chrono::duration_cast<std::chrono::milliseconds>(options_.harness_heartbeat).count());
@@ -179,6 +184,38 @@ class Engine::Impl {
               outcome.describe(), true});
     for (auto& frame : scratch.frames)
       result.frames.push_back(std::move(frame));
+  }
+
+  // End of a real-bus run whose motion preparation took over 1016h sub 1: the DUT's own value
+  // goes back, then the harness heartbeat stops (in this order, so the DUT never sees its
+  // consumer time out). Nothing to do, or nothing possible (DUT lost), is said in a note.
+  void restore_heartbeat_consumer(RunResult& result) {
+    if (!motion_prepared_) return;
+    if (!original_consumer_) {
+      result.harness_notes.push_back(
+          "1016h sub 1 could not be read before the run, so it was not restored: the DUT may "
+          "still consume the harness heartbeat (node " +
+          std::to_string(options_.harness_node) + ")");
+    } else if (result.dut_lost) {
+      result.harness_notes.push_back(
+          "the DUT stopped answering: 1016h sub 1 was not restored, it may still consume the "
+          "harness heartbeat");
+    } else {
+      Vector probe;
+      probe.id = "harness/restore-1016h";
+      probe.setup = Setup::none;
+      probe.nmt.reset();
+      VectorResult scratch;
+      VectorRun run(context_, probe, scratch);
+      const auto outcome = run.sdo_download({0x1016, 1}, *original_consumer_);
+      const auto value = static_cast<std::uint32_t>(cia301::load_unsigned(*original_consumer_));
+      result.harness_notes.push_back(
+          outcome.ok ? fmt::format("1016h sub 1 restored to {:08X}h after the run", value)
+                     : fmt::format("1016h sub 1 could not be restored to {:08X}h: {}", value,
+                                   outcome.describe()));
+    }
+    if (heartbeat_timer_ != can::kNoTimer) bus_.cancel_timer(heartbeat_timer_);
+    heartbeat_timer_ = can::kNoTimer;
   }
 
   void start_heartbeat() {
@@ -228,6 +265,7 @@ class Engine::Impl {
   cia301::Dissector dissector_;
   EngineContext context_;
   bool motion_prepared_ = false;
+  std::optional<std::vector<std::uint8_t>> original_consumer_;  // 1016h sub 1 before the run
   bool identity_answered_ = false;
   can::TimerId heartbeat_timer_ = can::kNoTimer;
 };
@@ -363,6 +401,7 @@ RunResult Engine::run(const std::vector<Vector>& vectors, RunInfo info) {
       break;
     }
   }
+  impl_->restore_heartbeat_consumer(result);
   return finish();
 }
 

@@ -155,6 +155,9 @@ struct RunResult {
   bool dut_lost = false;              // the DUT stopped answering (exit 3)
   can::Duration simulated{};          // bus time covered
   double wall_seconds = 0.0;
+  // What the harness changed on the DUT outside the vectors and whether it put it back (on a
+  // real bus: 1016h sub 1 consuming the harness heartbeat), one sentence each.
+  std::vector<std::string> harness_notes;
 
   VerdictCounts counts() const {
     VerdictCounts counts;

@@ -408,6 +408,12 @@ void render_run_info(std::string& out, const RunResult& result) {
         "finished so far.</p>\n";
   if (result.dut_lost)
     out += "<p class=\"banner\" data-dut-lost>The device under test stopped answering.</p>\n";
+  if (!result.harness_notes.empty()) {
+    out += "<ul class=\"harness-notes\" data-harness-notes>";
+    for (const auto& note : result.harness_notes)
+      out += "<li>" + esc(note) + "</li>";
+    out += "</ul>\n";
+  }
 }
 
 void render_counts(std::string& out, const RunResult& result) {

@@ -381,6 +381,16 @@ RunResult read_run(Reader& reader, const json& document) {
     }
     result.interrupted = reader.boolean(run, "interrupted");
     result.dut_lost = reader.boolean(run, "dut_lost");
+    if (run.contains("harness_notes")) {  // optional: reports of a simulated run have none
+      Scope inner(reader, "harness_notes");
+      std::size_t i = 0;
+      for (const json& item : reader.array(run, "harness_notes")) {
+        if (!item.is_string())
+          throw ReadError{reader.where(fmt::format("[{}]", i)) + ": expected a string"};
+        result.harness_notes.push_back(item.get<std::string>());
+        ++i;
+      }
+    }
     result.simulated = can::Duration(reader.nanoseconds(run, "simulated_ns"));
     result.wall_seconds = reader.number(run, "wall_s");
   }
@@ -413,6 +423,7 @@ std::string render_json(const RunResult& result) {
   run["dut"] = dut_json(info.dut);
   run["interrupted"] = result.interrupted;
   run["dut_lost"] = result.dut_lost;
+  run["harness_notes"] = result.harness_notes;
   run["simulated_ns"] = result.simulated.count();
   run["simulated_s"] = seconds(result.simulated);
   run["wall_s"] = result.wall_seconds;

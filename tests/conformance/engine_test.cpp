@@ -422,6 +422,38 @@ TEST_F(EngineDriveTest, DutLostAfterSilentVectors) {
   EXPECT_EQ(result.info.dut.device_type.has_value(), true);
 }
 
+TEST_F(EngineDriveTest, RealBusRunRestoresHeartbeatConsumerAndStopsItsHeartbeat) {
+  // Given a real-bus run with motion allowed and one motion vector: the engine makes the DUT
+  // consume the harness heartbeat (node 127) through 1016h sub 1, which holds 0 before
+  auto motion = make_vector("    - wait: 20ms\n");
+  motion.motion = true;
+  EngineOptions options;
+  options.real_bus = true;
+  options.allow_motion = true;
+  std::vector<can::TimedFrame> seen;
+  bus_.add_monitor([&](const can::TimedFrame& frame) { seen.push_back(frame); });
+  Engine engine(*harness_, profile_, options);
+  // When the run ends
+  const auto result = engine.run({motion});
+  // Then 1016h sub 1 was taken over during the run, is back to 0 afterwards, and says so
+  ASSERT_EQ(result.vectors.size(), 1U);
+  bool taken_over = false;
+  for (const auto& check : result.vectors.front().checks)
+    taken_over |= check.expected.find("1016h sub 1 := 007F012Ch") != std::string::npos;
+  EXPECT_TRUE(taken_over);
+  ASSERT_EQ(result.harness_notes.size(), 1U);
+  EXPECT_EQ(result.harness_notes.front(), "1016h sub 1 restored to 00000000h after the run");
+  const auto after =
+      run(make_vector("    - sdo_read: {index: 0x1016, sub: 1}\n"
+                      "      expect: {value: 0}\n"));
+  EXPECT_EQ(after.verdict, Verdict::pass) << failure(after);
+  // And the harness heartbeat (77Fh) stops with the run
+  seen.clear();
+  bus_.run_for(500ms);
+  for (const auto& frame : seen)
+    EXPECT_NE(frame.frame.id, 0x77FU) << "harness heartbeat";
+}
+
 TEST_F(EngineTest, NoDutAtAllIsLostAtOnce) {
   // Given nothing on the bus but the harness
   Engine engine(*harness_, profile_, {});
