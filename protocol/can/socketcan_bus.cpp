@@ -9,6 +9,7 @@
 #include <net/if.h>
 #include <net/if_arp.h>
 #include <poll.h>
+#include <sys/epoll.h>
 #include <sys/eventfd.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
@@ -330,18 +331,32 @@ Expected<std::unique_ptr<SocketCanBus>, std::error_code> SocketCanBus::open(
   if (stop_fd.get() < 0) return Unexpected(system_error(errno));
   FileDescriptor timer_fd(::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC));
   if (timer_fd.get() < 0) return Unexpected(system_error(errno));
+  // The three descriptors are registered once in an epoll set: poll() would install and
+  // remove a wait-queue entry on each of them at every wait, which is most of a round trip's
+  // cost on a slow (emulated) machine.
+  FileDescriptor epoll_fd(::epoll_create1(EPOLL_CLOEXEC));
+  if (epoll_fd.get() < 0) return Unexpected(system_error(errno));
+  const int registered[3] = {socket_fd.get(), stop_fd.get(), timer_fd.get()};
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    epoll_event event{};
+    event.events = EPOLLIN;
+    event.data.u32 = i;  // 0 socket, 1 stop, 2 timer
+    if (::epoll_ctl(epoll_fd.get(), EPOLL_CTL_ADD, registered[i], &event) != 0)
+      return Unexpected(system_error(errno));
+  }
 
   std::string name(interface);
-  return std::unique_ptr<SocketCanBus>(new SocketCanBus(socket_fd.release(), stop_fd.release(),
-                                                        timer_fd.release(), std::move(name),
-                                                        std::move(options), source));
+  return std::unique_ptr<SocketCanBus>(
+      new SocketCanBus(socket_fd.release(), stop_fd.release(), timer_fd.release(),
+                       epoll_fd.release(), std::move(name), std::move(options), source));
 }
 
-SocketCanBus::SocketCanBus(int socket_fd, int stop_fd, int timer_fd, std::string interface,
-                           SocketCanOptions options, TimestampSource source)
+SocketCanBus::SocketCanBus(int socket_fd, int stop_fd, int timer_fd, int epoll_fd,
+                           std::string interface, SocketCanOptions options, TimestampSource source)
     : socket_fd_(socket_fd),
       stop_fd_(stop_fd),
       timer_fd_(timer_fd),
+      epoll_fd_(epoll_fd),
       interface_(std::move(interface)),
       options_(std::move(options)),
       timestamp_source_(source),
@@ -353,6 +368,7 @@ SocketCanBus::~SocketCanBus() {
   ::close(socket_fd_);
   ::close(stop_fd_);
   ::close(timer_fd_);
+  ::close(epoll_fd_);
 }
 
 TimePoint SocketCanBus::now() const {
@@ -574,41 +590,66 @@ bool SocketCanBus::arm_wakeup(TimePoint until, TimePoint now_time) {
 }
 
 void SocketCanBus::wait_and_read(TimePoint until, TimePoint now_time) {
-  // The deadline is a timerfd in the poll set rather than ppoll's timeout: arming a kernel
-  // timer on every wait is what made waiting slow (10 us per round trip under QEMU).
-  pollfd fds[3] = {{socket_fd_, POLLIN, 0}, {stop_fd_, POLLIN, 0}, {timer_fd_, POLLIN, 0}};
-  timespec zero{};
-  const timespec* timeout_ptr = nullptr;
+  // The deadline is the timerfd in the epoll set rather than a timeout: arming a kernel timer
+  // on every wait is what made waiting slow (10 us per round trip under QEMU), and epoll's
+  // timeout has only millisecond resolution.
+  int timeout_ms = -1;
   if (until <= now_time) {
-    timeout_ptr = &zero;
+    timeout_ms = 0;
   } else if (until != kForever && !arm_wakeup(until, now_time)) {
-    // No timerfd: fall back to ppoll's own timeout.
-    zero = to_timespec(until - now_time);
-    timeout_ptr = &zero;
+    // No timerfd deadline: wait in ppoll with its own (nanosecond) timeout instead.
+    wait_with_ppoll(to_timespec(until - now_time));
+    return;
   }
-  // The timerfd is polled only while armed (it is last in the set).
-  const int ready = ::ppoll(fds, wakeup_armed_ ? 3 : 2, timeout_ptr, nullptr);
+  epoll_event events[3];
+  const int ready = ::epoll_wait(epoll_fd_, events, 3, timeout_ms);
   if (ready <= 0) {
     if (ready < 0 && errno != EINTR) last_error_ = system_error(errno);
     return;
   }
-  if ((fds[0].revents & POLLERR) != 0) {
-    int error = 0;
-    socklen_t length = sizeof error;
-    if (::getsockopt(socket_fd_, SOL_SOCKET, SO_ERROR, &error, &length) == 0 && error != 0) {
-      last_error_ = map_io_errno(error);
+  bool readable = false;
+  bool error = false;
+  bool stopped = false;
+  bool timer = false;
+  for (int i = 0; i < ready; ++i) {
+    const std::uint32_t which = events[i].data.u32;
+    readable |= which == 0 && (events[i].events & EPOLLIN) != 0;
+    error |= which == 0 && (events[i].events & EPOLLERR) != 0;
+    stopped |= which == 1;
+    timer |= which == 2;
+  }
+  handle_wake(readable, error, stopped, timer);
+}
+
+void SocketCanBus::wait_with_ppoll(timespec timeout) {
+  pollfd fds[2] = {{socket_fd_, POLLIN, 0}, {stop_fd_, POLLIN, 0}};
+  const int ready = ::ppoll(fds, 2, &timeout, nullptr);
+  if (ready <= 0) {
+    if (ready < 0 && errno != EINTR) last_error_ = system_error(errno);
+    return;
+  }
+  handle_wake((fds[0].revents & POLLIN) != 0, (fds[0].revents & POLLERR) != 0,
+              (fds[1].revents & POLLIN) != 0, false);
+}
+
+void SocketCanBus::handle_wake(bool readable, bool error, bool stopped, bool timer) {
+  if (error) {
+    int code = 0;
+    socklen_t length = sizeof code;
+    if (::getsockopt(socket_fd_, SOL_SOCKET, SO_ERROR, &code, &length) == 0 && code != 0) {
+      last_error_ = map_io_errno(code);
     }
   }
-  // One frame per wake-up: a round trip costs one ppoll and one recvmsg, and a burst is
+  // One frame per wake-up: a round trip costs one wait and one recvmsg, and a burst is
   // read by the callers' loops without an extra failing read at its end.
-  if ((fds[0].revents & POLLIN) != 0) read_one();
+  if (readable) read_one();
   // A wake-up by stop() is consumed by the caller's consume_stop(); the counter is reset
-  // there, or here when stop() came between a check and the poll.
-  if ((fds[1].revents & POLLIN) != 0 && !stop_requested_.load()) {
+  // there, or here when stop() came between a check and the wait.
+  if (stopped && !stop_requested_.load()) {
     std::uint64_t count = 0;
     [[maybe_unused]] const auto n = ::read(stop_fd_, &count, sizeof count);
   }
-  if ((fds[2].revents & POLLIN) != 0) {
+  if (timer) {
     std::uint64_t expirations = 0;
     [[maybe_unused]] const auto n = ::read(timer_fd_, &expirations, sizeof expirations);
     wakeup_armed_ = false;

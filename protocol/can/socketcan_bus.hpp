@@ -22,8 +22,9 @@
 //    txqueuelen is 10 by default) it waits in poll() with exponential back-off (50 us doubling
 //    to 5 ms) up to SocketCanOptions::send_timeout, then returns BusError::queue_full (or
 //    bus_off when the controller reported bus-off);
-//  - waiting (receive, run_until) blocks only in ppoll() on the socket, an eventfd and a
-//    timerfd (the deadline); stop() writes to the eventfd, which is async-signal-safe.
+//  - waiting (receive, run_until) blocks only in epoll_wait() on the socket, an eventfd and a
+//    timerfd (the deadline), registered once; stop() writes to the eventfd, which is
+//    async-signal-safe.
 //
 // Errors from open() and send(): BusError codes for the conditions bus.hpp names. Any other
 // system error is returned as std::system_category() code (errno), so its message is errno's
@@ -32,6 +33,8 @@
 // Not thread-safe, like every Bus: one thread owns the port; only stop() may be called from
 // another thread or a signal handler.
 #pragma once
+
+#include <time.h>
 
 #include <atomic>
 #include <cstdint>
@@ -123,7 +126,7 @@ class SocketCanBus final : public Bus {
   std::error_code last_error() const { return last_error_; }
 
  private:
-  SocketCanBus(int socket_fd, int stop_fd, int timer_fd, std::string interface,
+  SocketCanBus(int socket_fd, int stop_fd, int timer_fd, int epoll_fd, std::string interface,
                SocketCanOptions options, TimestampSource source);
 
   struct PendingTimer {
@@ -137,8 +140,12 @@ class SocketCanBus final : public Bus {
   bool consume_stop();
   // Makes the timerfd wake the poll at `until` at the latest; false if it cannot.
   bool arm_wakeup(TimePoint until, TimePoint now_time);
-  // Waits in ppoll until a frame is readable, `until`, or stop(); reads one frame.
+  // Waits in epoll until a frame is readable, `until`, or stop(); reads one frame.
   void wait_and_read(TimePoint until, TimePoint now_time);
+  // The fallback when the timerfd cannot be armed: ppoll with a timeout.
+  void wait_with_ppoll(timespec timeout);
+  // What a wait found: reads a frame, records a socket error, clears the stop / timer fds.
+  void handle_wake(bool readable, bool error, bool stopped, bool timer);
   // Reads every frame available now (non-blocking) into inbox_.
   void read_available();
   // Reads one frame if there is one (non-blocking); false when there was none.
@@ -154,6 +161,7 @@ class SocketCanBus final : public Bus {
   int socket_fd_;
   int stop_fd_;
   int timer_fd_;  // CLOCK_MONOTONIC timerfd: the wait's deadline
+  int epoll_fd_;  // socket, stop_fd_ and timer_fd_, registered once
   bool wakeup_armed_ = false;
   TimePoint armed_at_{};
   std::string interface_;
