@@ -188,31 +188,22 @@ Expected<can::Duration, std::string> parse_duration(std::string_view text, Durat
   while (digits < text.size() && text[digits] >= '0' && text[digits] <= '9')
     ++digits;
   if (digits == 0) {
-    return Unexpected(fmt::format(
-        "'{}' is not a duration: expected an integer and a unit (ns us ms s min), e.g. 100ms",
-        text));
+    return Unexpected(
+        fmt::format("'{}' is not a duration: expected an integer and a unit ({}), e.g. 100ms",
+                    text, unit_list));
   }
   const std::string_view unit = text.substr(digits);
   const auto count = parse_decimal<std::uint64_t>(text.substr(0, digits));
-  std::uint64_t scale = 0;
-  if (unit == "ns")
-    scale = 1;
-  else if (unit == "us")
-    scale = 1'000;
-  else if (unit == "ms")
-    scale = 1'000'000;
-  else if (unit == "s")
-    scale = 1'000'000'000;
-  else if (unit == "min")
-    scale = 60'000'000'000;
-  if (scale == 0) {
-    return Unexpected(fmt::format("'{}': unknown duration unit '{}' (ns us ms s min)", text, unit));
+  for (std::size_t i = 0; i < unit_count; ++i) {
+    if (unit != kUnits[i].name) continue;
+    constexpr auto kMax = static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max());
+    if (!count || *count > kMax / kUnits[i].nanoseconds) {
+      return Unexpected(fmt::format("'{}': duration too large", text));
+    }
+    return can::Duration(static_cast<std::int64_t>(*count * kUnits[i].nanoseconds));
   }
-  constexpr auto kMax = static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max());
-  if (!count || *count > kMax / scale) {
-    return Unexpected(fmt::format("'{}': duration too large", text));
-  }
-  return can::Duration(static_cast<std::int64_t>(*count * scale));
+  if (unit.empty()) return Unexpected(fmt::format("'{}' needs a unit ({})", text, unit_list));
+  return Unexpected(fmt::format("'{}': unknown duration unit '{}' ({})", text, unit, unit_list));
 }
 
 std::string format_duration(can::Duration duration) {
