@@ -1,5 +1,8 @@
 #include "protocol/can/candump_log.hpp"
 
+#include <fmt/compile.h>
+
+#include <array>
 #include <cerrno>
 #include <cstdint>
 #include <limits>
@@ -21,13 +24,28 @@ bool is_digit(char c) {
 // Input text for a message: quoted, shortened when long (a huge number must not make a
 // huge message).
 std::string quote(std::string_view text) {
-  if (text.size() <= kMaxQuoted) return fmt::format("'{}'", text);
-  return fmt::format("'{}...' ({} characters)", text.substr(0, kMaxQuoted), text.size());
+  if (text.size() <= kMaxQuoted) return fmt::format(FMT_COMPILE("'{}'"), text);
+  return fmt::format(FMT_COMPILE("'{}...' ({} characters)"), text.substr(0, kMaxQuoted),
+                     text.size());
+}
+
+// Appends `value` in decimal with at least `width` digits (fmt's "{:0<width>}").
+void append_decimal(std::string& text, std::uint64_t value, int width) {
+  char digits[20];
+  int count = 0;
+  do {
+    digits[count++] = static_cast<char>('0' + value % 10);
+    value /= 10;
+  } while (value != 0);
+  for (int i = count; i < width; ++i)
+    text += '0';
+  while (count > 0)
+    text += digits[--count];
 }
 
 std::string describe_char(char c) {
-  if (c >= 0x20 && c < 0x7F) return fmt::format("'{}'", c);
-  return fmt::format("byte 0x{:02X}", static_cast<unsigned char>(c));
+  if (c >= 0x20 && c < 0x7F) return fmt::format(FMT_COMPILE("'{}'"), c);
+  return fmt::format(FMT_COMPILE("byte 0x{:02X}"), static_cast<unsigned char>(c));
 }
 
 std::string_view trim(std::string_view text) {
@@ -46,38 +64,40 @@ std::string system_error_text(int error) {
 Expected<std::chrono::nanoseconds, std::string> parse_timestamp(std::string_view text) {
   if (text.empty()) return Unexpected(std::string("empty timestamp '()'"));
   if (text.front() == '-') {
-    return Unexpected(fmt::format("negative timestamp {}: Unix time starts at 0", quote(text)));
+    return Unexpected(
+        fmt::format(FMT_COMPILE("negative timestamp {}: Unix time starts at 0"), quote(text)));
   }
   constexpr std::int64_t kMaxSeconds = std::numeric_limits<std::int64_t>::max() / kNanosPerSecond;
   const auto out_of_range = [&] {
-    return Unexpected(fmt::format("timestamp {} is out of range (the latest is {}.999999, in 2262)",
-                                  quote(text), kMaxSeconds - 1));
+    return Unexpected(
+        fmt::format(FMT_COMPILE("timestamp {} is out of range (the latest is {}.999999, in 2262)"),
+                    quote(text), kMaxSeconds - 1));
   };
   std::size_t pos = 0;
   std::int64_t seconds = 0;
   while (pos < text.size() && text[pos] != '.') {
     if (!is_digit(text[pos])) {
-      return Unexpected(
-          fmt::format("timestamp {}: {} is not a digit", quote(text), describe_char(text[pos])));
+      return Unexpected(fmt::format(FMT_COMPILE("timestamp {}: {} is not a digit"), quote(text),
+                                    describe_char(text[pos])));
     }
     if (seconds > kMaxSeconds / 10) return out_of_range();
     seconds = seconds * 10 + (text[pos] - '0');
     ++pos;
   }
   if (pos == 0) {
-    return Unexpected(fmt::format("timestamp {}: no seconds before '.'", quote(text)));
+    return Unexpected(fmt::format(FMT_COMPILE("timestamp {}: no seconds before '.'"), quote(text)));
   }
   std::int64_t nanos = 0;
   if (pos < text.size()) {  // '.'
     ++pos;
     if (pos == text.size()) {
-      return Unexpected(fmt::format("timestamp {}: no digits after '.'", quote(text)));
+      return Unexpected(fmt::format(FMT_COMPILE("timestamp {}: no digits after '.'"), quote(text)));
     }
     std::int64_t scale = kNanosPerSecond;
     for (; pos < text.size(); ++pos) {
       if (!is_digit(text[pos])) {
-        return Unexpected(
-            fmt::format("timestamp {}: {} is not a digit", quote(text), describe_char(text[pos])));
+        return Unexpected(fmt::format(FMT_COMPILE("timestamp {}: {} is not a digit"), quote(text),
+                                      describe_char(text[pos])));
       }
       if (scale > 1) {  // digits past the 9th (below a nanosecond) are truncated
         scale /= 10;
@@ -90,9 +110,20 @@ Expected<std::chrono::nanoseconds, std::string> parse_timestamp(std::string_view
   return std::chrono::nanoseconds(seconds * kNanosPerSecond + nanos);
 }
 
+// The fields of a record after its timestamp: a record has at most three (interface, frame,
+// direction), so the first four are kept (no allocation per line) and all are counted.
+struct Fields {
+  std::array<std::string_view, 4> first;
+  std::size_t count = 0;
+
+  bool empty() const { return count == 0; }
+  std::size_t size() const { return count; }
+  std::string_view operator[](std::size_t i) const { return first[i]; }
+};
+
 // Splits at runs of blanks.
-std::vector<std::string_view> split_fields(std::string_view text) {
-  std::vector<std::string_view> fields;
+Fields split_fields(std::string_view text) {
+  Fields fields;
   std::size_t pos = 0;
   while (pos < text.size()) {
     while (pos < text.size() && is_blank(text[pos]))
@@ -100,7 +131,11 @@ std::vector<std::string_view> split_fields(std::string_view text) {
     const std::size_t start = pos;
     while (pos < text.size() && !is_blank(text[pos]))
       ++pos;
-    if (pos > start) fields.push_back(text.substr(start, pos - start));
+    if (pos > start) {
+      if (fields.count < fields.first.size())
+        fields.first[fields.count] = text.substr(start, pos - start);
+      ++fields.count;
+    }
   }
   return fields;
 }
@@ -114,8 +149,19 @@ std::string to_candump_log(const LogRecord& record) {
       ns < 0 ? std::uint64_t{0} - static_cast<std::uint64_t>(ns) : static_cast<std::uint64_t>(ns);
   const std::uint64_t seconds = magnitude / kNanosPerSecond;
   const std::uint64_t micros = (magnitude % kNanosPerSecond) / 1000;
-  std::string line = fmt::format("({}{:010}.{:06}) {} {}", ns < 0 ? "-" : "", seconds, micros,
-                                 record.interface, to_candump(record.frame));
+  // "(" sign seconds (at least 10 digits) "." microseconds (6 digits) ") " interface " " frame,
+  // built by hand: this runs for every record of a log that is written.
+  std::string line;
+  line.reserve(1 + 1 + 20 + 1 + 6 + 2 + record.interface.size() + 1 + 30);
+  line += '(';
+  if (ns < 0) line += '-';
+  append_decimal(line, seconds, 10);
+  line += '.';
+  append_decimal(line, micros, 6);
+  line += ") ";
+  line += record.interface;
+  line += ' ';
+  line += to_candump(record.frame);
   if (record.direction) line += *record.direction == TraceDirection::transmit ? " T" : " R";
   return line;
 }
@@ -125,9 +171,9 @@ Expected<LogRecord, std::string> parse_candump_log_line(std::string_view line) {
     const char c = line[i];
     if (c == '\t' || (c == '\r' && i + 1 == line.size())) continue;
     if (c < 0x20 || c >= 0x7F) {
-      return Unexpected(
-          fmt::format("column {}: {} is not printable ASCII (a candump log is ASCII text)", i + 1,
-                      describe_char(c)));
+      return Unexpected(fmt::format(
+          FMT_COMPILE("column {}: {} is not printable ASCII (a candump log is ASCII text)"), i + 1,
+          describe_char(c)));
     }
   }
   line = trim(line);
@@ -144,24 +190,27 @@ Expected<LogRecord, std::string> parse_candump_log_line(std::string_view line) {
 
   const std::string_view rest = line.substr(close + 1);
   if (!rest.empty() && !is_blank(rest.front())) {
-    return Unexpected(
-        fmt::format("expected a blank after ')', found {}", describe_char(rest.front())));
+    return Unexpected(fmt::format(FMT_COMPILE("expected a blank after ')', found {}"),
+                                  describe_char(rest.front())));
   }
   const auto fields = split_fields(rest);
   if (fields.empty()) {
     return Unexpected(std::string("missing interface name and frame after the timestamp"));
   }
   if (fields[0].find('#') != std::string_view::npos) {
-    return Unexpected(fmt::format("missing interface name before the frame {}", quote(fields[0])));
+    return Unexpected(
+        fmt::format(FMT_COMPILE("missing interface name before the frame {}"), quote(fields[0])));
   }
   if (fields.size() == 1) {
-    return Unexpected(fmt::format("missing frame after the interface name {}", quote(fields[0])));
+    return Unexpected(
+        fmt::format(FMT_COMPILE("missing frame after the interface name {}"), quote(fields[0])));
   }
   if (fields.size() > 3) {
-    return Unexpected(fmt::format("unexpected {} after the direction flag", quote(fields[3])));
+    return Unexpected(
+        fmt::format(FMT_COMPILE("unexpected {} after the direction flag"), quote(fields[3])));
   }
   if (fields[0].size() > kMaxInterfaceNameLength) {
-    return Unexpected(fmt::format("interface name {} is longer than {} characters",
+    return Unexpected(fmt::format(FMT_COMPILE("interface name {} is longer than {} characters"),
                                   quote(fields[0]), kMaxInterfaceNameLength));
   }
   auto frame = parse_candump(fields[1]);
@@ -177,7 +226,8 @@ Expected<LogRecord, std::string> parse_candump_log_line(std::string_view line) {
     } else if (fields[2] == "T") {
       record.direction = TraceDirection::transmit;
     } else {
-      return Unexpected(fmt::format("direction flag {} is not R or T", quote(fields[2])));
+      return Unexpected(
+          fmt::format(FMT_COMPILE("direction flag {} is not R or T"), quote(fields[2])));
     }
   }
   return record;
@@ -231,7 +281,7 @@ Expected<CandumpLogWriter, std::string> CandumpLogWriter::create(const std::file
   std::FILE* file = std::fopen(path.string().c_str(), "wb");
   if (file == nullptr) {
     return Unexpected(
-        fmt::format("{}: cannot create: {}", path.string(), system_error_text(errno)));
+        fmt::format(FMT_COMPILE("{}: cannot create: {}"), path.string(), system_error_text(errno)));
   }
   return CandumpLogWriter(path, file, flush_each_record);
 }
@@ -241,7 +291,7 @@ Expected<void, std::string> CandumpLogWriter::write(const LogRecord& record) {
   line_ += '\n';
   if (std::fwrite(line_.data(), 1, line_.size(), file_.get()) != line_.size()) {
     return Unexpected(
-        fmt::format("{}: write failed: {}", path_.string(), system_error_text(errno)));
+        fmt::format(FMT_COMPILE("{}: write failed: {}"), path_.string(), system_error_text(errno)));
   }
   if (flush_each_record_) return flush();
   return {};
@@ -250,7 +300,7 @@ Expected<void, std::string> CandumpLogWriter::write(const LogRecord& record) {
 Expected<void, std::string> CandumpLogWriter::flush() {
   if (std::fflush(file_.get()) != 0) {
     return Unexpected(
-        fmt::format("{}: write failed: {}", path_.string(), system_error_text(errno)));
+        fmt::format(FMT_COMPILE("{}: write failed: {}"), path_.string(), system_error_text(errno)));
   }
   return {};
 }

@@ -1,5 +1,7 @@
 #include "protocol/can/frame.hpp"
 
+#include <fmt/compile.h>
+
 #include <algorithm>
 #include <cassert>
 
@@ -15,9 +17,24 @@ int hex_value(char c) {
   return -1;
 }
 
+// Appends `value` in upper-case hex with at least `width` digits (fmt's "{:0<width>X}"),
+// without going through a format string: to_candump runs for every frame of a log.
+void append_hex(std::string& text, std::uint32_t value, int width) {
+  char digits[8];
+  int count = 0;
+  do {
+    digits[count++] = kHexDigits[value & 0xF];
+    value >>= 4;
+  } while (value != 0);
+  for (int i = count; i < width; ++i)
+    text += '0';
+  while (count > 0)
+    text += digits[--count];
+}
+
 std::string describe_char(char c) {
-  if (c >= 0x20 && c < 0x7F) return fmt::format("'{}'", c);
-  return fmt::format("byte 0x{:02X}", static_cast<unsigned char>(c));
+  if (c >= 0x20 && c < 0x7F) return fmt::format(FMT_COMPILE("'{}'"), c);
+  return fmt::format(FMT_COMPILE("byte 0x{:02X}"), static_cast<unsigned char>(c));
 }
 
 Frame data_frame(std::uint32_t id, IdFormat format, std::span<const std::uint8_t> bytes) {
@@ -56,12 +73,13 @@ std::string to_candump(const Frame& frame) {
   std::string text;
   text.reserve(3 + 1 + 16 + 2);
   if (frame.is_error()) {
-    fmt::format_to(std::back_inserter(text), "{:08X}#", kErrorFlag | (frame.id & kErrorClassMask));
+    append_hex(text, kErrorFlag | (frame.id & kErrorClassMask), 8);
   } else if (frame.is_extended()) {
-    fmt::format_to(std::back_inserter(text), "{:08X}#", frame.id & kMaxExtendedId);
+    append_hex(text, frame.id & kMaxExtendedId, 8);
   } else {
-    fmt::format_to(std::back_inserter(text), "{:03X}#", frame.id & kMaxStandardId);
+    append_hex(text, frame.id & kMaxStandardId, 3);
   }
+  text += '#';
   if (frame.is_remote()) {
     text += 'R';
     if (frame.dlc != 0) text += kHexDigits[frame.dlc & 0xF];
@@ -81,7 +99,8 @@ std::string to_candump(const Frame& frame) {
 Expected<Frame, std::string> parse_candump(std::string_view text) {
   const auto hash = text.find('#');
   if (hash == std::string_view::npos) {
-    return Unexpected(fmt::format("'{}' is not a CAN frame: no '#' between id and data", text));
+    return Unexpected(
+        fmt::format(FMT_COMPILE("'{}' is not a CAN frame: no '#' between id and data"), text));
   }
   const std::string_view id_text = text.substr(0, hash);
   std::string_view rest = text.substr(hash + 1);
@@ -91,21 +110,23 @@ Expected<Frame, std::string> parse_candump(std::string_view text) {
   }
   if (id_text.size() != 3 && id_text.size() != 8) {
     return Unexpected(fmt::format(
-        "identifier '{}' has {} hex digits: use 3 for an 11-bit id or 8 for a 29-bit id", id_text,
-        id_text.size()));
+        FMT_COMPILE(
+            "identifier '{}' has {} hex digits: use 3 for an 11-bit id or 8 for a 29-bit id"),
+        id_text, id_text.size()));
   }
   std::uint32_t id = 0;
   for (char c : id_text) {
     const int v = hex_value(c);
     if (v < 0)
-      return Unexpected(fmt::format("identifier: {} is not a hex digit", describe_char(c)));
+      return Unexpected(
+          fmt::format(FMT_COMPILE("identifier: {} is not a hex digit"), describe_char(c)));
     id = (id << 4) | static_cast<std::uint32_t>(v);
   }
 
   Frame frame;
   if (id_text.size() == 3) {
     if (id > kMaxStandardId) {
-      return Unexpected(fmt::format("11-bit identifier {:03X} is above 7FF", id));
+      return Unexpected(fmt::format(FMT_COMPILE("11-bit identifier {:03X} is above 7FF"), id));
     }
     frame.id = id;
   } else if ((id & kErrorFlag) != 0) {
@@ -113,11 +134,13 @@ Expected<Frame, std::string> parse_candump(std::string_view text) {
     frame.format = IdFormat::extended;
     frame.id = id & kErrorClassMask;
     if ((id & ~(kErrorFlag | kErrorClassMask)) != 0) {
-      return Unexpected(fmt::format("error frame id {:08X} has flag bits above bit 29 set", id));
+      return Unexpected(
+          fmt::format(FMT_COMPILE("error frame id {:08X} has flag bits above bit 29 set"), id));
     }
   } else {
     if ((id & ~kMaxExtendedId) != 0) {
-      return Unexpected(fmt::format("29-bit identifier {:08X} has bits above bit 28 set", id));
+      return Unexpected(
+          fmt::format(FMT_COMPILE("29-bit identifier {:08X} has bits above bit 28 set"), id));
     }
     frame.id = id;
     frame.format = IdFormat::extended;
@@ -131,7 +154,8 @@ Expected<Frame, std::string> parse_candump(std::string_view text) {
     if (rest.empty()) return frame;
     const int v = hex_value(rest.front());
     if (rest.size() != 1 || v < 0 || v > 8) {
-      return Unexpected(fmt::format("remote request DLC '{}' is not a single digit 0..8", rest));
+      return Unexpected(
+          fmt::format(FMT_COMPILE("remote request DLC '{}' is not a single digit 0..8"), rest));
     }
     frame.dlc = static_cast<std::uint8_t>(v);
     return frame;
@@ -146,12 +170,12 @@ Expected<Frame, std::string> parse_candump(std::string_view text) {
     }
     if (count == 8) return Unexpected(std::string("more than 8 data bytes in a classic CAN frame"));
     if (pos + 1 >= rest.size() || rest[pos + 1] == '_' || rest[pos + 1] == '.') {
-      return Unexpected(fmt::format("data byte {}: odd number of hex digits", count));
+      return Unexpected(fmt::format(FMT_COMPILE("data byte {}: odd number of hex digits"), count));
     }
     const int hi = hex_value(rest[pos]);
     const int lo = hex_value(rest[pos + 1]);
     if (hi < 0 || lo < 0) {
-      return Unexpected(fmt::format("data byte {}: {} is not a hex digit", count,
+      return Unexpected(fmt::format(FMT_COMPILE("data byte {}: {} is not a hex digit"), count,
                                     describe_char(hi < 0 ? rest[pos] : rest[pos + 1])));
     }
     frame.data[count++] = static_cast<std::uint8_t>((hi << 4) | lo);
@@ -163,7 +187,8 @@ Expected<Frame, std::string> parse_candump(std::string_view text) {
     const int v = suffix.size() == 1 ? hex_value(suffix.front()) : -1;
     if (v < 9 || count != 8) {
       return Unexpected(fmt::format(
-          "DLC suffix '_{}' is only valid after 8 data bytes and must be one hex digit 9..F",
+          FMT_COMPILE(
+              "DLC suffix '_{}' is only valid after 8 data bytes and must be one hex digit 9..F"),
           suffix));
     }
     frame.dlc = static_cast<std::uint8_t>(v);

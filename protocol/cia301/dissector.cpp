@@ -1,6 +1,7 @@
 #include "protocol/cia301/dissector.hpp"
 
 #include <fmt/chrono.h>
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -28,13 +29,19 @@ struct Overloaded : Ts... {
 template <class... Ts>
 Overloaded(Ts...) -> Overloaded<Ts...>;
 
+// "01 02 FF" (upper-case hex, one blank between bytes), or "(no data)". Built by hand: it
+// runs for most frames of a transcript.
 std::string hex_bytes(std::span<const std::uint8_t> bytes) {
+  if (bytes.empty()) return "(no data)";
+  static constexpr char kDigits[] = "0123456789ABCDEF";
   std::string text;
+  text.reserve(bytes.size() * 3);
   for (std::uint8_t byte : bytes) {
     if (!text.empty()) text += ' ';
-    fmt::format_to(std::back_inserter(text), "{:02X}", byte);
+    text += kDigits[byte >> 4];
+    text += kDigits[byte & 0xF];
   }
-  return text.empty() ? "(no data)" : text;
+  return text;
 }
 
 std::uint64_t little_endian(std::span<const std::uint8_t> bytes) {
@@ -46,7 +53,7 @@ std::uint64_t little_endian(std::span<const std::uint8_t> bytes) {
 }
 
 std::string mux_text(std::uint16_t index, std::uint8_t sub_index) {
-  return fmt::format("{:04X}:{:02X}", index, sub_index);
+  return fmt::format(FMT_COMPILE("{:04X}:{:02X}"), index, sub_index);
 }
 
 std::string_view pdo_sub_name(std::uint8_t sub) {
@@ -72,8 +79,8 @@ std::string_view pdo_sub_name(std::uint8_t sub) {
 
 std::optional<std::string> communication_object_name(std::uint16_t index, std::uint8_t sub) {
   auto with_sub = [sub](std::string_view name, std::string_view sub_name) {
-    return sub_name.empty() ? fmt::format("{} sub {:02X}h", name, sub)
-                            : fmt::format("{}: {}", name, sub_name);
+    return sub_name.empty() ? fmt::format(FMT_COMPILE("{} sub {:02X}h"), name, sub)
+                            : fmt::format(FMT_COMPILE("{}: {}"), name, sub_name);
   };
   switch (index) {
     case 0x1000:
@@ -84,7 +91,8 @@ std::optional<std::string> communication_object_name(std::uint16_t index, std::u
       return std::string("manufacturer status register");
     case 0x1003:
       return sub == 0 ? std::string("pre-defined error field: number of errors")
-                      : fmt::format("pre-defined error field: standard error field {}", sub);
+                      : fmt::format(FMT_COMPILE("pre-defined error field: standard error field {}"),
+                                    sub);
     case 0x1005:
       return std::string("COB-ID SYNC");
     case 0x1006:
@@ -119,7 +127,7 @@ std::optional<std::string> communication_object_name(std::uint16_t index, std::u
       return std::string("inhibit time EMCY");
     case 0x1016:
       return sub == 0 ? std::string("consumer heartbeat time: highest sub-index supported")
-                      : fmt::format("consumer heartbeat time {}", sub);
+                      : fmt::format(FMT_COMPILE("consumer heartbeat time {}"), sub);
     case 0x1017:
       return std::string("producer heartbeat time");
     case 0x1018: {
@@ -141,13 +149,13 @@ std::optional<std::string> communication_object_name(std::uint16_t index, std::u
   if (index >= 0x1200 && index <= 0x127F) {
     constexpr std::string_view kSubs[] = {"highest sub-index supported", "COB-ID client→server",
                                           "COB-ID server→client", "node-ID of the client"};
-    return with_sub(fmt::format("SDO server parameter {}", index - 0x1200 + 1),
+    return with_sub(fmt::format(FMT_COMPILE("SDO server parameter {}"), index - 0x1200 + 1),
                     sub < 4 ? kSubs[sub] : "");
   }
   if (index >= 0x1280 && index <= 0x12FF) {
     constexpr std::string_view kSubs[] = {"highest sub-index supported", "COB-ID client→server",
                                           "COB-ID server→client", "node-ID of the server"};
-    return with_sub(fmt::format("SDO client parameter {}", index - 0x1280 + 1),
+    return with_sub(fmt::format(FMT_COMPILE("SDO client parameter {}"), index - 0x1280 + 1),
                     sub < 4 ? kSubs[sub] : "");
   }
   struct Range {
@@ -164,7 +172,7 @@ std::optional<std::string> communication_object_name(std::uint16_t index, std::u
     const std::string name = fmt::format(fmt::runtime(range.name), index - range.base + 1);
     if (range.mapping) {
       return sub == 0 ? name + ": number of mapped objects"
-                      : fmt::format("{}: mapped object {}", name, sub);
+                      : fmt::format(FMT_COMPILE("{}: mapped object {}"), name, sub);
     }
     return with_sub(name, pdo_sub_name(sub));
   }
@@ -172,10 +180,11 @@ std::optional<std::string> communication_object_name(std::uint16_t index, std::u
 }
 
 std::string emcy_text(const Emcy& emcy) {
-  std::string text = emcy.is_error_reset() ? fmt::format("error reset ({:04X}h)", emcy.error_code)
-                                           : describe_emcy_code(emcy.error_code);
-  fmt::format_to(std::back_inserter(text), "; register {:02X}h {}", emcy.error_register,
-                 describe_error_register(emcy.error_register));
+  std::string text = emcy.is_error_reset()
+                         ? fmt::format(FMT_COMPILE("error reset ({:04X}h)"), emcy.error_code)
+                         : describe_emcy_code(emcy.error_code);
+  fmt::format_to(std::back_inserter(text), FMT_COMPILE("; register {:02X}h {}"),
+                 emcy.error_register, describe_error_register(emcy.error_register));
   const bool any = std::any_of(emcy.manufacturer.begin(), emcy.manufacturer.end(),
                                [](std::uint8_t b) { return b != 0; });
   if (any) text += "; manufacturer " + hex_bytes(emcy.manufacturer);
@@ -230,8 +239,13 @@ std::string_view lss_command_name(std::uint8_t cs) {
 }  // namespace
 
 std::string Dissection::summary() const {
-  std::string line = fmt::format("{:<6}  ", function);
-  if (node) fmt::format_to(std::back_inserter(line), "node {}  ", *node);
+  // "{:<6}  " by hand (the function left-aligned in 6 code points): this runs for every line.
+  std::string line = function;
+  const auto code_points = static_cast<std::size_t>(
+      std::count_if(function.begin(), function.end(), [](char c) { return (c & 0xC0) != 0x80; }));
+  line.append(code_points < 6 ? 6 - code_points : 0, ' ');
+  line += "  ";
+  if (node) fmt::format_to(std::back_inserter(line), FMT_COMPILE("node {}  "), *node);
   line += text;
   return line;
 }
@@ -253,7 +267,7 @@ std::string Dissector::object_text(std::uint16_t index, std::uint8_t sub_index) 
   if (options_.object_name) name = options_.object_name(index, sub_index);
   if (!name) name = builtin_object_name(index, sub_index);
   const std::string mux = mux_text(index, sub_index);
-  return name ? fmt::format("{} ({})", mux, *name) : mux;
+  return name ? fmt::format(FMT_COMPILE("{} ({})"), mux, *name) : mux;
 }
 
 std::string Dissector::value_text(std::uint16_t index, std::uint8_t sub_index,
@@ -275,17 +289,18 @@ std::string Dissector::value_text(std::uint16_t index, std::uint8_t sub_index,
   } else if (index == 0x1001 && sub_index == 0) {
     meaning = describe_error_register(static_cast<std::uint8_t>(raw));
   } else if (index == 0x1017 || index == 0x100C) {
-    meaning = fmt::format("{} ms", raw);
+    meaning = fmt::format(FMT_COMPILE("{} ms"), raw);
   } else if ((index == 0x1010 || index == 0x1011) && sub_index >= 1 && bytes.size() == 4) {
     const bool ascii = std::all_of(bytes.begin(), bytes.end(),
                                    [](std::uint8_t b) { return b >= 0x20 && b < 0x7F; });
     if (ascii)
-      meaning = fmt::format("\"{}{}{}{}\"", char(bytes[0]), char(bytes[1]), char(bytes[2]),
-                            char(bytes[3]));
+      meaning = fmt::format(FMT_COMPILE("\"{}{}{}{}\""), char(bytes[0]), char(bytes[1]),
+                            char(bytes[2]), char(bytes[3]));
   } else if (index == 0x1016 && sub_index >= 1) {
     if (auto entry = decode_consumer_heartbeat_entry(static_cast<std::uint32_t>(raw))) {
-      meaning = entry->is_used() ? fmt::format("node {}, {} ms", entry->node, entry->time_ms)
-                                 : std::string("not used");
+      meaning = entry->is_used()
+                    ? fmt::format(FMT_COMPILE("node {}, {} ms"), entry->node, entry->time_ms)
+                    : std::string("not used");
     } else {
       meaning = entry.error().reason;
     }
@@ -293,8 +308,9 @@ std::string Dissector::value_text(std::uint16_t index, std::uint8_t sub_index,
     const auto direction = index < 0x1800 ? PdoDirection::receive : PdoDirection::transmit;
     if (sub_index == pdo_sub::kCobId && size_known && bytes.size() == 4) {
       if (auto cob = decode_pdo_cob_id(static_cast<std::uint32_t>(raw))) {
-        meaning = fmt::format("{}, {}, CAN-ID {:03X}h", cob->valid ? "valid" : "not valid",
-                              cob->rtr_allowed ? "RTR allowed" : "no RTR", cob->can_id);
+        meaning =
+            fmt::format(FMT_COMPILE("{}, {}, CAN-ID {:03X}h"), cob->valid ? "valid" : "not valid",
+                        cob->rtr_allowed ? "RTR allowed" : "no RTR", cob->can_id);
       } else {
         meaning = cob.error().reason;
       }
@@ -303,17 +319,17 @@ std::string Dissector::value_text(std::uint16_t index, std::uint8_t sub_index,
       meaning = describe_transmission_type(type);
       if (!is_valid_transmission_type(type, direction)) meaning += ", not valid for this PDO";
     } else if (sub_index == pdo_sub::kInhibitTime) {
-      meaning = fmt::format("{} µs", raw * 100);
+      meaning = fmt::format(FMT_COMPILE("{} µs"), raw * 100);
     } else if (sub_index == pdo_sub::kEventTimer) {
-      meaning = fmt::format("{} ms", raw);
+      meaning = fmt::format(FMT_COMPILE("{} ms"), raw);
     }
   } else if (((index >= 0x1600 && index <= 0x17FF) || (index >= 0x1A00 && index <= 0x1BFF)) &&
              sub_index >= 1 && bytes.size() == 4) {
     if (auto entry = decode_pdo_mapping_entry(static_cast<std::uint32_t>(raw))) {
-      meaning =
-          entry->is_dummy()
-              ? fmt::format("dummy {:04X}h, {} bit", entry->index, entry->bits)
-              : fmt::format("{} {} bit", object_text(entry->index, entry->sub_index), entry->bits);
+      meaning = entry->is_dummy()
+                    ? fmt::format(FMT_COMPILE("dummy {:04X}h, {} bit"), entry->index, entry->bits)
+                    : fmt::format(FMT_COMPILE("{} {} bit"),
+                                  object_text(entry->index, entry->sub_index), entry->bits);
     } else {
       meaning = entry.error().reason;
     }
@@ -324,9 +340,9 @@ std::string Dissector::value_text(std::uint16_t index, std::uint8_t sub_index,
                                  : (raw & (std::uint64_t{1} << (bits - 1)))
                                      ? static_cast<std::int64_t>(raw) - (std::int64_t{1} << bits)
                                      : static_cast<std::int64_t>(raw);
-      meaning = fmt::format("{}", value);
+      meaning = fmt::format(FMT_COMPILE("{}"), value);
     } else if (raw > 9) {
-      meaning = fmt::format("{}", raw);
+      meaning = fmt::format(FMT_COMPILE("{}"), raw);
     }
   }
   if (!meaning.empty()) text += " = " + meaning;
@@ -339,19 +355,19 @@ Dissection Dissector::dissect_sdo(const can::Frame& frame, CobIdClass cob, bool 
   NodeState& state = nodes_[cob.node];
   if (frame.length() < kSdoFrameLength && !frame.is_remote() && !frame.is_error()) {
     out.valid = false;
-    out.text =
-        fmt::format("{} with DLC {}: invalid (SDO frames carry 8 bytes)", out.function, frame.dlc);
+    out.text = fmt::format(FMT_COMPILE("{} with DLC {}: invalid (SDO frames carry 8 bytes)"),
+                           out.function, frame.dlc);
     return out;
   }
   auto name = [this](const Multiplexer& mux) { return object_text(mux.index, mux.sub_index); };
   auto invalid = [&](const SdoInvalid& m) {
     out.valid = false;
-    return fmt::format("invalid: {}", describe(m.reason));
+    return fmt::format(FMT_COMPILE("invalid: {}"), describe(m.reason));
   };
   auto abort = [&](const AbortTransfer& m) {
     state.client_block_segments = false;
     state.server_block_segments = false;
-    return fmt::format("abort {} {}", name(m.mux), describe_sdo_abort(m.code));
+    return fmt::format(FMT_COMPILE("abort {} {}"), name(m.mux), describe_sdo_abort(m.code));
   };
   if (from_client) {
     const auto message = decode_client_message(
@@ -362,24 +378,25 @@ Dissection Dissector::dissect_sdo(const can::Frame& frame, CobIdClass cob, bool 
             [&](const InitiateDownloadRequest& m) {
               if (m.expedited) {
                 return fmt::format(
-                    "initiate download expedited {} = {}", name(m.mux),
+                    FMT_COMPILE("initiate download expedited {} = {}"), name(m.mux),
                     value_text(m.mux.index, m.mux.sub_index, m.expedited_data(), m.size_indicated));
               }
-              return fmt::format(
-                  "initiate download segmented {}{}", name(m.mux),
-                  m.size_indicated ? fmt::format(", {} bytes", m.size) : ", size not indicated");
+              return fmt::format(FMT_COMPILE("initiate download segmented {}{}"), name(m.mux),
+                                 m.size_indicated ? fmt::format(FMT_COMPILE(", {} bytes"), m.size)
+                                                  : ", size not indicated");
             },
             [&](const InitiateUploadRequest& m) {
-              return fmt::format("initiate upload {}", name(m.mux));
+              return fmt::format(FMT_COMPILE("initiate upload {}"), name(m.mux));
             },
             [&](const BlockDownloadInitiateRequest& m) {
-              return fmt::format("block download initiate {}{}{}", name(m.mux),
-                                 m.crc_supported ? ", CRC" : ", no CRC",
-                                 m.size_indicated ? fmt::format(", {} bytes", m.size) : "");
+              return fmt::format(
+                  FMT_COMPILE("block download initiate {}{}{}"), name(m.mux),
+                  m.crc_supported ? ", CRC" : ", no CRC",
+                  m.size_indicated ? fmt::format(FMT_COMPILE(", {} bytes"), m.size) : "");
             },
             [&](const BlockUploadInitiateRequest& m) {
-              return fmt::format("block upload initiate {}{}, blksize {}, pst {}", name(m.mux),
-                                 m.crc_supported ? ", CRC" : ", no CRC", m.block_size,
+              return fmt::format(FMT_COMPILE("block upload initiate {}{}, blksize {}, pst {}"),
+                                 name(m.mux), m.crc_supported ? ", CRC" : ", no CRC", m.block_size,
                                  m.protocol_switch_threshold);
             },
             [&](const BlockUploadStart&) {
@@ -388,12 +405,12 @@ Dissection Dissector::dissect_sdo(const can::Frame& frame, CobIdClass cob, bool 
             },
             [&](const BlockUploadAck& m) {
               state.server_block_segments = true;  // a further sub-block, or the end request
-              return fmt::format("block upload response ackseq {} blksize {}", m.ackseq,
-                                 m.block_size);
+              return fmt::format(FMT_COMPILE("block upload response ackseq {} blksize {}"),
+                                 m.ackseq, m.block_size);
             },
             [&](const BlockSegment& m) {
               if (m.last) state.client_block_segments = false;
-              return fmt::format("block download segment {}{} data {}", m.seqno,
+              return fmt::format(FMT_COMPILE("block download segment {}{} data {}"), m.seqno,
                                  m.last ? " (last)" : "", hex_bytes(m.data));
             },
             [&](const AbortTransfer& m) { return abort(m); },
@@ -410,36 +427,37 @@ Dissection Dissector::dissect_sdo(const can::Frame& frame, CobIdClass cob, bool 
           [&](const InitiateUploadResponse& m) {
             if (m.expedited) {
               return fmt::format(
-                  "initiate upload response expedited {} = {}", name(m.mux),
+                  FMT_COMPILE("initiate upload response expedited {} = {}"), name(m.mux),
                   value_text(m.mux.index, m.mux.sub_index, m.expedited_data(), m.size_indicated));
             }
-            return fmt::format(
-                "initiate upload response segmented {}{}", name(m.mux),
-                m.size_indicated ? fmt::format(", {} bytes", m.size) : ", size not indicated");
+            return fmt::format(FMT_COMPILE("initiate upload response segmented {}{}"), name(m.mux),
+                               m.size_indicated ? fmt::format(FMT_COMPILE(", {} bytes"), m.size)
+                                                : ", size not indicated");
           },
           [&](const InitiateDownloadResponse& m) {
-            return fmt::format("initiate download response {}", name(m.mux));
+            return fmt::format(FMT_COMPILE("initiate download response {}"), name(m.mux));
           },
           [&](const BlockDownloadInitiateResponse& m) {
             state.client_block_segments = true;
-            return fmt::format("block download initiate response {}{}, blksize {}", name(m.mux),
-                               m.crc_supported ? ", CRC" : ", no CRC", m.block_size);
+            return fmt::format(FMT_COMPILE("block download initiate response {}{}, blksize {}"),
+                               name(m.mux), m.crc_supported ? ", CRC" : ", no CRC", m.block_size);
           },
           [&](const BlockDownloadAck& m) {
             // More sub-blocks follow unless the client already sent its last segment; the
             // client's next frame tells: a segment (byte 0 = seqno) or the end request (C1h..).
             state.client_block_segments = false;
-            return fmt::format("block download response ackseq {} blksize {}", m.ackseq,
-                               m.block_size);
+            return fmt::format(FMT_COMPILE("block download response ackseq {} blksize {}"),
+                               m.ackseq, m.block_size);
           },
           [&](const BlockUploadInitiateResponse& m) {
-            return fmt::format("block upload initiate response {}{}{}", name(m.mux),
-                               m.crc_supported ? ", CRC" : ", no CRC",
-                               m.size_indicated ? fmt::format(", {} bytes", m.size) : "");
+            return fmt::format(
+                FMT_COMPILE("block upload initiate response {}{}{}"), name(m.mux),
+                m.crc_supported ? ", CRC" : ", no CRC",
+                m.size_indicated ? fmt::format(FMT_COMPILE(", {} bytes"), m.size) : "");
           },
           [&](const BlockSegment& m) {
             if (m.last) state.server_block_segments = false;
-            return fmt::format("block upload segment {}{} data {}", m.seqno,
+            return fmt::format(FMT_COMPILE("block upload segment {}{} data {}"), m.seqno,
                                m.last ? " (last)" : "", hex_bytes(m.data));
           },
           [&](const AbortTransfer& m) { return abort(m); },
@@ -459,35 +477,36 @@ Dissection Dissector::dissect_error_control(const can::Frame& frame, CobIdClass 
     state.guard_request_pending = false;
     return out;
   }
-  out.text = std::visit(Overloaded{
-                            [&](const BootUp&) {
-                              state.guard_request_pending = false;
-                              return std::string("boot-up");
-                            },
-                            [&](const GuardRequest& m) {
-                              state.guard_request_pending = true;
-                              return m.dlc == 0
-                                         ? std::string("node-guarding request")
-                                         : fmt::format("node-guarding request (RTR DLC {})", m.dlc);
-                            },
-                            [&](const NodeStatus& m) {
-                              const bool response = state.guard_request_pending || m.toggle;
-                              state.guard_request_pending = false;
-                              if (response) {
-                                return fmt::format("node-guarding response toggle {} {}",
-                                                   m.toggle ? 1 : 0, to_string(m.state));
-                              }
-                              return fmt::format("heartbeat {}", to_string(m.state));
-                            },
-                        },
-                        *message);
+  out.text = std::visit(
+      Overloaded{
+          [&](const BootUp&) {
+            state.guard_request_pending = false;
+            return std::string("boot-up");
+          },
+          [&](const GuardRequest& m) {
+            state.guard_request_pending = true;
+            return m.dlc == 0
+                       ? std::string("node-guarding request")
+                       : fmt::format(FMT_COMPILE("node-guarding request (RTR DLC {})"), m.dlc);
+          },
+          [&](const NodeStatus& m) {
+            const bool response = state.guard_request_pending || m.toggle;
+            state.guard_request_pending = false;
+            if (response) {
+              return fmt::format(FMT_COMPILE("node-guarding response toggle {} {}"),
+                                 m.toggle ? 1 : 0, to_string(m.state));
+            }
+            return fmt::format(FMT_COMPILE("heartbeat {}"), to_string(m.state));
+          },
+      },
+      *message);
   return out;
 }
 
 Dissection Dissector::dissect_pdo(const can::Frame& frame, CobIdClass cob) {
   Dissection out{cob, std::string(to_string(cob.function)), cob.node, {}, true};
   if (frame.is_remote()) {
-    out.text = fmt::format("remote request (RTR DLC {})", frame.dlc);
+    out.text = fmt::format(FMT_COMPILE("remote request (RTR DLC {})"), frame.dlc);
     return out;
   }
   out.text = hex_bytes(frame.payload());
@@ -508,28 +527,32 @@ Dissection Dissector::dissect_pdo(const can::Frame& frame, CobIdClass cob) {
       std::array<std::uint8_t, 8> raw{};
       for (std::size_t i = 0; i < bytes; ++i)
         raw[i] = static_cast<std::uint8_t>(value.raw >> (8 * i));
-      mapped += fmt::format("{} = {}", object_text(value.entry.index, value.entry.sub_index),
-                            value_text(value.entry.index, value.entry.sub_index,
-                                       std::span<const std::uint8_t>(raw.data(), bytes), true));
-    } else {
       mapped +=
-          fmt::format("{} = {} ({} bit)", object_text(value.entry.index, value.entry.sub_index),
-                      value.raw, value.entry.bits);
+          fmt::format(FMT_COMPILE("{} = {}"), object_text(value.entry.index, value.entry.sub_index),
+                      value_text(value.entry.index, value.entry.sub_index,
+                                 std::span<const std::uint8_t>(raw.data(), bytes), true));
+    } else {
+      mapped += fmt::format(FMT_COMPILE("{} = {} ({} bit)"),
+                            object_text(value.entry.index, value.entry.sub_index), value.raw,
+                            value.entry.bits);
     }
   }
   out.text += " (" + mapped + ")";
   const std::size_t needed = (mapping->second.total_bits() + 7) / 8;
   if (frame.length() > needed) {
-    out.text +=
-        fmt::format(" (+{} bytes beyond the mapping: CiA 301 EMCY 8220h)", frame.length() - needed);
+    out.text += fmt::format(FMT_COMPILE(" (+{} bytes beyond the mapping: CiA 301 EMCY 8220h)"),
+                            frame.length() - needed);
   }
   return out;
 }
 
 Dissection Dissector::dissect(const can::Frame& frame) {
   if (frame.is_error()) {
-    return Dissection{
-        {}, "CAN", std::nullopt, fmt::format("error frame, error class {:08X}h", frame.id), true};
+    return Dissection{{},
+                      "CAN",
+                      std::nullopt,
+                      fmt::format(FMT_COMPILE("error frame, error class {:08X}h"), frame.id),
+                      true};
   }
   // Configured SYNC/TIME identifiers first (they may be moved off 080h/100h).
   const bool extended = frame.is_extended();
@@ -541,7 +564,8 @@ Dissection Dissector::dissect(const can::Frame& frame) {
       out.valid = false;
       out.text = sync.error().reason;
     } else {
-      out.text = sync->counter ? fmt::format("counter {}", *sync->counter) : "no counter";
+      out.text =
+          sync->counter ? fmt::format(FMT_COMPILE("counter {}"), *sync->counter) : "no counter";
     }
     return out;
   }
@@ -565,7 +589,7 @@ Dissection Dissector::dissect(const can::Frame& frame) {
         {},
         "29-bit",
         std::nullopt,
-        fmt::format("{}: not in the CANopen pre-defined connection set",
+        fmt::format(FMT_COMPILE("{}: not in the CANopen pre-defined connection set"),
                     frame.is_remote() ? "remote request" : hex_bytes(frame.payload())),
         true};
   }
@@ -581,8 +605,8 @@ Dissection Dissector::dissect(const can::Frame& frame) {
         out.text = nmt.error().reason;
       } else {
         out.text = nmt->is_broadcast()
-                       ? fmt::format("{} all nodes", to_string(nmt->command))
-                       : fmt::format("{} node {}", to_string(nmt->command), nmt->node);
+                       ? fmt::format(FMT_COMPILE("{} all nodes"), to_string(nmt->command))
+                       : fmt::format(FMT_COMPILE("{} node {}"), to_string(nmt->command), nmt->node);
       }
       return out;
     }
@@ -590,8 +614,8 @@ Dissection Dissector::dissect(const can::Frame& frame) {
     case CobFunction::time:
       // Default SYNC/TIME ids moved elsewhere by the options: plain bytes.
       return Dissection{cob, std::string(to_string(cob.function)), std::nullopt,
-                        fmt::format("{} (not the configured {} CAN-ID)", hex_bytes(frame.payload()),
-                                    to_string(cob.function)),
+                        fmt::format(FMT_COMPILE("{} (not the configured {} CAN-ID)"),
+                                    hex_bytes(frame.payload()), to_string(cob.function)),
                         true};
     case CobFunction::emcy: {
       out = Dissection{cob, "EMCY", cob.node, {}, true};
@@ -628,13 +652,14 @@ Dissection Dissector::dissect(const can::Frame& frame) {
       out = Dissection{cob, std::string(to_string(cob.function)), std::nullopt, {}, true};
       if (frame.is_remote() || frame.dlc != 8) {
         out.valid = false;
-        out.text =
-            fmt::format("LSS with {}: invalid (LSS frames carry 8 bytes)",
-                        frame.is_remote() ? "a remote request" : fmt::format("DLC {}", frame.dlc));
+        out.text = fmt::format(
+            FMT_COMPILE("LSS with {}: invalid (LSS frames carry 8 bytes)"),
+            frame.is_remote() ? "a remote request" : fmt::format(FMT_COMPILE("DLC {}"), frame.dlc));
       } else {
         const std::string_view name = lss_command_name(frame.data[0]);
-        out.text = fmt::format("cs {:02X}h{}{} data {}", frame.data[0], name.empty() ? "" : " ",
-                               name, hex_bytes(frame.payload().subspan(1)));
+        out.text =
+            fmt::format(FMT_COMPILE("cs {:02X}h{}{} data {}"), frame.data[0],
+                        name.empty() ? "" : " ", name, hex_bytes(frame.payload().subspan(1)));
       }
       return out;
     }
@@ -649,18 +674,18 @@ Dissection Dissector::dissect(const can::Frame& frame) {
         return out;
       }
       const auto restricted = find_restricted_cob_id(frame.id);
-      out.text =
-          fmt::format("{}{}",
-                      frame.is_remote() ? fmt::format("remote request (RTR DLC {})", frame.dlc)
-                                        : hex_bytes(frame.payload()),
-                      restricted ? fmt::format(" (CAN-ID {:03X}h unassigned, restricted: {})",
-                                               frame.id, restricted->used_by)
-                                 : fmt::format(" (CAN-ID {:03X}h unassigned)", frame.id));
+      out.text = fmt::format(
+          FMT_COMPILE("{}{}"),
+          frame.is_remote() ? fmt::format(FMT_COMPILE("remote request (RTR DLC {})"), frame.dlc)
+                            : hex_bytes(frame.payload()),
+          restricted ? fmt::format(FMT_COMPILE(" (CAN-ID {:03X}h unassigned, restricted: {})"),
+                                   frame.id, restricted->used_by)
+                     : fmt::format(FMT_COMPILE(" (CAN-ID {:03X}h unassigned)"), frame.id));
       return out;
     }
   }
   if (options_.nodes.any() && cob.node != 0 && !options_.nodes.test(cob.node)) {
-    out.text += fmt::format(" (node {} not configured)", cob.node);
+    out.text += fmt::format(FMT_COMPILE(" (node {} not configured)"), cob.node);
   }
   return out;
 }
@@ -669,9 +694,10 @@ std::string Dissector::line(const can::Frame& frame) {
   const Dissection d = dissect(frame);
   // The identifier as candump prints it: an error frame carries CAN_ERR_FLAG, so it cannot be
   // mistaken for a 29-bit data frame with the same number.
-  const std::string id = frame.is_error()      ? fmt::format("{:08X}", can::kErrorFlag | frame.id)
-                         : frame.is_extended() ? fmt::format("{:08X}", frame.id)
-                                               : fmt::format("{:03X}", frame.id);
+  const std::string id = frame.is_error()
+                             ? fmt::format(FMT_COMPILE("{:08X}"), can::kErrorFlag | frame.id)
+                         : frame.is_extended() ? fmt::format(FMT_COMPILE("{:08X}"), frame.id)
+                                               : fmt::format(FMT_COMPILE("{:03X}"), frame.id);
   return id + " " + d.summary();
 }
 

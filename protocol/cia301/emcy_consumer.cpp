@@ -49,9 +49,10 @@ std::optional<EmcyEvent> EmcyConsumer::on_frame(const can::Frame& frame, can::Ti
   }
   Node& entry = nodes_[node];
   const EmcyRecord record{node, time, *emcy};
-  entry.history.push_back(record);
-  while (entry.history.size() > depth_)
-    entry.history.pop_front();
+  if (!entry.history) entry.history.emplace();
+  entry.history->push_back(record);
+  while (entry.history->size() > depth_)
+    entry.history->pop_front();
   ++entry.count;
   return EmcyEvent{
       emcy->is_error_reset() ? EmcyEventKind::error_reset : EmcyEventKind::error, record, {}};
@@ -59,7 +60,8 @@ std::optional<EmcyEvent> EmcyConsumer::on_frame(const can::Frame& frame, can::Ti
 
 const std::deque<EmcyRecord>& EmcyConsumer::history(std::uint8_t node) const {
   assert(is_valid_node_id(node));
-  return nodes_[node].history;
+  static const std::deque<EmcyRecord> kNone;
+  return nodes_[node].history ? *nodes_[node].history : kNone;
 }
 
 bool EmcyConsumer::error_active(std::uint8_t node) const {
@@ -79,7 +81,7 @@ std::uint64_t EmcyConsumer::count(std::uint8_t node) const {
 
 void EmcyConsumer::clear(std::uint8_t node) {
   assert(is_valid_node_id(node));
-  nodes_[node].history.clear();
+  if (nodes_[node].history) nodes_[node].history->clear();
   nodes_[node].count = 0;
 }
 

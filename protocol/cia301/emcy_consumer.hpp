@@ -54,6 +54,8 @@ class EmcyConsumer {
   std::optional<EmcyEvent> on_frame(const can::Frame& frame, can::TimePoint time);
 
   // Precondition for the accessors: node 1..127.
+  // The node's last EMCYs, oldest first. Read it again after on_frame(): before a node's first
+  // EMCY this is a shared empty deque.
   const std::deque<EmcyRecord>& history(std::uint8_t node) const;
   // Whether the node's last EMCY announced an error (code ≠ 0000h).
   bool error_active(std::uint8_t node) const;
@@ -67,7 +69,8 @@ class EmcyConsumer {
   struct Node {
     std::uint32_t cob_id = 0;
     bool extended = false;
-    std::deque<EmcyRecord> history;
+    // Created by the node's first EMCY: a consumer is built without 127 deque allocations.
+    std::optional<std::deque<EmcyRecord>> history;
     std::uint64_t count = 0;
   };
   // The node whose EMCY COB-ID the frame is on, 0 for none.
