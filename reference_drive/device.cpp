@@ -47,7 +47,8 @@ Expected<void, std::string> ReferenceDrive::start() {
   if (!store) return Unexpected(store.error());
   store_ = std::move(*store);
 
-  pdos_ = std::make_unique<cia301::PdoService>(*od_, bus_, config_.dictionary.pdo.dummy_mapping);
+  pdos_ = std::make_unique<cia301::PdoService>(*od_, bus_, config_.dictionary.pdo.dummy_mapping,
+                                               config_.dictionary.pdo.change_mask_index);
 
   cia301::SdoServerConfig sdo = cia301::SdoServerConfig::for_node(od_->node_id());
   sdo.timeout = config_.sdo_timeout;

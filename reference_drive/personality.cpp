@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <iterator>
+#include <span>
 #include <utility>
 
 #include "protocol/cia402/modes.hpp"
@@ -211,7 +214,244 @@ Expected<void, std::string> apply_pdo_defaults(const std::vector<profile::PdoDef
   return {};
 }
 
+// The written value of an integer entry as a signed number (unsigned types never negative).
+std::int64_t written_value(const cia301::Entry& entry, std::span<const std::uint8_t> data) {
+  const bool is_signed = cia301::info(entry.type()).type_class == cia301::TypeClass::signed_integer;
+  return is_signed ? cia301::load_signed(data)
+                   : static_cast<std::int64_t>(cia301::load_unsigned(data));
+}
+
+// The rule's checks in front of the entry's own validator and read hook.
+void restrict_entry(cia301::Entry& entry, const profile::ObjectRule& rule) {
+  if (rule.access == cia301::AccessType::wo) {
+    entry.set_read_hook(
+        [](cia301::ObjectDictionary&, cia301::Entry&) -> Expected<void, cia301::SdoAbort> {
+          return Unexpected(cia301::SdoAbort::read_write_only);
+        });
+  }
+  const bool integer = cia301::is_integer(entry.type());
+  cia301::WriteValidator inner = entry.write_validator();
+  entry.set_write_validator(
+      [rule, integer, inner](
+          const cia301::ObjectDictionary& od, const cia301::Entry& e,
+          std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+        if (rule.access == cia301::AccessType::ro) {
+          return Unexpected(cia301::SdoAbort::write_read_only);
+        }
+        if (integer) {
+          const std::int64_t value = written_value(e, data);
+          if (rule.min && value < *rule.min) return Unexpected(cia301::SdoAbort::value_too_low);
+          if (rule.max && value > *rule.max) return Unexpected(cia301::SdoAbort::value_too_high);
+          if (!rule.values.empty() &&
+              std::find(rule.values.begin(), rule.values.end(), value) == rule.values.end()) {
+            return Unexpected(cia301::SdoAbort::invalid_value);
+          }
+        }
+        if (inner) return inner(od, e, data);
+        return {};
+      });
+}
+
+cia301::Value value_of(cia301::DataType type, std::int64_t value) {
+  return cia301::info(type).type_class == cia301::TypeClass::signed_integer
+             ? cia301::Value::of_signed(value)
+             : cia301::Value::of_unsigned(static_cast<std::uint64_t>(value));
+}
+
 }  // namespace
+
+Expected<void, std::string> apply_object_rules(cia301::ObjectDictionary& od,
+                                               const std::vector<profile::ObjectRule>& rules,
+                                               Cia402Application& application) {
+  // 1. The objects to add, one definition per index (all rules with a type).
+  std::vector<cia301::ObjectDefinition> added;
+  for (const profile::ObjectRule& rule : rules) {
+    if (!rule.type) continue;
+    if (od.find(rule.index) != nullptr) {
+      return Unexpected(fmt::format(
+          "objects: {:04X}h sub {}: the drive has this object; give no type to restrict it",
+          rule.index, rule.sub));
+    }
+    auto def = std::find_if(added.begin(), added.end(),
+                            [&](const auto& d) { return d.index == rule.index; });
+    if (def == added.end()) {
+      added.push_back({rule.index,
+                       fmt::format("personality object {:04X}h", rule.index),
+                       cia301::ObjectCode::var,
+                       {}});
+      def = std::prev(added.end());
+    }
+    cia301::EntryDefinition entry =
+        cia301::EntryDefinition::make(rule.sub, fmt::format("sub {}", rule.sub), *rule.type,
+                                      rule.access.value_or(cia301::AccessType::rw),
+                                      value_of(*rule.type, rule.default_value.value_or(0)), false);
+    def->entries.push_back(std::move(entry));
+  }
+  for (cia301::ObjectDefinition& def : added) {
+    std::sort(def.entries.begin(), def.entries.end(),
+              [](const auto& a, const auto& b) { return a.sub_index < b.sub_index; });
+    if (def.entries.front().sub_index != 0) {
+      def.code = cia301::ObjectCode::record;
+      def.entries.insert(def.entries.begin(),
+                         cia301::EntryDefinition::highest_sub_index(def.entries.back().sub_index));
+    }
+    auto object = od.add_object(std::move(def));
+    if (!object) return Unexpected("objects: " + object.error());
+  }
+  // 2. Checks and actions on every entry a rule names.
+  for (const profile::ObjectRule& rule : rules) {
+    cia301::Entry* entry = od.find(rule.index, rule.sub);
+    if (entry == nullptr) {
+      return Unexpected(fmt::format(
+          "objects: {:04X}h sub {}: the drive has no such entry and the rule gives no type",
+          rule.index, rule.sub));
+    }
+    // Added entries carry their access in their definition; limits and values need the check.
+    if (!rule.type || rule.min || rule.max || !rule.values.empty()) restrict_entry(*entry, rule);
+    if (rule.action == profile::ObjectAction::set_actual_position) {
+      entry->set_store_group(cia301::kStoreNone);
+      Cia402Application* app = &application;
+      entry->set_write_observer([app](cia301::ObjectDictionary&, cia301::Entry& e) {
+        app->axis().set_actual_position(
+            app->factors().position_to_internal(static_cast<double>(e.as_signed())));
+      });
+    }
+  }
+  return {};
+}
+
+FactorGroup InternalUnitParameters::read_factors(const cia301::ObjectDictionary& od) {
+  auto fraction = [&od](std::uint16_t index) {
+    const cia301::Entry* n = od.find(index, 1);
+    const cia301::Entry* d = od.find(index, 2);
+    Fraction f;
+    if (n != nullptr && d != nullptr && n->as_unsigned() != 0 && d->as_unsigned() != 0) {
+      f.numerator = static_cast<std::uint32_t>(n->as_unsigned());
+      f.divisor = static_cast<std::uint32_t>(d->as_unsigned());
+    }
+    return f;
+  };
+  FactorGroup f;
+  f.position = fraction(0x6093);
+  f.velocity = fraction(0x6094);
+  f.acceleration = fraction(0x6097);
+  if (const cia301::Entry* e = od.find(0x607E, 0)) {
+    f.polarity = static_cast<std::uint8_t>(e->as_unsigned());
+  }
+  return f;
+}
+
+double InternalUnitParameters::to_internal(const FactorGroup& f, Kind kind, double user) {
+  switch (kind) {
+    case Kind::position:
+      return f.position_to_internal(user);
+    case Kind::distance:
+      return f.distance_to_internal(user);
+    case Kind::velocity:
+      return f.velocity_to_internal(user);
+    case Kind::speed:
+      return f.speed_to_internal(user);
+    case Kind::acceleration:
+      return f.acceleration_to_internal(user);
+  }
+  return user;
+}
+
+double InternalUnitParameters::to_user(const FactorGroup& f, Kind kind, double internal) {
+  switch (kind) {
+    case Kind::position:
+      return f.position_to_user(internal);
+    case Kind::distance:
+      return f.distance_to_user(internal);
+    case Kind::velocity:
+      return f.velocity_to_user(internal);
+    case Kind::speed:
+      return f.speed_to_user(internal);
+    case Kind::acceleration:
+      return f.acceleration_to_user(internal);
+  }
+  return internal;
+}
+
+void InternalUnitParameters::store(const cia301::ObjectDictionary& od, Parameter& p) {
+  const cia301::Entry* e = od.find(p.index, p.sub);
+  if (e == nullptr) return;
+  const bool is_signed = cia301::info(e->type()).type_class == cia301::TypeClass::signed_integer;
+  const double user =
+      is_signed ? static_cast<double>(e->as_signed()) : static_cast<double>(e->as_unsigned());
+  p.internal = std::round(to_internal(read_factors(od), p.kind, user));
+}
+
+void InternalUnitParameters::re_express(cia301::ObjectDictionary& od) {
+  const FactorGroup f = read_factors(od);
+  for (const Parameter& p : parameters_) {
+    cia301::Entry* e = od.find(p.index, p.sub);
+    if (e == nullptr) continue;
+    const double user = to_user(f, p.kind, p.internal);
+    const bool is_signed = cia301::info(e->type()).type_class == cia301::TypeClass::signed_integer;
+    const std::uint64_t max = cia301::info(e->type()).size >= 4
+                                  ? 0xFFFFFFFFU
+                                  : (std::uint64_t{1} << (8 * cia301::info(e->type()).size)) - 1;
+    if (is_signed) {
+      (void)e->assign(cia301::Value::of_signed(FactorGroup::to_i32(user)));
+    } else {
+      (void)e->assign(
+          cia301::Value::of_unsigned(std::min<std::uint64_t>(FactorGroup::to_u32(user), max)));
+    }
+  }
+}
+
+void InternalUnitParameters::attach(cia301::ObjectDictionary& od) {
+  struct Row {
+    std::uint16_t index;
+    std::uint8_t sub;
+    Kind kind;
+  };
+  static constexpr Row kRows[] = {
+      {0x607A, 0, Kind::position},     {0x607D, 1, Kind::position},
+      {0x607D, 2, Kind::position},     {0x607C, 0, Kind::distance},
+      {0x6065, 0, Kind::distance},     {0x6067, 0, Kind::distance},
+      {0x60FF, 0, Kind::velocity},     {0x606D, 0, Kind::speed},
+      {0x606F, 0, Kind::speed},        {0x607F, 0, Kind::speed},
+      {0x6081, 0, Kind::speed},        {0x6099, 1, Kind::speed},
+      {0x6099, 2, Kind::speed},        {0x6083, 0, Kind::acceleration},
+      {0x6084, 0, Kind::acceleration}, {0x6085, 0, Kind::acceleration},
+      {0x609A, 0, Kind::acceleration},
+  };
+  parameters_.clear();
+  for (const Row& row : kRows) {
+    cia301::Entry* e = od.find(row.index, row.sub);
+    if (e == nullptr || !cia301::is_integer(e->type())) continue;
+    parameters_.push_back({row.index, row.sub, row.kind, 0.0});
+  }
+  resync(od);
+  for (std::size_t i = 0; i < parameters_.size(); ++i) {
+    cia301::Entry* e = od.find(parameters_[i].index, parameters_[i].sub);
+    cia301::WriteObserver inner = e->write_observer();
+    e->set_write_observer([this, i, inner](cia301::ObjectDictionary& dict, cia301::Entry& entry) {
+      store(dict, parameters_[i]);
+      if (inner) inner(dict, entry);
+    });
+  }
+  for (std::uint16_t index :
+       {std::uint16_t{0x6091}, std::uint16_t{0x6092}, std::uint16_t{0x6093}, std::uint16_t{0x6094},
+        std::uint16_t{0x6097}, std::uint16_t{0x607E}}) {
+    cia301::Object* object = od.find(index);
+    if (object == nullptr) continue;
+    for (cia301::Entry& e : object->entries()) {
+      cia301::WriteObserver inner = e.write_observer();
+      e.set_write_observer([this, inner](cia301::ObjectDictionary& dict, cia301::Entry& entry) {
+        if (inner) inner(dict, entry);  // e.g. 6091h/6092h recompute 6093h first
+        re_express(dict);
+      });
+    }
+  }
+}
+
+void InternalUnitParameters::resync(const cia301::ObjectDictionary& od) {
+  for (Parameter& p : parameters_)
+    store(od, p);
+}
 
 profile::Personality standard_personality() {
   profile::Personality p;
@@ -279,6 +519,25 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
   if (p.sdo_dlc == profile::SdoDlc::minimal) {
     plan.not_applied.push_back("sdo_dlc minimal: the SDO server always answers with 8 bytes");
   }
+  plan.objects = p.objects;
+  for (const profile::ObjectRule& rule : p.objects) {
+    if (!rule.type && rule.default_value) {
+      plan.overrides.push_back(
+          {rule.index, rule.sub, *rule.default_value, cia301::ResetKind::application});
+    }
+  }
+  for (const profile::ObjectRule& rule : p.objects) {
+    if (rule.type && rule.action == profile::ObjectAction::none &&
+        rule.access == cia301::AccessType::wo) {
+      plan.not_applied.push_back(fmt::format(
+          "object {:04X}h sub {}: added as the manual lists it; a write is stored and has no "
+          "effect (what it acts on is not simulated)",
+          rule.index, rule.sub));
+    }
+  }
+  plan.drive.dictionary.pdo.mapping_while_valid = p.pdo_mapping_while_valid;
+  plan.drive.dictionary.pdo.change_mask_index = p.tpdo_transmit_masks;
+  plan.parameters_internal = p.parameters_internal;
   plan.drive.sdo_short_frames = p.sdo_short_requests == profile::SdoShortRequests::pad
                                     ? cia301::ShortFramePolicy::pad
                                     : cia301::ShortFramePolicy::ignore;

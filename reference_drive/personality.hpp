@@ -72,6 +72,32 @@
 //       1017h default (DictionaryOptions::producer_heartbeat_ms). Standard: 0.
 //   guard_time_ms: 0..65535, life_time_factor: 0..255
 //       100Ch / 100Dh after each reset while at their default 0. Standard: 0, 0.
+//   objects: [{index, sub, type, access, default, min, max, values, action, source}]
+//       Objects the manual documents that the reference drive adds or restricts
+//       (apply_object_rules, at dictionary build time). With `type` and no object at `index`:
+//       added (sub 0 only: a VAR; subs 1..n: a RECORD, sub 0 = n UNSIGNED8 ro), access default
+//       rw, default value `default` (else 0), store group: none for objects with an action,
+//       else the dictionary's. Otherwise the entry must exist (else an error) and keeps its
+//       type; `default` becomes its value after each reset while it holds the dictionary's
+//       default (as option_defaults); the rule restricts it: access ro -> an SDO write aborts
+//       06010002h, wo -> an SDO read aborts 06010001h; a written value below min -> 06090032h,
+//       above max -> 06090031h, not in `values` -> 06090030h; the drive's own checks run after
+//       these. `action` (added objects): set-actual-position makes 6064h the written value (user
+//       units, the factor group applied, no motion); none stores the value and does nothing else
+//       (not_applied names the object). Standard: none.
+//   pdo_mapping_while_valid: true | false
+//       PdoObjectOptions::mapping_while_valid: the mapping records may be written while their
+//       PDO is valid (Kollmorgen). Standard: false (CiA 301: abort 06010000h).
+//   tpdo_transmit_masks: 0x2000..0x5FFF
+//       PdoObjectOptions::change_mask_index (pdo_service.hpp): TPDO n's transmit mask record
+//       at this index + n - 1; a TPDO sent on change compares only the masked bits (Festo
+//       2014h-2017h). Standard: none.
+//   parameters_internal: true | false
+//       Festo (000 §5.3 L2594): user-unit parameters are kept in internal units and converted
+//       when read or written (InternalUnitParameters): a factor group or polarity change
+//       re-expresses 607Ah, 607Ch, 607Dh, 6065h, 6067h, 606Dh, 606Fh, 607Fh, 6081h, 60FFh,
+//       6083h-6085h, 6099h, 609Ah in the new units (rounded half away from zero, so the
+//       rounding shows), where the standard drive keeps the numbers. Standard: false.
 //   note: text
 //       Why the values are what they are; not used.
 //
@@ -111,6 +137,8 @@ struct PersonalityPlan {
   bool host_homing = true;  // 6 is among the modes
   HomingConfig homing;
   std::vector<DefaultOverride> overrides;
+  std::vector<profile::ObjectRule> objects;  // apply_object_rules
+  bool parameters_internal = false;          // InternalUnitParameters
   bool emcy_follow_up = false;
   bool hardware_enable_present = true;  // the input's state at power on
   // What the personality asks for that the reference drive cannot show (one line each).
@@ -127,5 +155,40 @@ profile::Personality standard_personality();
 // reference drive cannot take at all (a mode value 5 or above 10, an option default the option
 // codes refuse, an object type other than 6060h/6061h INTEGER16, ack_latency_cycles 0).
 Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProfile* profile);
+
+// Festo's parameters in internal units (`parameters_internal` above). attach() chains write
+// observers onto the parameters and the factor objects (6091h-6094h, 6097h, 607Eh) of `od`:
+// a parameter write stores user value x factor (rounded to a whole internal unit); a factor
+// write rewrites every parameter as internal / factor (polarity applied as FactorGroup does).
+// resync() takes the internal values from the entries again (after a reset or a load).
+class InternalUnitParameters {
+ public:
+  void attach(cia301::ObjectDictionary& od);
+  void resync(const cia301::ObjectDictionary& od);
+
+ private:
+  enum class Kind : std::uint8_t { position, distance, velocity, speed, acceleration };
+  struct Parameter {
+    std::uint16_t index = 0;
+    std::uint8_t sub = 0;
+    Kind kind = Kind::position;
+    double internal = 0.0;
+  };
+  static FactorGroup read_factors(const cia301::ObjectDictionary& od);
+  static double to_internal(const FactorGroup& f, Kind kind, double user);
+  static double to_user(const FactorGroup& f, Kind kind, double internal);
+  void store(const cia301::ObjectDictionary& od, Parameter& p);
+  void re_express(cia301::ObjectDictionary& od);
+
+  std::vector<Parameter> parameters_;
+};
+
+// Adds and restricts the objects of `rules` (the `objects` key above) in `od`, after every
+// other object is in it. `application` carries out the actions (set-actual-position); it must
+// outlive `od`. Errors: a rule for an entry the dictionary lacks without `type`, a type for an
+// index the dictionary has, a default or limit that does not fit the type.
+Expected<void, std::string> apply_object_rules(cia301::ObjectDictionary& od,
+                                               const std::vector<profile::ObjectRule>& rules,
+                                               Cia402Application& application);
 
 }  // namespace drivecheck::reference_drive

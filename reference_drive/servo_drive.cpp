@@ -69,11 +69,15 @@ class EmcyFollowUpPort final : public can::Bus {
 // written into the dictionary at each reset of their group, before the application reloads.
 class PersonalityApplication final : public DriveApplication {
  public:
-  PersonalityApplication(DriveApplication& inner, std::vector<DefaultOverride> overrides)
-      : inner_(inner), overrides_(std::move(overrides)) {}
+  PersonalityApplication(Cia402Application& inner, std::vector<DefaultOverride> overrides,
+                         std::vector<profile::ObjectRule> objects)
+      : inner_(inner), overrides_(std::move(overrides)), objects_(std::move(objects)) {}
 
   Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override {
-    return inner_.add_objects(od);
+    if (auto r = inner_.add_objects(od); !r) return r;
+    if (auto r = apply_object_rules(od, objects_, inner_); !r) return r;
+    if (internal_units_) internal_units_->attach(od);
+    return {};
   }
   void on_reset(ReferenceDrive& drive, cia301::ResetKind kind) override {
     cia301::ObjectDictionary& od = drive.dictionary();
@@ -93,6 +97,7 @@ class PersonalityApplication final : public DriveApplication {
                               : cia301::Value::of_unsigned(static_cast<std::uint64_t>(o.value)));
     }
     inner_.on_reset(drive, kind);
+    if (internal_units_) internal_units_->resync(od);
   }
   void on_nmt_state(ReferenceDrive& drive, cia301::NmtState from, cia301::NmtState to) override {
     inner_.on_nmt_state(drive, from, to);
@@ -105,8 +110,12 @@ class PersonalityApplication final : public DriveApplication {
   void on_drive_destroyed(ReferenceDrive& drive) override { inner_.on_drive_destroyed(drive); }
 
  private:
-  DriveApplication& inner_;
+  Cia402Application& inner_;
   std::vector<DefaultOverride> overrides_;
+  std::vector<profile::ObjectRule> objects_;
+
+ public:
+  std::unique_ptr<InternalUnitParameters> internal_units_;  // null: user units kept (standard)
 };
 
 ServoDrive::ServoDrive(PersonalityPlan plan) : plan_(std::move(plan)) {}
@@ -130,7 +139,12 @@ Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& 
   if (p.host_homing) {
     servo->application_->add_mode(std::make_unique<HomingOperationMode>(p.homing));
   }
-  servo->personality_ = std::make_unique<PersonalityApplication>(*servo->application_, p.overrides);
+  servo->personality_ =
+      std::make_unique<PersonalityApplication>(*servo->application_, p.overrides, p.objects);
+
+  if (p.parameters_internal) {
+    servo->personality_->internal_units_ = std::make_unique<InternalUnitParameters>();
+  }
 
   can::Bus* port = &bus;
   if (p.emcy_follow_up) {

@@ -129,6 +129,10 @@ class Entry {
   void set_read_hook(ReadHook hook) { read_hook_ = std::move(hook); }
   void set_write_validator(WriteValidator validator) { validator_ = std::move(validator); }
   void set_write_observer(WriteObserver observer) { observer_ = std::move(observer); }
+  // The hooks set so far (empty when none), e.g. to chain a further check in front of one.
+  const ReadHook& read_hook() const { return read_hook_; }
+  const WriteValidator& write_validator() const { return validator_; }
+  const WriteObserver& write_observer() const { return observer_; }
   std::uint8_t store_group() const { return store_group_; }
   void set_store_group(std::uint8_t group) { store_group_ = group; }
 

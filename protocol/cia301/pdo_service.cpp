@@ -81,10 +81,12 @@ WriteValidator fixed_while_valid_validator(std::uint16_t number, std::uint64_t m
 }
 
 WriteValidator mapping_count_validator(PdoDirection direction, std::uint16_t number,
-                                       bool dummy_mapping) {
+                                       bool dummy_mapping, bool while_valid) {
   return [=](const ObjectDictionary& od, const Entry&,
              std::span<const std::uint8_t> data) -> Expected<void, SdoAbort> {
-    if (pdo_valid(od, direction, number)) return Unexpected(SdoAbort::unsupported_access);
+    if (!while_valid && pdo_valid(od, direction, number)) {
+      return Unexpected(SdoAbort::unsupported_access);
+    }
     const Object* mapping = od.find(pdo_mapping_index(direction, number));
     const unsigned count = data[0];
     if (count + 1u > mapping->entries().size()) return Unexpected(SdoAbort::pdo_length_exceeded);
@@ -103,10 +105,12 @@ WriteValidator mapping_count_validator(PdoDirection direction, std::uint16_t num
 }
 
 WriteValidator mapping_entry_validator(PdoDirection direction, std::uint16_t number,
-                                       bool dummy_mapping) {
+                                       bool dummy_mapping, bool while_valid) {
   return [=](const ObjectDictionary& od, const Entry&,
              std::span<const std::uint8_t> data) -> Expected<void, SdoAbort> {
-    if (pdo_valid(od, direction, number)) return Unexpected(SdoAbort::unsupported_access);
+    if (!while_valid && pdo_valid(od, direction, number)) {
+      return Unexpected(SdoAbort::unsupported_access);
+    }
     const Entry* count = od.find(pdo_mapping_index(direction, number), 0);
     if (count != nullptr && count->as_unsigned() != 0) {
       return Unexpected(SdoAbort::unsupported_access);
@@ -196,8 +200,10 @@ Expected<void, std::string> add_pdo(ObjectDictionary& od, PdoDirection direction
   if (!added_mapping) return Unexpected(added_mapping.error());
   for (Entry& e : (*added_mapping)->entries()) {
     e.set_write_validator(e.sub_index() == 0
-                              ? mapping_count_validator(direction, number, options.dummy_mapping)
-                              : mapping_entry_validator(direction, number, options.dummy_mapping));
+                              ? mapping_count_validator(direction, number, options.dummy_mapping,
+                                                        options.mapping_while_valid)
+                              : mapping_entry_validator(direction, number, options.dummy_mapping,
+                                                        options.mapping_while_valid));
   }
   return {};
 }
@@ -248,6 +254,18 @@ Expected<void, std::string> add_pdo_objects(ObjectDictionary& od, const PdoObjec
         n <= options.tpdo_defaults.size() ? options.tpdo_defaults[n - 1u] : PdoDefaults{};
     if (auto ok = add_pdo(od, PdoDirection::transmit, n, defaults, options); !ok) return ok;
   }
+  for (std::uint16_t n = 1; options.change_mask_index != 0 && n <= options.tpdo_count; ++n) {
+    ObjectDefinition mask;
+    mask.index = static_cast<std::uint16_t>(options.change_mask_index + n - 1u);
+    mask.name = fmt::format("TPDO transmit mask {}", n);
+    mask.code = ObjectCode::record;
+    mask.entries.push_back(EntryDefinition::highest_sub_index(2));
+    mask.entries.push_back(EntryDefinition::unsigned_entry(
+        1, "Transmit mask low", DataType::unsigned32, AccessType::rw, 0xFFFFFFFFu));
+    mask.entries.push_back(EntryDefinition::unsigned_entry(
+        2, "Transmit mask high", DataType::unsigned32, AccessType::rw, 0xFFFFFFFFu));
+    if (auto added = od.add_object(std::move(mask)); !added) return Unexpected(added.error());
+  }
   return {};
 }
 
@@ -280,8 +298,9 @@ Expected<unsigned, SdoAbort> check_pdo_mapping_entry(const ObjectDictionary& od,
 // ---------------------------------------------------------------------------------------------
 // Service: configuration
 
-PdoService::PdoService(ObjectDictionary& od, const can::Clock& clock, bool dummy_mapping)
-    : od_(od), clock_(clock), dummy_mapping_(dummy_mapping) {
+PdoService::PdoService(ObjectDictionary& od, const can::Clock& clock, bool dummy_mapping,
+                       std::uint16_t change_mask_index)
+    : od_(od), clock_(clock), dummy_mapping_(dummy_mapping), change_mask_index_(change_mask_index) {
   for (const Object& object : od_.objects()) {
     const std::uint16_t index = object.index();
     if (index >= kRpdoCommunicationBase && index < kRpdoMappingBase) {
@@ -412,6 +431,19 @@ void PdoService::configure(Tpdo& pdo) {
           : can::Duration::zero();
   const Entry* start = comm->find(pdo_sub::kSyncStartValue);
   pdo.sync_start = start != nullptr ? static_cast<std::uint8_t>(start->as_unsigned()) : 0;
+  pdo.change_mask = ~std::uint64_t{0};
+  if (change_mask_index_ != 0) {
+    const auto index = static_cast<std::uint16_t>(change_mask_index_ + pdo.number - 1U);
+    const Entry* low = od_.find(index, 1);
+    const Entry* high = od_.find(index, 2);
+    if (low != nullptr && high != nullptr) {
+      pdo.change_mask = (low->as_unsigned() & 0xFFFFFFFFu) | (high->as_unsigned() << 32);
+    }
+  }
+}
+
+bool PdoService::changed(const Tpdo& pdo, const std::array<std::uint8_t, 8>& payload) const {
+  return ((from_bytes(payload) ^ from_bytes(pdo.last_sent)) & pdo.change_mask) != 0;
 }
 
 void PdoService::start(Rpdo& pdo, can::TimePoint) {
@@ -492,6 +524,9 @@ void PdoService::bind() {
     };
     observe(pdo_communication_index(PdoDirection::transmit, tpdos_[i].number), reconfigure);
     observe(pdo_mapping_index(PdoDirection::transmit, tpdos_[i].number), reconfigure);
+    if (change_mask_index_ != 0) {
+      observe(static_cast<std::uint16_t>(change_mask_index_ + tpdos_[i].number - 1U), reconfigure);
+    }
   }
 }
 
@@ -693,7 +728,7 @@ PdoOutput PdoService::on_sync(std::optional<std::uint8_t> counter, can::TimePoin
     if (!pdo.active) continue;
     if (pdo.type == 0) {
       const auto payload = pack(pdo);
-      if (pdo.event || !pdo.sent_once || payload != pdo.last_sent) {
+      if (pdo.event || !pdo.sent_once || changed(pdo, payload)) {
         transmit(pdo, payload, now, false);
       }
     } else if (pdo.type <= 240) {
@@ -740,7 +775,7 @@ PdoOutput PdoService::on_time(can::TimePoint now) {
     if (!pdo.active || pdo.type < 254) continue;
     if (pdo.event_due <= now) pdo.event = true;
     const auto payload = pack(pdo);
-    if (!pdo.sent_once || payload != pdo.last_sent) pdo.event = true;
+    if (!pdo.sent_once || changed(pdo, payload)) pdo.event = true;
     if (pdo.event && now >= pdo.inhibit_until) transmit(pdo, payload, now, true);
   }
   return output();

@@ -26,7 +26,8 @@
 //   inhibit time or SYNC start value changed while the TPDO is valid (CiA 301 §7.5.2.37:
 //     "shall not be changed while the PDO exists")                         -> 06090030h
 //   SYNC start value above 240                                             -> 06090030h
-//   mapping sub 00h..N written while the PDO is valid, or sub 01h..N while sub 00h is not 0
+//   mapping sub 00h..N written while the PDO is valid (unless mapping_while_valid), or sub
+//     01h..N while sub 00h is not 0
 //     (the CiA 301 §7.5.2.36/38 procedure: 1. COB-ID bit 31 := 1, 2. sub 00h := 0, 3. write
 //     the entries, 4. sub 00h := count, 5. bit 31 := 0)                    -> 06010000h
 //     CiA 301 prescribes the procedure but names no abort code for breaking it. 06010000h
@@ -84,6 +85,9 @@
 //   RPDO deadline monitoring (event timer, sub 05h): armed by each reception; no RPDO within
 //     it -> EMCY 8250h "RPDO timeout", cleared by the next reception.
 //   A valid PDO with no mapped objects (sub 00h = 0) is neither sent nor received.
+//   Transmit masks (change_mask_index, Festo): "the payload differs from the one last sent"
+//     (types 0, 254, 255) compares only the payload bits set in the TPDO's mask; the other
+//     bits still go out with the next transmission. Without masks: every bit.
 //   Synchronous window 1007h (µs, 0 = none; read from the dictionary at each use, the value
 //     SyncConsumer has too). CiA 301 v4.2.0 §7.5.2, object 1007h: "If the synchronous window
 //     length expires all synchronous TPDOs shall be discarded and an EMCY message may be
@@ -145,10 +149,18 @@ struct PdoDefaults {
 };
 
 struct PdoObjectOptions {
-  std::uint16_t rpdo_count = 4;            // 0..512
-  std::uint16_t tpdo_count = 4;            // 0..512
-  std::uint8_t mapping_entries = 8;        // sub-entries of each mapping record, 1..64
-  bool dummy_mapping = true;               // RPDOs accept the dummy entries 0002h..0007h
+  std::uint16_t rpdo_count = 4;      // 0..512
+  std::uint16_t tpdo_count = 4;      // 0..512
+  std::uint8_t mapping_entries = 8;  // sub-entries of each mapping record, 1..64
+  bool dummy_mapping = true;         // RPDOs accept the dummy entries 0002h..0007h
+  // The mapping (sub 00h..N) may be written while the PDO is valid (Kollmorgen S300/S700,
+  // 002 §6.3.5 L7199-7244); sub 01h..N still only while sub 00h is 0. CiA 301: false.
+  bool mapping_while_valid = false;
+  // Manufacturer transmit masks (Festo 2014h-2017h, 000 §3.3 L903-909, L1141-1166): 0 none;
+  // else TPDO n (1..tpdo_count) gets a RECORD at change_mask_index + n - 1: sub 00h = 2 (ro),
+  // sub 01h mask low (payload bits 0-31), sub 02h mask high (bits 32-63), UNSIGNED32 rw,
+  // default FFFFFFFFh. Give the same index to PdoService.
+  std::uint16_t change_mask_index = 0;
   std::vector<PdoDefaults> rpdo_defaults;  // [0] RPDO1, ...; missing ones: PdoDefaults{}
   std::vector<PdoDefaults> tpdo_defaults;
 };
@@ -197,8 +209,9 @@ class PdoService {
   // Reads every PDO of the dictionary (1400h-15FFh, 1800h-19FFh with their mapping records)
   // and observes their entries (an SDO write takes effect at once, at clock.now()). Starts
   // outside Operational. The dictionary and the clock must outlive the service;
-  // `dummy_mapping` as given to add_pdo_objects.
-  PdoService(ObjectDictionary& od, const can::Clock& clock, bool dummy_mapping = true);
+  // `dummy_mapping` and `change_mask_index` as given to add_pdo_objects.
+  PdoService(ObjectDictionary& od, const can::Clock& clock, bool dummy_mapping = true,
+             std::uint16_t change_mask_index = 0);
   ~PdoService();
   PdoService(const PdoService&) = delete;
   PdoService& operator=(const PdoService&) = delete;
@@ -283,6 +296,7 @@ class PdoService {
     bool event = false;
     bool sent_once = false;
     std::array<std::uint8_t, 8> last_sent{};
+    std::uint64_t change_mask = ~std::uint64_t{0};  // transmit mask (bits of the payload)
     bool sampled = false;
     std::array<std::uint8_t, 8> sample{};
     can::TimePoint inhibit_until{};
@@ -320,6 +334,8 @@ class PdoService {
   ObjectDictionary& od_;
   const can::Clock& clock_;
   bool dummy_mapping_;
+  std::uint16_t change_mask_index_ = 0;
+  bool changed(const Tpdo& pdo, const std::array<std::uint8_t, 8>& payload) const;
   bool running_ = false;
   std::vector<Rpdo> rpdos_;
   std::vector<Tpdo> tpdos_;

@@ -113,47 +113,6 @@ std::optional<std::int64_t> parse_integer_text(std::string_view text) {
   return static_cast<std::int64_t>(magnitude);
 }
 
-// The 1-based line of the first byte that is not well-formed UTF-8 (RFC 3629: no overlongs, no
-// surrogates, nothing above U+10FFFF); 0 when the text is valid. YAML text is UTF-8, and
-// yaml-cpp does not check: a bad byte would be changed on the way back out (to_yaml).
-int first_invalid_utf8_line(std::string_view text) {
-  int line = 1;
-  std::size_t i = 0;
-  while (i < text.size()) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c == '\n') ++line;
-    if (c < 0x80) {
-      ++i;
-      continue;
-    }
-    std::size_t length = 0;
-    unsigned min_second = 0x80;
-    unsigned max_second = 0xBF;
-    if (c >= 0xC2 && c <= 0xDF) {
-      length = 2;
-    } else if (c >= 0xE0 && c <= 0xEF) {
-      length = 3;
-      if (c == 0xE0) min_second = 0xA0;  // no overlong
-      if (c == 0xED) max_second = 0x9F;  // no surrogate
-    } else if (c >= 0xF0 && c <= 0xF4) {
-      length = 4;
-      if (c == 0xF0) min_second = 0x90;  // no overlong
-      if (c == 0xF4) max_second = 0x8F;  // not above U+10FFFF
-    } else {
-      return line;
-    }
-    if (i + length > text.size()) return line;
-    for (std::size_t k = 1; k < length; ++k) {
-      const auto b = static_cast<unsigned char>(text[i + k]);
-      const unsigned lo = k == 1 ? min_second : 0x80;
-      const unsigned hi = k == 1 ? max_second : 0xBF;
-      if (b < lo || b > hi) return line;
-    }
-    i += length;
-  }
-  return 0;
-}
-
 std::string scalar(const Reader& r, const YAML::Node& node, std::string_view what) {
   if (!node.IsScalar()) r.fail(node, fmt::format("{} must be a text value", what));
   return node.Scalar();
@@ -415,6 +374,64 @@ Deviation read_deviation(const Reader& r, const YAML::Node& node) {
   return d;
 }
 
+ObjectRule read_object_rule(const Reader& r, const YAML::Node& node) {
+  const MapView map(
+      r, node, "personality.objects entry",
+      {"index", "sub", "type", "access", "default", "min", "max", "values", "action", "source"});
+  constexpr auto kMin = std::numeric_limits<std::int64_t>::min();
+  constexpr auto kMax = std::numeric_limits<std::int64_t>::max();
+  ObjectRule o;
+  o.index = static_cast<std::uint16_t>(integer(r, map.require("index", "objects entry"),
+                                               "personality.objects.index", 0x0001, 0xFFFF));
+  if (auto v = map.get("sub")) {
+    o.sub = static_cast<std::uint8_t>(integer(r, *v, "personality.objects.sub", 0, 255));
+  }
+  if (auto v = map.get("type")) {
+    o.type = data_type(r, *v, "personality.objects.type");
+    if (!cia301::is_integer(*o.type) || cia301::info(*o.type).size > 4) {
+      r.fail(*v, "personality.objects.type: only integer types of 1..4 bytes can be added");
+    }
+  }
+  if (auto v = map.get("access")) {
+    const auto access = cia301::parse_access_type(scalar(r, *v, "personality.objects.access"));
+    if (!access || (*access != cia301::AccessType::ro && *access != cia301::AccessType::wo &&
+                    *access != cia301::AccessType::rw)) {
+      r.fail(*v,
+             fmt::format("personality.objects.access: '{}' is not one of ro wo rw", v->Scalar()));
+    }
+    o.access = *access;
+  }
+  if (auto v = map.get("default")) {
+    o.default_value = integer(r, *v, "personality.objects.default", kMin, kMax);
+  }
+  if (auto v = map.get("min")) o.min = integer(r, *v, "personality.objects.min", kMin, kMax);
+  if (auto v = map.get("max")) o.max = integer(r, *v, "personality.objects.max", kMin, kMax);
+  if (o.min && o.max && *o.min > *o.max) r.fail(node, "personality.objects: min is above max");
+  if (auto v = map.get("values")) {
+    require_sequence(r, *v, "personality.objects.values");
+    for (const auto& item : *v) {
+      o.values.push_back(integer(r, item, "personality.objects.values", kMin, kMax));
+    }
+  }
+  if (auto v = map.get("action")) {
+    const std::string text = scalar(r, *v, "personality.objects.action");
+    if (text == to_string(ObjectAction::none)) {
+      o.action = ObjectAction::none;
+    } else if (text == to_string(ObjectAction::set_actual_position)) {
+      o.action = ObjectAction::set_actual_position;
+    } else {
+      r.fail(*v, fmt::format("personality.objects.action: '{}' is not one of none, "
+                             "set-actual-position",
+                             text));
+    }
+    if (!o.type) r.fail(*v, "personality.objects.action: only with type (an added object)");
+  }
+  if (auto v = map.get("source")) {
+    o.source = scalar(r, *v, "personality.objects.source");
+  }
+  return o;
+}
+
 Personality read_personality(const Reader& r, const YAML::Node& node) {
   const MapView map(r, node, "personality",
                     {"identity",
@@ -430,6 +447,10 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "homing_default_method",
                      "homing_halt_sets_error",
                      "object_types",
+                     "objects",
+                     "pdo_mapping_while_valid",
+                     "tpdo_transmit_masks",
+                     "parameters_internal",
                      "guarding_loss",
                      "ack_latency_cycles",
                      "control_cycle",
@@ -542,6 +563,28 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
       }
       p.object_types.push_back(t);
     }
+  }
+  if (auto v = map.get("objects")) {
+    require_sequence(r, *v, "personality.objects");
+    for (const auto& item : *v) {
+      ObjectRule o = read_object_rule(r, item);
+      for (const auto& seen : p.objects) {
+        if (seen.index == o.index && seen.sub == o.sub) {
+          r.fail(item, "personality.objects: the same index and sub-index is listed twice");
+        }
+      }
+      p.objects.push_back(std::move(o));
+    }
+  }
+  if (auto v = map.get("pdo_mapping_while_valid")) {
+    p.pdo_mapping_while_valid = boolean(r, *v, "personality.pdo_mapping_while_valid");
+  }
+  if (auto v = map.get("parameters_internal")) {
+    p.parameters_internal = boolean(r, *v, "personality.parameters_internal");
+  }
+  if (auto v = map.get("tpdo_transmit_masks")) {
+    p.tpdo_transmit_masks = static_cast<std::uint16_t>(
+        integer(r, *v, "personality.tpdo_transmit_masks", 0x2000, 0x5FFF));
   }
   if (auto v = map.get("ack_latency_cycles")) {
     p.ack_latency_cycles =
@@ -877,6 +920,45 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
     }
     out << YAML::EndSeq;
   }
+  if (!p.objects.empty()) {
+    out << YAML::Key << "objects" << YAML::Value << YAML::BeginSeq;
+    for (const auto& o : p.objects) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "index" << YAML::Value << hex(o.index, 4)
+          << YAML::Key << "sub" << YAML::Value << static_cast<int>(o.sub);
+      if (o.type) {
+        out << YAML::Key << "type" << YAML::Value << std::string(cia301::info(*o.type).name);
+      }
+      if (o.access) {
+        out << YAML::Key << "access" << YAML::Value << std::string(cia301::to_string(*o.access));
+      }
+      if (o.default_value) out << YAML::Key << "default" << YAML::Value << *o.default_value;
+      if (o.min) out << YAML::Key << "min" << YAML::Value << *o.min;
+      if (o.max) out << YAML::Key << "max" << YAML::Value << *o.max;
+      if (!o.values.empty()) {
+        out << YAML::Key << "values" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+        for (std::int64_t v : o.values)
+          out << v;
+        out << YAML::EndSeq;
+      }
+      if (o.action != ObjectAction::none) {
+        out << YAML::Key << "action" << YAML::Value << std::string(to_string(o.action));
+      }
+      if (!o.source.empty()) {
+        out << YAML::Key << "source" << YAML::Value << YAML::DoubleQuoted << o.source;
+      }
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  if (p.pdo_mapping_while_valid) {
+    out << YAML::Key << "pdo_mapping_while_valid" << YAML::Value << "true";
+  }
+  if (p.parameters_internal) {
+    out << YAML::Key << "parameters_internal" << YAML::Value << "true";
+  }
+  if (p.tpdo_transmit_masks != 0) {
+    out << YAML::Key << "tpdo_transmit_masks" << YAML::Value << hex(p.tpdo_transmit_masks, 4);
+  }
   out << YAML::Key << "guarding_loss" << YAML::Value << std::string(to_string(p.guarding_loss));
   out << YAML::Key << "ack_latency_cycles" << YAML::Value << p.ack_latency_cycles;
   if (p.control_cycle) {
@@ -978,6 +1060,9 @@ std::string_view to_string(HomingStyle style) {
 }
 std::string_view to_string(SdoShortRequests policy) {
   return policy == SdoShortRequests::ignore ? "ignore" : "pad";
+}
+std::string_view to_string(ObjectAction action) {
+  return action == ObjectAction::none ? "none" : "set-actual-position";
 }
 std::string_view to_string(SdoDlc dlc) {
   return dlc == SdoDlc::always_8 ? "always-8" : "minimal";

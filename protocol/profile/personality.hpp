@@ -73,6 +73,30 @@ struct ObjectType {
   friend bool operator==(const ObjectType&, const ObjectType&) = default;
 };
 
+// What a write of an object the personality adds does (personality key `objects`).
+// none: the value is stored and nothing else happens (only for objects whose effect concerns
+// something the reference drive does not have; recorded as not applied). set-actual-position:
+// the actual position (6064h) becomes the written value, user units, no motion (Festo 2030h).
+enum class ObjectAction : std::uint8_t { none, set_actual_position };
+
+// An object the personality adds to the reference drive's dictionary, or an entry of the
+// dictionary it restricts, as the manual documents it. `type` given and the drive has no
+// object at `index`: the object is added (sub 0: a VAR; subs 1..n: a RECORD with sub 0 = n).
+// Otherwise the entry must exist and only access, limits and accepted values change.
+struct ObjectRule {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::optional<cia301::DataType> type;       // added objects only
+  std::optional<cia301::AccessType> access;   // ro: writes abort 06010002h, wo: reads 06010001h
+  std::optional<std::int64_t> default_value;  // existing entries: at each application reset
+  std::optional<std::int64_t> min;            // below: abort 06090032h
+  std::optional<std::int64_t> max;            // above: abort 06090031h
+  std::vector<std::int64_t> values;           // non-empty: any other value aborts 06090030h
+  ObjectAction action = ObjectAction::none;
+  std::string source;  // the manual lines (for the reader; not used)
+  friend bool operator==(const ObjectRule&, const ObjectRule&) = default;
+};
+
 struct Personality {
   std::optional<Identity> identity;       // none: the profile's identity
   std::optional<std::vector<int>> modes;  // none: the profile's modes
@@ -87,6 +111,10 @@ struct Personality {
   std::optional<int> homing_default_method;  // 6098h default; none: the drive's (17)
   bool homing_halt_sets_error = false;       // halt ends homing with bit 13 (Festo)
   std::vector<ObjectType> object_types;
+  std::vector<ObjectRule> objects;        // objects added or restricted (ObjectRule)
+  bool pdo_mapping_while_valid = false;   // Kollmorgen: mapping written while the PDO is valid
+  std::uint16_t tpdo_transmit_masks = 0;  // Festo: index of TPDO1's transmit mask (2014h); 0 none
+  bool parameters_internal = false;       // Festo: parameters kept in internal units (L2594)
   GuardingLoss guarding_loss = GuardingLoss::error_behaviour;
   unsigned ack_latency_cycles = 1;  // pp: control cycles from new set-point to acknowledge
   std::optional<can::Duration> control_cycle;  // none: the drive's default (1 ms)
@@ -104,6 +132,7 @@ std::string_view to_string(HardwareEnable enable);    // "none", "transition-2",
 std::string_view to_string(HomingTable table);        // "none", "festo", "kollmorgen", "irtsa"
 std::string_view to_string(ErrorCodeFormat format);   // "standard", "error-number"
 std::string_view to_string(HomingStyle style);        // "standard", "set-position"
+std::string_view to_string(ObjectAction action);      // "none", "set-actual-position"
 std::string_view to_string(SdoDlc dlc);               // "always-8", "minimal"
 std::string_view to_string(SdoShortRequests policy);  // "ignore", "pad"
 std::string_view to_string(

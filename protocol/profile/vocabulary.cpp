@@ -182,15 +182,15 @@ Expected<can::Duration, std::string> parse_duration(std::string_view text, Durat
                                         {"min", 60'000'000'000},
                                         {"h", 3'600'000'000'000}}};
   const std::size_t unit_count = units == DurationUnits::up_to_hours ? 6 : 5;
-  const std::string_view unit_list = units == DurationUnits::up_to_hours ? "ns us ms s min h"
-                                                                         : "ns us ms s min";
+  const std::string_view unit_list =
+      units == DurationUnits::up_to_hours ? "ns us ms s min h" : "ns us ms s min";
   std::size_t digits = 0;
   while (digits < text.size() && text[digits] >= '0' && text[digits] <= '9')
     ++digits;
   if (digits == 0) {
     return Unexpected(
-        fmt::format("'{}' is not a duration: expected an integer and a unit ({}), e.g. 100ms",
-                    text, unit_list));
+        fmt::format("'{}' is not a duration: expected an integer and a unit ({}), e.g. 100ms", text,
+                    unit_list));
   }
   const std::string_view unit = text.substr(digits);
   const auto count = parse_decimal<std::uint64_t>(text.substr(0, digits));
@@ -257,6 +257,46 @@ bool is_valid_glob(std::string_view glob) {
 }
 bool is_valid_vector_id(std::string_view id) {
   return !id.empty() && std::all_of(id.begin(), id.end(), is_id_char);
+}
+
+// --- text ---------------------------------------------------------------------------------------
+
+int first_invalid_utf8_line(std::string_view text) {
+  int line = 1;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c == '\n') ++line;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    std::size_t length = 0;
+    unsigned min_second = 0x80;
+    unsigned max_second = 0xBF;
+    if (c >= 0xC2 && c <= 0xDF) {
+      length = 2;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      length = 3;
+      if (c == 0xE0) min_second = 0xA0;  // no overlong
+      if (c == 0xED) max_second = 0x9F;  // no surrogate
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      length = 4;
+      if (c == 0xF0) min_second = 0x90;  // no overlong
+      if (c == 0xF4) max_second = 0x8F;  // not above U+10FFFF
+    } else {
+      return line;
+    }
+    if (i + length > text.size()) return line;
+    for (std::size_t k = 1; k < length; ++k) {
+      const auto b = static_cast<unsigned char>(text[i + k]);
+      const unsigned lo = k == 1 ? min_second : 0x80;
+      const unsigned hi = k == 1 ? max_second : 0xBF;
+      if (b < lo || b > hi) return line;
+    }
+    i += length;
+  }
+  return 0;
 }
 
 }  // namespace drivecheck::profile

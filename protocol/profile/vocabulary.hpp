@@ -95,4 +95,12 @@ bool glob_match(std::string_view glob, std::string_view id);
 bool is_valid_glob(std::string_view glob);
 bool is_valid_vector_id(std::string_view id);
 
+// --- text ------------------------------------------------------------------------------------
+
+// The 1-based line of the first byte that is not well-formed UTF-8 (RFC 3629: no overlongs, no
+// surrogates, nothing above U+10FFFF); 0 when the text is valid. YAML text is UTF-8 and
+// yaml-cpp does not check: a bad byte would be changed on the way back out (the profile and
+// vector writers), so both loaders refuse such text with this line.
+int first_invalid_utf8_line(std::string_view text);
+
 }  // namespace drivecheck::profile

@@ -349,6 +349,35 @@ TEST(DriveProfilePersonality, DefaultsComeFromTheProfile) {
   EXPECT_EQ(e.hardware_enable, HardwareEnable::transition_2);
 }
 
+TEST(DriveProfilePersonality, ObjectRulesParseAndRefuseNonsense) {
+  // Given personality objects, a mapping flag and transmit masks / When parsed / Then typed;
+  // an action without type, access const, a duplicate and min above max are errors
+  auto p =
+      parse(with("personality:\n"
+                 "  objects:\n"
+                 "    - {index: 0x2030, type: INTEGER32, access: wo, action: set-actual-position}\n"
+                 "    - {index: 0x1005, values: [0x80, 0x80000080]}\n"
+                 "    - {index: 0x604D, type: UNSIGNED8, default: 4, min: 2, max: 254}\n"
+                 "  pdo_mapping_while_valid: true\n"
+                 "  tpdo_transmit_masks: 0x2014\n"));
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  const Personality& e = p->personality;
+  ASSERT_EQ(e.objects.size(), 3U);
+  EXPECT_EQ(e.objects[0].action, ObjectAction::set_actual_position);
+  EXPECT_EQ(e.objects[0].access, cia301::AccessType::wo);
+  EXPECT_EQ(e.objects[1].values, (std::vector<std::int64_t>{0x80, 0x80000080}));
+  EXPECT_EQ(e.objects[2].min, 2);
+  EXPECT_TRUE(e.pdo_mapping_while_valid);
+  EXPECT_EQ(e.tpdo_transmit_masks, 0x2014);
+  error_of(with("personality: {objects: [{index: 0x2030, action: set-actual-position}]}\n"));
+  error_of(with("personality: {objects: [{index: 0x2030, access: const}]}\n"));
+  error_of(
+      with("personality: {objects: [{index: 0x2030, access: ro}, {index: 0x2030, access: "
+           "wo}]}\n"));
+  error_of(with("personality: {objects: [{index: 0x604D, min: 5, max: 2}]}\n"));
+  error_of(with("personality: {tpdo_transmit_masks: 0x1000}\n"));
+}
+
 TEST(DriveProfilePersonality, ErrorNumberCode) {
   // Given an IRTSA error number / When encoded / Then n * 256 + 80h
   EXPECT_EQ(error_number_code(5), 0x0580);

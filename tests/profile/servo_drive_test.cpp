@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <filesystem>
 #include <memory>
@@ -392,6 +393,185 @@ TEST(ServoDriveKollmorgen, StoredValueWinsOverPersonalityDefault) {
   EXPECT_EQ(rig.read(0x1029, 1), 1U);
 }
 
+constexpr std::uint32_t kWriteReadOnly = 0x06010002;
+constexpr std::uint32_t kNoObject = 0x06020000;
+constexpr std::uint32_t kValueTooHigh = 0x06090031;
+constexpr std::uint32_t kValueTooLow = 0x06090032;
+constexpr std::uint32_t kUnsupportedAccess = 0x06010000;
+
+TEST(ServoDriveFesto, ManualObjectsAnswerAsDocumented) {
+  // Given the Festo drive (2030h wo L3879-3892, 604Dh 2..254 L3199-3214, 1005h fixed L1234-1245)
+  // When they are read and written / Then the manual's aborts, and 2030h moves 6064h only
+  ServoRig rig("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(standard.ok());
+  const auto upload = rig.upload(0x2030, 0);
+  ASSERT_TRUE(upload.has_value());
+  EXPECT_EQ(upload->data[0], 0x80);  // abort
+  EXPECT_EQ(rig.write(0x2030, 0, 0, 4), 0U);
+  EXPECT_EQ(rig.read(0x2030), kNoAnswer);  // a read never answers with data
+  EXPECT_EQ(rig.write(0x2030, 0, 12345, 4), 0U);
+  rig.run(10ms);
+  EXPECT_EQ(rig.read(0x6064), 12345U);  // the actual position, shifted without motion
+  EXPECT_EQ(rig.read(0x604D), 4U);
+  EXPECT_EQ(rig.write(0x604D, 0, 1, 1), kValueTooLow);
+  EXPECT_EQ(rig.write(0x604D, 0, 255, 1), kValueTooHigh);
+  EXPECT_EQ(rig.write(0x604D, 0, 8, 1), 0U);
+  EXPECT_EQ(rig.read(0x604D), 8U);
+  EXPECT_EQ(rig.write(0x1005, 0, 0x81, 4), kInvalidValue);
+  EXPECT_EQ(rig.write(0x1005, 0, 0x80000080, 4), 0U);
+  EXPECT_EQ(rig.read(0x1005), 0x80000080U);
+  // the standard drive has neither object and takes another SYNC COB-ID
+  EXPECT_EQ(standard.write(0x2030, 0, 1, 4), kNoObject);
+  EXPECT_EQ(standard.write(0x604D, 0, 1, 1), kNoObject);
+  EXPECT_EQ(standard.write(0x1005, 0, 0x81, 4), 0U);
+}
+
+TEST(ServoDriveFesto, ReadOfWriteOnlyObjectAborts06010001h) {
+  // Given the Festo drive / When 2030h (wo) is read / Then abort 06010001h (L779)
+  ServoRig rig("festo-cmmp");
+  ASSERT_TRUE(rig.ok());
+  const auto f = rig.upload(0x2030, 0);
+  ASSERT_TRUE(f.has_value());
+  // abort, 2030h sub 0, 06010001h
+  const can::Frame expected = can::Frame::standard(
+      0x580 + kNode, std::array<std::uint8_t, 8>{0x80, 0x30, 0x20, 0x00, 0x01, 0x00, 0x01, 0x06});
+  EXPECT_EQ(can::to_candump(*f), can::to_candump(expected));
+}
+
+// TPDO1 of the rig's drive on 607Ah (rw, mappable), sent on change (255), then Operational.
+void map_target_position_on_change(ServoRig& rig) {
+  ASSERT_EQ(rig.write(0x1800, 1, 0xC0000180U + kNode, 4), 0U);  // invalid while mapping
+  ASSERT_EQ(rig.write(0x1A00, 0, 0, 1), 0U);
+  ASSERT_EQ(rig.write(0x1A00, 1, 0x607A0020, 4), 0U);  // target position, 32 bits
+  ASSERT_EQ(rig.write(0x1A00, 0, 1, 1), 0U);
+  ASSERT_EQ(rig.write(0x1800, 2, 255, 1), 0U);
+  ASSERT_EQ(rig.write(0x1800, 1, 0x40000180U + kNode, 4), 0U);
+  const std::uint8_t start[2] = {0x01, kNode};  // NMT start remote node 5
+  rig.send(can::Frame::standard(0x000, start));
+  rig.run(20ms);  // the first TPDO (entering Operational)
+}
+
+// 607Ah := value by SDO, then 20 ms: the TPDO1 frames sent meanwhile.
+std::vector<can::Frame> tpdos_after_target(ServoRig& rig, std::uint32_t value) {
+  // ccs=1 e=1 s=1 n=0 (23h), 607Ah sub 0, data LE
+  const std::uint8_t request[8] = {0x23,
+                                   0x7A,
+                                   0x60,
+                                   0x00,
+                                   static_cast<std::uint8_t>(value),
+                                   static_cast<std::uint8_t>(value >> 8),
+                                   static_cast<std::uint8_t>(value >> 16),
+                                   static_cast<std::uint8_t>(value >> 24)};
+  rig.send(can::Frame::standard(0x600 + kNode, request));
+  std::vector<can::Frame> out;
+  for (const auto& f : rig.run(20ms))
+    if (f.id == 0x180U + kNode) out.push_back(f);
+  return out;
+}
+
+TEST(ServoDriveFesto, TransmitMaskLimitsChangeDetection) {
+  // Given the Festo drive, TPDO1 = 607Ah on change and 2014h masking only byte 1 (L903-909)
+  // When byte 0 changes / Then no TPDO; when byte 1 changes / Then the TPDO with both bytes
+  ServoRig rig("festo-cmmp");
+  ASSERT_TRUE(rig.ok());
+  EXPECT_EQ(rig.read(0x2014, 0), 2U);
+  EXPECT_EQ(rig.read(0x2014, 1), 0xFFFFFFFFU);
+  EXPECT_EQ(rig.read(0x2017, 2), 0xFFFFFFFFU);
+  ASSERT_EQ(rig.write(0x2014, 1, 0x0000FF00, 4), 0U);  // low: payload bits 8-15
+  ASSERT_EQ(rig.write(0x2014, 2, 0, 4), 0U);           // high: none
+  map_target_position_on_change(rig);
+  EXPECT_EQ(tpdos_after_target(rig, 0x01).size(), 0U);
+  const auto frames = tpdos_after_target(rig, 0x0201);
+  ASSERT_EQ(frames.size(), 1U);
+  EXPECT_EQ(can::to_candump(frames[0]), "185#01020000");  // 607Ah = 00000201h
+  // all bits masked again: any change is sent
+  ASSERT_EQ(rig.write(0x2014, 1, 0xFFFFFFFF, 4), 0U);
+  EXPECT_EQ(tpdos_after_target(rig, 0x0202).size(), 1U);
+}
+
+TEST(ServoDriveStandard, EveryChangeIsSentWithoutMasks) {
+  // Given the standard drive (no 2014h) and TPDO1 = 607Ah on change / When byte 0 changes
+  // Then the TPDO is sent
+  ServoRig rig;
+  ASSERT_TRUE(rig.ok());
+  EXPECT_EQ(rig.read(0x2014, 1), kNoAnswer);
+  map_target_position_on_change(rig);
+  EXPECT_EQ(tpdos_after_target(rig, 0x01).size(), 1U);
+}
+
+TEST(ServoDriveKollmorgen, FactorObjectsReadOnlyAndDeleteMotionTasks) {
+  // Given the Kollmorgen drive (6094h/6097h ro L3675-3679, L3846-3850; 2083h wo with the
+  // signature "prom" L2337-2353) / When written and read / Then the manual's answers
+  ServoRig rig("kollmorgen-s300-s700");
+  ServoRig standard;
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(standard.ok());
+  EXPECT_EQ(rig.write(0x6094, 1, 1, 4), kWriteReadOnly);
+  EXPECT_EQ(rig.write(0x6094, 2, 1, 4), kWriteReadOnly);
+  EXPECT_EQ(rig.write(0x6097, 1, 1, 4), kWriteReadOnly);
+  EXPECT_EQ(rig.read(0x6094, 1), 1U);
+  EXPECT_EQ(standard.write(0x6094, 1, 2, 4), 0U);
+  EXPECT_EQ(rig.read(0x2083), kNoAnswer);
+  EXPECT_EQ(rig.write(0x2083, 0, 1, 4), kInvalidValue);
+  EXPECT_EQ(rig.write(0x2083, 0, 0x6D6F7270, 4), 0U);  // "prom"
+  bool named = false;
+  for (const auto& line : rig.drive().not_applied())
+    named = named || line.find("2083h") != std::string::npos;
+  EXPECT_TRUE(named);
+}
+
+TEST(ServoDriveKollmorgen, MappingWritableWhilePdoValid) {
+  // Given the Kollmorgen drive (jog example L7199-7244) and the standard drive, RPDO1 valid
+  // When 1600h sub 0 := 0 / Then Kollmorgen confirms, the standard drive aborts 06010000h
+  ServoRig rig("kollmorgen-s300-s700");
+  ServoRig standard;
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(standard.ok());
+  ASSERT_EQ(rig.read(0x1400, 1) & 0x80000000U, 0U);  // valid by default
+  EXPECT_EQ(rig.write(0x1600, 0, 0, 1), 0U);
+  EXPECT_EQ(rig.write(0x1600, 1, 0x60FF0020, 4), 0U);
+  EXPECT_EQ(rig.write(0x1600, 0, 1, 1), 0U);
+  EXPECT_EQ(rig.read(0x1600, 1), 0x60FF0020U);
+  EXPECT_EQ(rig.write(0x1600, 1, 0x60710010, 4), kUnsupportedAccess);  // sub 0 is not 0
+  ASSERT_EQ(standard.write(0x1400, 1, 0x200U + kNode, 4), 0U);         // RPDO1 valid
+  EXPECT_EQ(standard.write(0x1600, 0, 0, 1), kUnsupportedAccess);
+}
+
+TEST(ServoDriveFesto, ParametersKeptInInternalUnits) {
+  // Given the Festo drive (parameters stored internal, converted on read, L2594) and the
+  // standard drive / When 607Ah = 65536 under 1/1 and the position factor becomes 4096/225
+  // (1/10 degree) / Then Festo reads 3600, standard 65536
+  ServoRig rig("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(standard.ok());
+  for (ServoRig* r : {&rig, &standard}) {
+    ASSERT_EQ(r->write(0x607A, 0, 65536, 4), 0U);
+    ASSERT_EQ(r->write(0x6093, 1, 4096, 4), 0U);
+    ASSERT_EQ(r->write(0x6093, 2, 225, 4), 0U);
+  }
+  EXPECT_EQ(rig.read(0x607A), 3600U);
+  EXPECT_EQ(standard.read(0x607A), 65536U);
+  // a write converts the other way: 900 (90.0 degree) reads 16384 increments under 1/1
+  ASSERT_EQ(rig.write(0x607A, 0, 900, 4), 0U);
+  ASSERT_EQ(rig.write(0x6093, 1, 1, 4), 0U);
+  ASSERT_EQ(rig.write(0x6093, 2, 1, 4), 0U);
+  EXPECT_EQ(rig.read(0x607A), 16384U);
+  // rounding shows: 1 increment under 1/10 degree (225/4096 = 0.055) reads 0
+  ASSERT_EQ(rig.write(0x607A, 0, 1, 4), 0U);
+  ASSERT_EQ(rig.write(0x6093, 1, 4096, 4), 0U);
+  ASSERT_EQ(rig.write(0x6093, 2, 225, 4), 0U);
+  EXPECT_EQ(rig.read(0x607A), 0U);
+  // polarity: 6081h (speed) keeps its sign, 60FFh (velocity) is inverted
+  ASSERT_EQ(rig.write(0x60FF, 0, 100, 4), 0U);
+  ASSERT_EQ(rig.write(0x6081, 0, 100, 4), 0U);
+  ASSERT_EQ(rig.write(0x607E, 0, 0x40, 1), 0U);
+  EXPECT_EQ(rig.read(0x60FF), static_cast<std::uint32_t>(-100));
+  EXPECT_EQ(rig.read(0x6081), 100U);
+}
+
 TEST(ServoDrivePlan, RefusesWhatTheDriveCannotTake) {
   // Given personalities the reference drive cannot take / When planned / Then errors
   auto bad = profile::parse_profile(R"(name: x
@@ -404,6 +584,16 @@ personality:
                                     {});
   ASSERT_TRUE(bad.has_value()) << bad.error().to_string();
   EXPECT_FALSE(plan_personality(&*bad).has_value());
+  auto restrict_missing = profile::parse_profile(
+      "name: x\ntitle: x\nfeatures: [cia402]\npersonality: {objects: [{index: 0x2999, access: "
+      "ro}]}\n",
+      {});
+  ASSERT_TRUE(restrict_missing.has_value()) << restrict_missing.error().to_string();
+  can::SimBus bus;
+  auto port = bus.attach("drive");
+  ServoDriveOptions options;
+  options.profile = &*restrict_missing;
+  EXPECT_FALSE(ServoDrive::create(*port, options).has_value());  // no 2999h, no type
   auto zero = profile::parse_profile(
       "name: x\ntitle: x\nfeatures: [cia402]\npersonality: {ack_latency_cycles: 0}\n", {});
   ASSERT_TRUE(zero.has_value()) << zero.error().to_string();
