@@ -856,6 +856,10 @@ class Parser {
       if (value["code"].IsSequence()) {
         for (const auto& item : value["code"])
           one(item);
+        if (value["code"].size() == 0) {
+          error(value["code"], "expect_emcy: the list of codes is empty");
+          return std::nullopt;
+        }
       } else {
         one(value["code"]);
       }
@@ -1203,9 +1207,23 @@ class Parser {
 
 }  // namespace
 
+std::vector<std::string_view> vector_file_keys() {
+  std::vector<std::string_view> keys(kVectorKeys.begin(), kVectorKeys.end());
+  for (const StepSyntax& step : step_syntax()) {
+    keys.push_back(step.action);
+    keys.insert(keys.end(), step.modifiers.begin(), step.modifiers.end());
+  }
+  return keys;
+}
+
 VectorSet parse_vectors(std::string_view text, const std::string& file) {
   VectorSet set;
   set.files.push_back(file);
+  if (const int bad = profile::first_invalid_utf8_line(text); bad != 0) {
+    // yaml-cpp would read the bytes as they are and the writer could not give them back.
+    set.errors.push_back(TextError{file, bad, "the text is not valid UTF-8"});
+    return set;
+  }
   YAML::Node root;
   try {
     root = YAML::Load(std::string(text));
@@ -1250,7 +1268,8 @@ VectorSet load_vector_tree(const std::filesystem::path& dir) {
       continue;
     }
     if (!it->is_regular_file() || it->path().extension() != ".yaml") continue;
-    if (relative == "manuals.yaml") continue;
+    // manuals.yaml: the citable manuals; coverage.yaml: scripts/generate-coverage's input.
+    if (relative == "manuals.yaml" || relative == "coverage.yaml") continue;
     files.push_back(it->path());
   }
   std::sort(files.begin(), files.end());

@@ -210,7 +210,7 @@ TEST(VectorFile, TopLevelMustBeASequence) {
 }
 
 TEST(VectorTree, DuplicateIdsAcrossFilesAndSkippedDirectories) {
-  // Given two files with the same id, a drives/ profile and manuals.yaml
+  // Given two files with the same id, a drives/ profile, manuals.yaml and coverage.yaml
   const auto dir =
       std::filesystem::temp_directory_path() / "drivecheck_vector_tree_test" / "vectors";
   std::filesystem::remove_all(dir.parent_path());
@@ -222,9 +222,11 @@ TEST(VectorTree, DuplicateIdsAcrossFilesAndSkippedDirectories) {
   std::ofstream(dir / "two.yaml") << vector;
   std::ofstream(dir / "drives" / "x.yaml") << "name: x\n";
   std::ofstream(dir / "manuals.yaml") << "- file: x\n";
+  std::ofstream(dir / "coverage.yaml") << "m.txt:\n  \"1\": {kind: descriptive, why: w}\n";
   // When the tree is loaded
   const auto set = load_vector_tree(dir);
-  // Then the second copy is an error naming the first, and drives/ and manuals.yaml are skipped
+  // Then the second copy is an error naming the first, and drives/, manuals.yaml and
+  // coverage.yaml (scripts/generate-coverage's explanations) are skipped
   ASSERT_EQ(set.errors.size(), 1U);
   EXPECT_EQ(set.errors[0].to_string(),
             "vectors/two.yaml:1: duplicate id 'a/b' (first at vectors/cia301/one.yaml:1)");
