@@ -27,6 +27,7 @@ struct DurationSpec {
   can::Duration value{0};
   std::string timing;  // non-empty: the timing key, resolved against the profile at run time
   bool is_timing() const { return !timing.empty(); }
+  friend bool operator==(const DurationSpec&, const DurationSpec&) = default;
 };
 
 // A COB-ID: `080` (absolute) or `600+N` (base plus the DUT's node-ID).
@@ -35,6 +36,7 @@ struct CobIdSpec {
   bool plus_node = false;
   bool extended = false;  // written with 8 hex digits (29-bit)
   std::uint32_t resolve(std::uint8_t node) const { return plus_node ? base + node : base; }
+  friend bool operator==(const CobIdSpec&, const CobIdSpec&) = default;
 };
 
 // A frame or frame pattern in candump compact syntax with `+N`, `..` and a trailing `*`.
@@ -48,18 +50,21 @@ struct FrameSpec {
   // The frame to send (node substituted); patterns with `..` never reach here (loader).
   can::Frame to_frame(std::uint8_t node) const;
   bool matches(const can::Frame& frame, std::uint8_t node) const;
+  friend bool operator==(const FrameSpec&, const FrameSpec&) = default;
 };
 
 // A value that is a literal or a value saved earlier in the vector (`$name`).
 struct ValueSpec {
   std::int64_t literal = 0;
   std::string saved;  // non-empty: the name given to an earlier sdo_read's `save:`
+  friend bool operator==(const ValueSpec&, const ValueSpec&) = default;
 };
 
 enum class NodeKind : std::uint8_t { dut, broadcast, other, value };
 struct NodeSpec {
   NodeKind kind = NodeKind::dut;
   std::uint8_t value = 0;  // NodeKind::value
+  friend bool operator==(const NodeSpec&, const NodeSpec&) = default;
 };
 
 enum class Transfer : std::uint8_t { automatic, expedited, segmented, block };
@@ -75,15 +80,18 @@ struct SdoExpect {
   std::size_t size = 0;
   std::vector<std::uint8_t> data;
   std::vector<std::uint32_t> aborts;  // accepted abort codes (a set, CTT style)
+  friend bool operator==(const SdoExpect&, const SdoExpect&) = default;
 };
 
 // ---- stimuli ----
 struct SendStep {
   FrameSpec frame;
+  friend bool operator==(const SendStep&, const SendStep&) = default;
 };
 struct NmtStep {
   cia301::NmtCommand command = cia301::NmtCommand::start;
   NodeSpec node;
+  friend bool operator==(const NmtStep&, const NmtStep&) = default;
 };
 struct SdoWriteStep {
   std::uint16_t index = 0;
@@ -93,6 +101,7 @@ struct SdoWriteStep {
   std::vector<std::uint8_t> data;  // `data:` form (value absent)
   Transfer transfer = Transfer::automatic;
   SdoExpect expect;  // ok or abort
+  friend bool operator==(const SdoWriteStep&, const SdoWriteStep&) = default;
 };
 struct SdoReadStep {
   std::uint16_t index = 0;
@@ -101,19 +110,24 @@ struct SdoReadStep {
   SdoExpect expect;
   bool is_signed = false;
   std::string save;
+  friend bool operator==(const SdoReadStep&, const SdoReadStep&) = default;
 };
 struct WaitStep {
   DurationSpec duration;
+  friend bool operator==(const WaitStep&, const WaitStep&) = default;
 };
 struct ControlwordStep {
   std::uint16_t value = 0;
+  friend bool operator==(const ControlwordStep&, const ControlwordStep&) = default;
 };
 struct SimulateStep {
   std::string input;
   std::int64_t value = 0;
+  friend bool operator==(const SimulateStep&, const SimulateStep&) = default;
 };
 struct MarkStep {
   std::string name;
+  friend bool operator==(const MarkStep&, const MarkStep&) = default;
 };
 
 // ---- expectations ----
@@ -122,23 +136,27 @@ struct ExpectFrameStep {
   DurationSpec within{{}, "response"};
   std::string mark;
   std::string since;
+  friend bool operator==(const ExpectFrameStep&, const ExpectFrameStep&) = default;
 };
 struct ExpectSilenceStep {
   bool any = false;
   std::vector<CobIdSpec> cob_ids;
   DurationSpec duration;  // `for:`
   std::string since;
+  friend bool operator==(const ExpectSilenceStep&, const ExpectSilenceStep&) = default;
 };
 struct ExpectBootupStep {
   DurationSpec within{{}, "bootup"};
   std::string mark;
   std::string since;
+  friend bool operator==(const ExpectBootupStep&, const ExpectBootupStep&) = default;
 };
 struct ExpectHeartbeatStep {
   cia301::NmtState state = cia301::NmtState::pre_operational;
   std::optional<DurationSpec> within;  // default: 1.5 x 1017h when known, else response
   std::string mark;
   std::string since;
+  friend bool operator==(const ExpectHeartbeatStep&, const ExpectHeartbeatStep&) = default;
 };
 struct ExpectEmcyStep {
   std::vector<std::uint16_t> codes;
@@ -148,15 +166,18 @@ struct ExpectEmcyStep {
   DurationSpec within{{}, "response"};
   std::string mark;
   std::string since;
+  friend bool operator==(const ExpectEmcyStep&, const ExpectEmcyStep&) = default;
 };
 struct ExpectStateStep {
   cia402::State state = cia402::State::switch_on_disabled;
   DurationSpec within{{}, "state_change"};
+  friend bool operator==(const ExpectStateStep&, const ExpectStateStep&) = default;
 };
 struct ExpectStatuswordStep {
   std::uint16_t mask = 0xFFFF;
   std::uint16_t value = 0;
   DurationSpec within{{}, "state_change"};
+  friend bool operator==(const ExpectStatuswordStep&, const ExpectStatuswordStep&) = default;
 };
 struct PollStep {
   std::uint16_t index = 0;
@@ -165,12 +186,14 @@ struct PollStep {
   std::uint64_t mask = ~std::uint64_t{0};
   DurationSpec within;
   DurationSpec every{{}, "poll"};
+  friend bool operator==(const PollStep&, const PollStep&) = default;
 };
 struct MeasureStep {
   std::string from;
   std::string to;
   std::optional<DurationSpec> min;
   std::optional<DurationSpec> max;
+  friend bool operator==(const MeasureStep&, const MeasureStep&) = default;
 };
 struct ExpectPeriodicStep {
   CobIdSpec cob;
@@ -178,6 +201,7 @@ struct ExpectPeriodicStep {
   DurationSpec tolerance{{}, "heartbeat_tolerance"};
   std::size_t count = 2;
   std::string mark;
+  friend bool operator==(const ExpectPeriodicStep&, const ExpectPeriodicStep&) = default;
 };
 
 using Action = std::variant<SendStep, NmtStep, SdoWriteStep, SdoReadStep, WaitStep, ControlwordStep,

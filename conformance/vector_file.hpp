@@ -36,6 +36,20 @@ VectorSet load_vector_file(const std::filesystem::path& path, const std::string&
 // and checks that ids are unique across files.
 VectorSet load_vector_tree(const std::filesystem::path& dir);
 
+// Writes vectors as a vector file (FORMAT.md) that parse_vectors reads back to vectors of the
+// same content (same_content), in the same order. Strings are double-quoted (every byte
+// escaped as YAML needs), frames and sources are written as they were read (FrameSpec::text,
+// Source::text), durations by profile::format_duration, modifiers always explicitly (also
+// defaults such as `within: $timing.response`). Lines and file names are not kept.
+std::string to_yaml(const std::vector<Vector>& vectors);
+// Whether two vectors say the same: every field but where they were read (Vector::file,
+// Vector::line, Step::line, Source::line).
+bool same_content(const Vector& a, const Vector& b);
+
+// The keys of the format, from the loader's own tables: the vector keys, then each step
+// action followed by its modifiers (FORMAT.md "A vector", "Steps"); for the fuzz dictionary.
+std::vector<std::string_view> vector_file_keys();
+
 // Parses a duration literal "100ms", "2s", "1min" (ns us ms s min) or "$timing.<key>" (key
 // from the timing table). The error is a message without file:line.
 Expected<DurationSpec, std::string> parse_duration_spec(std::string_view text);

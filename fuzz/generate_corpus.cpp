@@ -8,13 +8,18 @@
 //   - frame and candump-log string literals in the unit tests (tests/can, tests/cia301),
 //   - tests/cia306/data/*.eds|*.dcf, reference_drive/reference_drive.eds, tests/cli/data,
 //   - the SDO/EMCY/PDO frames the manuals print (Festo 000, Kollmorgen 002; cited below),
+//   - vectors/cia301, vectors/cia402 (vectors: files and single vectors; cia402: each vector's
+//     steps as operations) and vectors/drives (profile: as written and as to_yaml writes them),
 //   - for sdo_client, one seed per exchange the SDO client unit tests script (each transfer
 //     kind, clean, and with the hostile answer the test makes: wrong toggle, wrong CRC, ...).
 // Dictionaries come from the one-source tables where they exist (sdo_abort_codes.inc,
 // emcy_codes.inc, the basic data types, the EDS key tables) and otherwise cite CiA 301/306.
 #include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -26,8 +31,11 @@
 #include <string>
 #include <string_view>
 #include <utility>
+#include <variant>
 #include <vector>
 
+#include "conformance/vector_file.hpp"
+#include "fuzz/support/cia402_input.hpp"
 #include "fuzz/support/frame_record.hpp"
 #include "fuzz/support/sdo_client_input.hpp"
 #include "protocol/can/candump_log.hpp"
@@ -38,6 +46,9 @@
 #include "protocol/cia301/sdo_abort.hpp"
 #include "protocol/cia301/sdo_codec.hpp"
 #include "protocol/cia306/eds_fields.hpp"
+#include "protocol/cia402/state_machine.hpp"
+#include "protocol/profile/drive_profile.hpp"
+#include "protocol/profile/vocabulary.hpp"
 
 namespace {
 
@@ -1172,6 +1183,393 @@ void dictionaries(Output& out) {
   }
 }
 
+// --- vectors, profile, cia402: from the repository's vectors and drive profiles ----------------
+
+// vectors: each vector file of vectors/cia301 and vectors/cia402 as written, and each vector
+// alone as the writer gives it (small seeds that load without errors).
+void vectors_corpus(Output& out, const fs::path& root) {
+  for (const char* family : {"cia301", "cia402"}) {
+    for (const fs::path& file : files_in(root / "vectors" / family, {".yaml"})) {
+      const auto text = read_text(file);
+      if (!text) continue;
+      out.seed("vectors", fmt::format("file-{}-{}", family, file.filename().string()), *text);
+      const conformance::VectorSet set = conformance::parse_vectors(*text, file.string());
+      for (const conformance::Vector& vector : set.vectors) {
+        std::string name = vector.id;
+        std::replace(name.begin(), name.end(), '/', '-');
+        out.seed("vectors", name + ".yaml", conformance::to_yaml({vector}));
+      }
+    }
+  }
+}
+
+// profile: each drive profile as written (its list files are errors without a base directory)
+// and as the writer gives it (lists inline: parses as text).
+void profile_corpus(Output& out, const fs::path& root) {
+  for (const fs::path& file : files_in(root / "vectors/drives", {".yaml"})) {
+    const std::string name = file.stem().string();
+    if (const auto text = read_text(file)) out.seed("profile", name + "-as-written.yaml", *text);
+    if (const auto profile = profile::load_profile(file))
+      out.seed("profile", name + ".yaml", profile::to_yaml(*profile));
+  }
+}
+
+namespace cia402_seed {
+
+using fuzz::Cia402Op;
+using fuzz::Cia402OpKind;
+
+void add(Bytes& out, Cia402Op op) {
+  const auto record = fuzz::encode_cia402_op(op);
+  out.insert(out.end(), record.begin(), record.end());
+}
+void controlword(Bytes& out, std::uint16_t cw) {
+  add(out, {Cia402OpKind::controlword, 0xFF, cw});
+}
+void time(Bytes& out, std::uint32_t ms) {
+  for (; ms > 0; ms -= std::min<std::uint32_t>(ms, 255))
+    add(out, {Cia402OpKind::time, 0, std::min<std::uint32_t>(ms, 255)});
+}
+template <class Table>
+std::optional<std::uint8_t> row_of(const Table& table, std::uint16_t index, std::uint8_t sub) {
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    if (table[i].index == index && table[i].sub == sub) return static_cast<std::uint8_t>(i);
+  }
+  return std::nullopt;
+}
+
+// The standard path of the engine's drive_state setup (CiA 402-2 §8.1 transitions 2, 3, 4).
+void reach(Bytes& out, cia402::State state) {
+  using cia402::State;
+  time(out, 20);  // self-test: NOT READY TO SWITCH ON -> SWITCH ON DISABLED (transition 1)
+  if (state == State::switch_on_disabled || state == State::not_ready_to_switch_on) return;
+  controlword(out, 0x0006);
+  time(out, 5);
+  if (state == State::ready_to_switch_on) return;
+  controlword(out, 0x0007);
+  time(out, 5);
+  if (state == State::switched_on) return;
+  controlword(out, 0x000F);
+  time(out, 5);
+  if (state == State::quick_stop_active) {
+    controlword(out, 0x0002);
+    time(out, 5);
+  }
+}
+
+// A vector's steps as operations; nullopt when nothing of it maps.
+std::optional<Bytes> from_vector(const conformance::Vector& vector) {
+  using namespace conformance;
+  Bytes ops;
+  if (vector.nmt == cia301::NmtState::operational) add(ops, {Cia402OpKind::nmt, 0, 0});
+  if (vector.drive_state) reach(ops, *vector.drive_state);
+  std::size_t mapped = 0;
+  for (const Step& step : vector.steps) {
+    const std::size_t before = ops.size();
+    if (const auto* cw = std::get_if<ControlwordStep>(&step.action)) {
+      controlword(ops, cw->value);
+    } else if (const auto* write = std::get_if<SdoWriteStep>(&step.action)) {
+      if (!write->value || !write->value->saved.empty()) continue;
+      const auto value = static_cast<std::uint32_t>(write->value->literal);
+      const auto option =
+          std::find(fuzz::kOptionCodes.begin(), fuzz::kOptionCodes.end(), write->index);
+      if (write->index == 0x6040 && write->sub == 0) {
+        controlword(ops, static_cast<std::uint16_t>(value));
+      } else if (write->index == 0x6060 && write->sub == 0) {
+        add(ops, {Cia402OpKind::mode, 0xFF, value});
+      } else if (const auto row = row_of(fuzz::kTargets, write->index, write->sub)) {
+        add(ops, {Cia402OpKind::target, *row, value});
+      } else if (const auto factor = row_of(fuzz::kFactors, write->index, write->sub)) {
+        add(ops, {Cia402OpKind::factor, *factor, value});
+      } else if (option != fuzz::kOptionCodes.end() && write->sub == 0) {
+        const auto option_row = static_cast<std::uint8_t>(option - fuzz::kOptionCodes.begin());
+        add(ops, {Cia402OpKind::option_code, static_cast<std::uint8_t>(option_row | 0x80), value});
+      } else if (write->index >= 0x6000 && write->index <= 0x60FF && write->sub < 4) {
+        const std::size_t size = write->size.value_or(4);
+        const std::uint32_t size_code = size == 1 ? 0 : size == 2 ? 1 : 2;
+        add(ops,
+            {Cia402OpKind::sdo_write, write->sub,
+             (size_code << 30) | (std::uint32_t{write->index & 0xFFu} << 16) | (value & 0xFFFF)});
+      }
+    } else if (const auto* simulate = std::get_if<SimulateStep>(&step.action)) {
+      for (std::size_t i = 0; i < fuzz::kInputs.size(); ++i) {
+        const auto& input = fuzz::kInputs[i];
+        if (input.name != simulate->input) continue;
+        const std::int64_t value = input.tristate ? simulate->value + 1 : simulate->value;
+        add(ops, {Cia402OpKind::simulate, static_cast<std::uint8_t>(i),
+                  static_cast<std::uint32_t>(value)});
+      }
+    } else if (const auto* wait = std::get_if<WaitStep>(&step.action)) {
+      const auto ms =
+          std::chrono::duration_cast<std::chrono::milliseconds>(wait->duration.value).count();
+      time(ops, static_cast<std::uint32_t>(std::clamp<std::int64_t>(ms, 1, 1000)));
+    } else if (const auto* nmt = std::get_if<NmtStep>(&step.action)) {
+      const auto cs = static_cast<std::uint8_t>(nmt->command);
+      const auto row = std::find(fuzz::kNmtCommands.begin(), fuzz::kNmtCommands.end(), cs);
+      add(ops, {Cia402OpKind::nmt, static_cast<std::uint8_t>(row - fuzz::kNmtCommands.begin()), 0});
+    } else if (const auto* send = std::get_if<SendStep>(&step.action)) {
+      if (!send->frame.cob.plus_node && send->frame.cob.base == 0x080 && !send->frame.remote)
+        add(ops, {Cia402OpKind::sync, send->frame.bytes.empty() ? std::uint8_t{0} : std::uint8_t{1},
+                  send->frame.bytes.empty() ? 0u : send->frame.bytes[0].value_or(0)});
+    } else if (std::holds_alternative<ExpectStateStep>(step.action) ||
+               std::holds_alternative<ExpectStatuswordStep>(step.action) ||
+               std::holds_alternative<PollStep>(step.action)) {
+      time(ops, 10);  // what the engine waits for takes drive cycles
+    }
+    if (ops.size() != before) ++mapped;
+  }
+  if (mapped == 0) return std::nullopt;
+  return ops;
+}
+
+}  // namespace cia402_seed
+
+// cia402: every vector of vectors/cia402 translated into operations (controlword, 6060h,
+// targets, option codes, factors, simulate, wait, NMT, SYNC; its drive_state reached first),
+// and the stops of a moving axis by every route CiA 402-2 §8.4 names.
+void cia402_corpus(Output& out, const fs::path& root) {
+  using namespace cia402_seed;
+  for (const fs::path& file : files_in(root / "vectors/cia402", {".yaml"})) {
+    const conformance::VectorSet set = conformance::load_vector_file(file);
+    for (const conformance::Vector& vector : set.vectors) {
+      auto ops = from_vector(vector);
+      if (!ops) continue;
+      std::string name = vector.id;
+      std::replace(name.begin(), name.end(), '/', '-');
+      out.seed("cia402", name, *ops);
+    }
+  }
+  // pv at 100000 units/s (60FFh), then each way out of OPERATION ENABLED.
+  Bytes moving;
+  reach(moving, cia402::State::operation_enabled);
+  add(moving, {Cia402OpKind::mode, 2, 0});  // kModes[2] = 3 (pv)
+  add(moving, {Cia402OpKind::target, 1, 100000});
+  time(moving, 200);
+  const auto stop = [&](const std::string& name, std::vector<Cia402Op> ops) {
+    Bytes seed = moving;
+    for (const Cia402Op& op : ops)
+      add(seed, op);
+    time(seed, 600);
+    out.seed("cia402", "stop-" + name, seed);
+  };
+  // clang-format off
+  stop("shutdown-ramp-605Bh-1", {{Cia402OpKind::option_code, 0x81, 1},
+                                 {Cia402OpKind::controlword, 2, 0}});
+  stop("shutdown-coast-605Bh-0", {{Cia402OpKind::option_code, 0x81, 0},
+                                  {Cia402OpKind::controlword, 2, 0}});
+  stop("disable-operation-ramp-605Ch-1", {{Cia402OpKind::controlword, 3, 0}});
+  stop("disable-voltage", {{Cia402OpKind::controlword, 0, 0}});
+  stop("quick-stop-605Ah-6", {{Cia402OpKind::option_code, 0x80, 6},
+                              {Cia402OpKind::controlword, 1, 0}});
+  stop("halt-605Dh-3", {{Cia402OpKind::option_code, 0x83, 3},
+                        {Cia402OpKind::controlword, 9, 0}});
+  stop("hardware-enable-removed", {{Cia402OpKind::simulate, 0, 0}});
+  stop("fault-over-temperature", {{Cia402OpKind::simulate, 11, 1}});
+  stop("limit-switch", {{Cia402OpKind::simulate, 1, 2}});
+  stop("max-speed-lowered", {{Cia402OpKind::factor, 10, 1000}});
+  // clang-format on
+}
+
+// Every map key in a YAML document.
+void collect_keys(const YAML::Node& node, std::set<std::string>& keys) {
+  if (node.IsMap()) {
+    for (const auto& entry : node) {
+      keys.insert(entry.first.Scalar());
+      collect_keys(entry.second, keys);
+    }
+  } else if (node.IsSequence()) {
+    for (const auto& item : node)
+      collect_keys(item, keys);
+  }
+}
+
+// Dictionaries of vectors, profile and cia402.
+void vector_profile_cia402_dictionaries(Output& out, const fs::path& root) {
+  using fuzz::Cia402Op;
+  using fuzz::Cia402OpKind;
+  // Tokens both YAML formats share: FORMAT.md "Common value syntax" and "Features".
+  std::string common;
+  common += comment("timing names (FORMAT.md \"Timing names\"; protocol/profile/vocabulary.hpp)");
+  for (const auto& timing : profile::timing_table()) {
+    common += token(fmt::format("timing_{}", timing.name), fmt::format("$timing.{}", timing.name));
+    common += token(fmt::format("timing_key_{}", timing.name), timing.name);
+  }
+  common += comment("features (FORMAT.md \"Features\"; vocabulary.hpp fixed_features)");
+  for (const std::string_view feature : profile::fixed_features()) {
+    std::string name(feature);
+    std::replace_if(
+        name.begin(), name.end(), [](char c) { return c == '.' || c == '-'; }, '_');
+    common += token("feature_" + name, feature);
+  }
+  common += token("feature_homing", "homing.method.") + token("feature_option", "option.");
+  common += comment("option-code objects (CiA 402-2 §8.4; vocabulary.hpp option_code_table)");
+  for (const auto& option : profile::option_code_table()) {
+    std::string name(option.name);
+    std::replace(name.begin(), name.end(), '-', '_');
+    common += token("option_" + name, option.name);
+  }
+  common += comment("durations (FORMAT.md: ns us ms s min) and integers");
+  for (const std::string_view unit : {"ns", "us", "ms", "s", "min"})
+    common += token(fmt::format("unit_{}", unit), fmt::format("1{}", unit));
+  common +=
+      token("hex", "0x") + token("negative", "-") + token("int64_min", "-9223372036854775808");
+  common += token("u64_max", "0xFFFFFFFFFFFFFFFF") + token("u32_max", "0xFFFFFFFF");
+  common += comment("source citations (FORMAT.md \"source\")");
+  common += token("source_cia301", "CiA 301 §7.2.4") + token("source_cia402", "CiA 402-2 §8.1");
+  common += token("source_manual", "000_33c1d912b8b6010a.txt §3.2.2 L764-771");
+  common += token("section", "§") + token("lines", " L1-2");
+  common += comment("YAML structure and escapes (YAML 1.2 §5, §7)");
+  for (const std::string_view structure :
+       {"\n- ",  ": ",    "{",        "}",     "[",       "]",   ", ",  "\"",
+        "'",     "\n  ",  "\n    - ", "|\n",   ">-\n",    "&a ", "*a",  "!!str ",
+        "---\n", "...\n", "# ",       "\\x85", "\\u2028", "~",   "null"})
+    common += token(fmt::format("yaml_{}", static_cast<unsigned>(structure.front())), structure);
+
+  // vectors: the loader's keys (conformance::vector_file_keys) and value keywords.
+  {
+    std::string text(kBanner);
+    text += comment(
+        "vector and step keys (vectors/FORMAT.md \"A vector\", \"Steps\"; "
+        "conformance/vector_file.cpp tables)");
+    std::set<std::string_view> keys;
+    for (const std::string_view key : conformance::vector_file_keys()) {
+      if (keys.insert(key).second)
+        text += token(fmt::format("key_{}", key), fmt::format("{}: ", key));
+    }
+    text += comment(
+        "levels, setups, NMT commands and states (FORMAT.md \"A vector\", \"state (NMT)\")");
+    for (const std::string_view word : {"must",
+                                        "should",
+                                        "may",
+                                        "reset-node",
+                                        "reset-communication",
+                                        "restore-defaults",
+                                        "none",
+                                        "start",
+                                        "stop",
+                                        "pre-operational",
+                                        "operational",
+                                        "stopped",
+                                        "bootup",
+                                        "initialising",
+                                        "expedited",
+                                        "segmented",
+                                        "block",
+                                        "ok",
+                                        "any",
+                                        "all",
+                                        "other",
+                                        "N",
+                                        "true",
+                                        "false"})
+      text += token(fmt::format("word_{}", word), word);
+    text += comment("CiA 402 states (FORMAT.md \"state (402)\"; CiA 402-2 §8.1)");
+    for (const std::string_view state :
+         {"not-ready-to-switch-on", "switch-on-disabled", "ready-to-switch-on", "switched-on",
+          "operation-enabled", "quick-stop-active", "fault-reaction-active", "fault"})
+      text += token(fmt::format("state_{}", state), state);
+    text += comment(
+        "SDO expect keys and simulate inputs (FORMAT.md \"Steps\"; "
+        "reference_drive/cia402_application.hpp)");
+    for (const std::string_view key :
+         {"index", "sub", "value", "size", "data", "mask", "range", "abort", "code", "register",
+          "manufacturer", "input", "from", "to", "min", "max"})
+      text += token(fmt::format("field_{}", key), fmt::format("{}: ", key));
+    for (const auto& input : fuzz::kInputs)
+      text += token(fmt::format("input_{}", input.name), input.name);
+    text += comment("frames and COB-IDs (FORMAT.md \"frame\", \"COB-ID\"; candump syntax)");
+    for (const std::string_view frame :
+         {"600+N#", "580+N#", "080#", "000#", "700+N#", "#R", "#R8", "..", "*", "+N", "1FFFFFFF#",
+          "##", "2341600000000000", "4B416000....0000"})
+      text += token(fmt::format("frame_{}", frame.size()), frame);
+    text += comment("SDO abort codes (CiA 301 §7.2.4.3.17; sdo_abort_codes.inc)");
+    text += cia301::sdo_abort_fuzz_dictionary();
+    out.dictionary("vectors", text + common);
+  }
+  // profile: the keys the profile writer uses (every key of every repository profile written
+  // by profile::to_yaml), data types and access types (CiA 301 §7.4.7, §7.4.5).
+  {
+    std::string text(kBanner);
+    text += comment(
+        "profile keys (vectors/FORMAT.md \"A drive profile\"; as profile::to_yaml "
+        "writes them for vectors/drives/*.yaml)");
+    std::set<std::string> keys;
+    for (const fs::path& file : files_in(root / "vectors/drives", {".yaml"})) {
+      const auto profile = profile::load_profile(file);
+      if (!profile) continue;
+      collect_keys(YAML::Load(profile::to_yaml(*profile)), keys);
+    }
+    for (const std::string& key : keys)
+      text += token(fmt::format("key_{}", key), key + ": ");
+    text += comment("basic data types (CiA 301 §7.4.7.1; protocol/cia301/data_type.hpp)");
+    for (const auto& type : cia301::data_type_table())
+      text += token(fmt::format("type_{}", type.name), type.name);
+    text += comment("access types (CiA 301 §7.4.5; data_type.hpp)");
+    for (const auto access :
+         {cia301::AccessType::ro, cia301::AccessType::wo, cia301::AccessType::rw,
+          cia301::AccessType::rwr, cia301::AccessType::rww, cia301::AccessType::constant})
+      text += token(fmt::format("access_{}", cia301::to_string(access)), cia301::to_string(access));
+    text += comment("PDO names and COB-IDs (FORMAT.md \"pdo_defaults\")");
+    for (const std::string_view pdo :
+         {"rpdo1", "tpdo1", "tpdo512", "180+N", "0x200+N", "0x80000000"})
+      text += token(fmt::format("pdo_{}", pdo), pdo);
+    text += comment("glob operators (vocabulary.hpp \"Globs\")");
+    text += token("glob_star", "*") + token("glob_any", "?") + token("glob", "cia402/fsa/*");
+    out.dictionary("profile", text + common);
+  }
+  // cia402: whole operation records (fuzz/support/cia402_input.hpp).
+  {
+    std::string text(kBanner);
+    const auto record = [&](std::string_view name, Cia402Op op) {
+      const auto bytes = fuzz::encode_cia402_op(op);
+      text += token(name, Bytes(bytes.begin(), bytes.end()));
+    };
+    text += comment("controlword commands (CiA 402-2 §8.4.1 \"Command coding\"), table rows");
+    for (std::size_t i = 0; i < fuzz::kControlwords.size(); ++i)
+      record(fmt::format("cw_{:04X}", fuzz::kControlwords[i]),
+             {Cia402OpKind::controlword, static_cast<std::uint8_t>(i), 0});
+    text += comment("modes of operation 6060h (CiA 402-2 §6.3.1)");
+    for (std::size_t i = 0; i < fuzz::kModes.size(); ++i)
+      record(fmt::format("mode_{}", fuzz::kModes[i]),
+             {Cia402OpKind::mode, static_cast<std::uint8_t>(i), 0});
+    text += comment("option codes 605Ah..605Eh, 6007h (CiA 402-2 §8.4), each value -1..8");
+    for (std::size_t i = 0; i < fuzz::kOptionCodes.size(); ++i) {
+      for (int value = -1; value <= 8; ++value)
+        record(fmt::format("option_{:04X}_{}", fuzz::kOptionCodes[i], value),
+               {Cia402OpKind::option_code, static_cast<std::uint8_t>(i | 0x80),
+                static_cast<std::uint32_t>(value)});
+    }
+    text += comment("set-points with boundary values (CiA 402-2 §11-§14)");
+    for (std::size_t i = 0; i < fuzz::kTargets.size(); ++i) {
+      for (const std::uint32_t value : {0u, 1000u, 0x7FFFFFFFu, 0x80000000u})
+        record(fmt::format("target_{:04X}_{:08X}", fuzz::kTargets[i].index, value),
+               {Cia402OpKind::target, static_cast<std::uint8_t>(i), value});
+    }
+    text += comment("factor group and limits (CiA 402-2 §6.4): 0, 1, max");
+    for (std::size_t i = 0; i < fuzz::kFactors.size(); ++i) {
+      for (const std::uint32_t value : {0u, 1u, 0xFFFFFFFFu})
+        record(fmt::format("factor_{:04X}_{}_{:X}", fuzz::kFactors[i].index, fuzz::kFactors[i].sub,
+                           value),
+               {Cia402OpKind::factor, static_cast<std::uint8_t>(i), value});
+    }
+    text += comment("simulated inputs on/off (reference_drive/cia402_application.hpp)");
+    for (std::size_t i = 0; i < fuzz::kInputs.size(); ++i) {
+      for (const std::uint32_t value : {0u, 1u, 2u})
+        record(fmt::format("input_{}_{}", i, value),
+               {Cia402OpKind::simulate, static_cast<std::uint8_t>(i), value});
+    }
+    text += comment("SYNC (CiA 301 §7.2.5), NMT (CiA 301 §7.2.8.3.1), time");
+    record("sync", {Cia402OpKind::sync, 0, 0});
+    record("sync_counter", {Cia402OpKind::sync, 1, 1});
+    for (std::size_t i = 0; i < fuzz::kNmtCommands.size(); ++i)
+      record(fmt::format("nmt_{:02X}", fuzz::kNmtCommands[i]),
+             {Cia402OpKind::nmt, static_cast<std::uint8_t>(i), 0});
+    for (const std::uint32_t ms : {1u, 10u, 100u, 255u})
+      record(fmt::format("time_{}ms", ms), {Cia402OpKind::time, 0, ms});
+    out.dictionary("cia402", text);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -1208,7 +1606,11 @@ int main(int argc, char** argv) {
   sdo_server_corpus(out, by_test);
   nmt_error_control_corpus(out);
   pdo_mapping_corpus(out);
+  vectors_corpus(out, root);
+  profile_corpus(out, root);
+  cia402_corpus(out, root);
   dictionaries(out);
+  vector_profile_cia402_dictionaries(out, root);
   out.write();
   return 0;
 }

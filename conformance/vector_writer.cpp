@@ -1,0 +1,486 @@
+// Vector model → vector file text (vector_file.hpp: to_yaml, same_content). The inverse of the
+// loader in vector_file.cpp: every key written here is one the loader reads (FORMAT.md
+// "Steps (the closed vocabulary)"), and what the loader accepted comes back equal.
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <variant>
+#include <vector>
+
+#include "conformance/vector_file.hpp"
+#include "protocol/profile/vocabulary.hpp"
+
+namespace drivecheck::conformance {
+namespace {
+
+// The keywords of the model's enums, as FORMAT.md spells them (the loader's inverse).
+std::string level_keyword(Level level) {
+  switch (level) {
+    case Level::must:
+      return "must";
+    case Level::should:
+      return "should";
+    case Level::may:
+      return "may";
+  }
+  return fmt::format("{}", static_cast<int>(level));  // not a keyword: fails to load, loudly
+}
+
+std::string setup_keyword(Setup setup) {
+  switch (setup) {
+    case Setup::reset_node:
+      return "reset-node";
+    case Setup::reset_communication:
+      return "reset-communication";
+    case Setup::restore_defaults:
+      return "restore-defaults";
+    case Setup::none:
+      return "none";
+  }
+  return fmt::format("{}", static_cast<int>(setup));
+}
+
+std::string nmt_state_keyword(cia301::NmtState state) {
+  switch (state) {
+    case cia301::NmtState::boot_up:
+      return "bootup";
+    case cia301::NmtState::stopped:
+      return "stopped";
+    case cia301::NmtState::operational:
+      return "operational";
+    case cia301::NmtState::pre_operational:
+      return "pre-operational";
+  }
+  return fmt::format("{}", static_cast<int>(state));
+}
+
+std::string nmt_command_keyword(cia301::NmtCommand command) {
+  switch (command) {
+    case cia301::NmtCommand::start:
+      return "start";
+    case cia301::NmtCommand::stop:
+      return "stop";
+    case cia301::NmtCommand::enter_pre_operational:
+      return "pre-operational";
+    case cia301::NmtCommand::reset_node:
+      return "reset-node";
+    case cia301::NmtCommand::reset_communication:
+      return "reset-communication";
+  }
+  return fmt::format("{}", static_cast<int>(command));
+}
+
+std::string state_402_keyword(cia402::State state) {
+  switch (state) {
+    case cia402::State::not_ready_to_switch_on:
+      return "not-ready-to-switch-on";
+    case cia402::State::switch_on_disabled:
+      return "switch-on-disabled";
+    case cia402::State::ready_to_switch_on:
+      return "ready-to-switch-on";
+    case cia402::State::switched_on:
+      return "switched-on";
+    case cia402::State::operation_enabled:
+      return "operation-enabled";
+    case cia402::State::quick_stop_active:
+      return "quick-stop-active";
+    case cia402::State::fault_reaction_active:
+      return "fault-reaction-active";
+    case cia402::State::fault:
+      return "fault";
+  }
+  return fmt::format("{}", static_cast<int>(state));
+}
+
+// nullopt: Transfer::automatic, which has no keyword (the key is left out).
+std::optional<std::string> transfer_keyword(Transfer transfer) {
+  switch (transfer) {
+    case Transfer::automatic:
+      return std::nullopt;
+    case Transfer::expedited:
+      return "expedited";
+    case Transfer::segmented:
+      return "segmented";
+    case Transfer::block:
+      return "block";
+  }
+  return fmt::format("{}", static_cast<int>(transfer));
+}
+
+std::string duration_text(const DurationSpec& duration) {
+  if (duration.is_timing()) return "$timing." + duration.timing;
+  return profile::format_duration(duration.value);
+}
+
+// FORMAT.md "COB-ID": 3 hex digits (11 bits) or 8 (29 bits), then `+N`.
+std::string cob_id_text(const CobIdSpec& cob) {
+  return fmt::format("{:0{}X}{}", cob.base, cob.extended ? 8 : 3, cob.plus_node ? "+N" : "");
+}
+
+std::string hex_bytes(const std::vector<std::uint8_t>& bytes) {
+  return fmt::format("{:02X}", fmt::join(bytes, ""));
+}
+
+std::string pattern_bytes(const std::vector<std::optional<std::uint8_t>>& bytes) {
+  std::string text;
+  for (const auto& byte : bytes)
+    text += byte ? fmt::format("{:02X}", *byte) : std::string("..");
+  return text;
+}
+
+std::string value_text(const ValueSpec& value) {
+  if (!value.saved.empty()) return "$" + value.saved;
+  return fmt::format("{}", value.literal);
+}
+
+class Writer {
+ public:
+  void vectors(const std::vector<Vector>& list) {
+    out_ << YAML::BeginSeq;
+    for (const Vector& vector : list)
+      one(vector);
+    out_ << YAML::EndSeq;
+  }
+
+  std::string text() const { return std::string(out_.c_str()) + "\n"; }
+
+ private:
+  void key(std::string_view name) { out_ << YAML::Key << std::string(name) << YAML::Value; }
+  void quoted(const std::string& text) { out_ << YAML::DoubleQuoted << text; }
+  void plain(const std::string& text) { out_ << text; }
+
+  void one(const Vector& v) {
+    out_ << YAML::BeginMap;
+    key("id");
+    quoted(v.id);
+    key("title");
+    quoted(v.title);
+    key("source");
+    out_ << YAML::BeginSeq;
+    for (const Source& source : v.sources)
+      quoted(source.text);
+    out_ << YAML::EndSeq;
+    key("level");
+    plain(level_keyword(v.level));
+    key("requires");
+    out_ << YAML::Flow << YAML::BeginSeq;
+    for (const std::string& feature : v.requires_features)
+      quoted(feature);
+    out_ << YAML::EndSeq;
+    key("profiles");
+    out_ << YAML::Flow << YAML::BeginSeq;
+    for (const std::string& profile : v.profiles)
+      quoted(profile);
+    out_ << YAML::EndSeq;
+    key("motion");
+    plain(v.motion ? "true" : "false");
+    key("setup");
+    plain(setup_keyword(v.setup));
+    key("nmt");
+    plain(v.nmt ? nmt_state_keyword(*v.nmt) : "none");
+    if (v.drive_state) {
+      key("drive_state");
+      plain(state_402_keyword(*v.drive_state));
+    }
+    key("timeout");
+    quoted(duration_text(v.timeout));
+    key("steps");
+    out_ << YAML::BeginSeq;
+    for (const Step& step : v.steps)
+      this->step(step);
+    out_ << YAML::EndSeq;
+    if (!v.note.empty()) {
+      key("note");
+      quoted(v.note);
+    }
+    out_ << YAML::EndMap;
+  }
+
+  void step(const Step& step) {
+    out_ << YAML::BeginMap;
+    std::visit([this](const auto& action) { this->action(action); }, step.action);
+    if (!step.note.empty()) {
+      key("note");
+      quoted(step.note);
+    }
+    out_ << YAML::EndMap;
+  }
+
+  void duration_key(std::string_view name, const DurationSpec& duration) {
+    key(name);
+    quoted(duration_text(duration));
+  }
+  void name_key(std::string_view name, const std::string& value) {
+    if (value.empty()) return;
+    key(name);
+    quoted(value);
+  }
+  void index_sub(std::uint16_t index, std::uint8_t sub) {
+    key("index");
+    plain(fmt::format("0x{:04X}", index));
+    key("sub");
+    plain(fmt::format("{}", sub));
+  }
+  void transfer(Transfer transfer) {
+    if (const auto keyword = transfer_keyword(transfer)) {
+      key("transfer");
+      plain(*keyword);
+    }
+  }
+  void expect(const SdoExpect& expect) {
+    key("expect");
+    if (expect.kind == SdoExpect::Kind::ok) {
+      plain("ok");
+      return;
+    }
+    out_ << YAML::Flow << YAML::BeginMap;
+    switch (expect.kind) {
+      case SdoExpect::Kind::ok:
+        break;
+      case SdoExpect::Kind::value:
+        key("value");
+        quoted(value_text(expect.value));
+        if (expect.mask) {
+          key("mask");
+          plain(fmt::format("0x{:X}", *expect.mask));
+        }
+        break;
+      case SdoExpect::Kind::range:
+        key("range");
+        out_ << YAML::Flow << YAML::BeginSeq << fmt::format("{}", expect.low)
+             << fmt::format("{}", expect.high) << YAML::EndSeq;
+        break;
+      case SdoExpect::Kind::size:
+        key("size");
+        plain(fmt::format("{}", expect.size));
+        break;
+      case SdoExpect::Kind::data:
+        key("data");
+        quoted(hex_bytes(expect.data));
+        break;
+      case SdoExpect::Kind::abort:
+        key("abort");
+        out_ << YAML::Flow << YAML::BeginSeq;
+        for (const std::uint32_t code : expect.aborts)
+          plain(fmt::format("0x{:08X}", code));
+        out_ << YAML::EndSeq;
+        break;
+    }
+    out_ << YAML::EndMap;
+  }
+
+  void action(const SendStep& s) {
+    key("send");
+    quoted(s.frame.text);
+  }
+  void action(const NmtStep& s) {
+    key("nmt");
+    plain(nmt_command_keyword(s.command));
+    key("node");
+    switch (s.node.kind) {
+      case NodeKind::dut:
+        plain("N");
+        break;
+      case NodeKind::broadcast:
+        plain("all");
+        break;
+      case NodeKind::other:
+        plain("other");
+        break;
+      case NodeKind::value:
+        plain(fmt::format("{}", s.node.value));
+        break;
+    }
+  }
+  void action(const SdoWriteStep& s) {
+    key("sdo_write");
+    out_ << YAML::Flow << YAML::BeginMap;
+    index_sub(s.index, s.sub);
+    if (s.value) {
+      key("value");
+      quoted(value_text(*s.value));
+      if (s.size) {
+        key("size");
+        plain(fmt::format("{}", *s.size));
+      }
+    } else {
+      key("data");
+      quoted(hex_bytes(s.data));
+    }
+    out_ << YAML::EndMap;
+    transfer(s.transfer);
+    expect(s.expect);
+  }
+  void action(const SdoReadStep& s) {
+    key("sdo_read");
+    out_ << YAML::Flow << YAML::BeginMap;
+    index_sub(s.index, s.sub);
+    out_ << YAML::EndMap;
+    transfer(s.transfer);
+    expect(s.expect);
+    key("signed");
+    plain(s.is_signed ? "true" : "false");
+    name_key("save", s.save);
+  }
+  void action(const WaitStep& s) { duration_key("wait", s.duration); }
+  void action(const ControlwordStep& s) {
+    key("controlword");
+    plain(fmt::format("0x{:04X}", s.value));
+  }
+  void action(const SimulateStep& s) {
+    key("simulate");
+    out_ << YAML::Flow << YAML::BeginMap;
+    key("input");
+    quoted(s.input);
+    key("value");
+    plain(fmt::format("{}", s.value));
+    out_ << YAML::EndMap;
+  }
+  void action(const MarkStep& s) {
+    key("mark");
+    quoted(s.name);
+  }
+  void action(const ExpectFrameStep& s) {
+    key("expect_frame");
+    quoted(s.pattern.text);
+    duration_key("within", s.within);
+    name_key("mark", s.mark);
+    name_key("since", s.since);
+  }
+  void action(const ExpectSilenceStep& s) {
+    key("expect_silence");
+    if (s.any) {
+      plain("any");
+    } else {
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (const CobIdSpec& cob : s.cob_ids)
+        quoted(cob_id_text(cob));
+      out_ << YAML::EndSeq;
+    }
+    duration_key("for", s.duration);
+    name_key("since", s.since);
+  }
+  void action(const ExpectBootupStep& s) {
+    key("expect_bootup");
+    out_ << YAML::Flow << YAML::BeginMap << YAML::EndMap;
+    duration_key("within", s.within);
+    name_key("mark", s.mark);
+    name_key("since", s.since);
+  }
+  void action(const ExpectHeartbeatStep& s) {
+    key("expect_heartbeat");
+    plain(nmt_state_keyword(s.state));
+    if (s.within) duration_key("within", *s.within);
+    name_key("mark", s.mark);
+    name_key("since", s.since);
+  }
+  void action(const ExpectEmcyStep& s) {
+    key("expect_emcy");
+    out_ << YAML::Flow << YAML::BeginMap;
+    key("code");
+    out_ << YAML::Flow << YAML::BeginSeq;
+    for (const std::uint16_t code : s.codes)
+      plain(fmt::format("0x{:04X}", code));
+    out_ << YAML::EndSeq;
+    if (s.register_mask) {
+      key("register");
+      out_ << YAML::Flow << YAML::BeginMap;
+      key("mask");
+      plain(fmt::format("0x{:02X}", *s.register_mask));
+      key("value");
+      plain(fmt::format("0x{:02X}", s.register_value));
+      out_ << YAML::EndMap;
+    }
+    if (!s.manufacturer.empty()) {
+      key("manufacturer");
+      quoted(pattern_bytes(s.manufacturer));
+    }
+    out_ << YAML::EndMap;
+    duration_key("within", s.within);
+    name_key("mark", s.mark);
+    name_key("since", s.since);
+  }
+  void action(const ExpectStateStep& s) {
+    key("expect_state");
+    plain(state_402_keyword(s.state));
+    duration_key("within", s.within);
+  }
+  void action(const ExpectStatuswordStep& s) {
+    key("expect_statusword");
+    out_ << YAML::Flow << YAML::BeginMap;
+    key("mask");
+    plain(fmt::format("0x{:04X}", s.mask));
+    key("value");
+    plain(fmt::format("0x{:04X}", s.value));
+    out_ << YAML::EndMap;
+    duration_key("within", s.within);
+  }
+  void action(const PollStep& s) {
+    key("poll");
+    out_ << YAML::Flow << YAML::BeginMap;
+    index_sub(s.index, s.sub);
+    key("value");
+    plain(fmt::format("0x{:X}", s.value));
+    key("mask");
+    plain(fmt::format("0x{:X}", s.mask));
+    out_ << YAML::EndMap;
+    duration_key("within", s.within);
+    duration_key("every", s.every);
+  }
+  void action(const MeasureStep& s) {
+    key("measure");
+    out_ << YAML::Flow << YAML::BeginMap;
+    key("from");
+    quoted(s.from);
+    key("to");
+    quoted(s.to);
+    if (s.min) duration_key("min", *s.min);
+    if (s.max) duration_key("max", *s.max);
+    out_ << YAML::EndMap;
+  }
+  void action(const ExpectPeriodicStep& s) {
+    key("expect_periodic");
+    quoted(cob_id_text(s.cob));
+    duration_key("period", s.period);
+    duration_key("tolerance", s.tolerance);
+    key("count");
+    plain(fmt::format("{}", s.count));
+    name_key("mark", s.mark);
+  }
+
+  YAML::Emitter out_;
+};
+
+bool same_source(const Source& a, const Source& b) {
+  return a.text == b.text && a.manual == b.manual && a.section == b.section && a.first == b.first &&
+         a.last == b.last;
+}
+
+}  // namespace
+
+std::string to_yaml(const std::vector<Vector>& vectors) {
+  Writer writer;
+  writer.vectors(vectors);
+  return writer.text();
+}
+
+bool same_content(const Vector& a, const Vector& b) {
+  const auto same_step = [](const Step& x, const Step& y) {
+    return x.action == y.action && x.note == y.note;
+  };
+  return a.id == b.id && a.title == b.title &&
+         std::equal(a.sources.begin(), a.sources.end(), b.sources.begin(), b.sources.end(),
+                    same_source) &&
+         a.level == b.level && a.requires_features == b.requires_features &&
+         a.profiles == b.profiles && a.motion == b.motion && a.setup == b.setup && a.nmt == b.nmt &&
+         a.drive_state == b.drive_state && a.timeout == b.timeout &&
+         std::equal(a.steps.begin(), a.steps.end(), b.steps.begin(), b.steps.end(), same_step) &&
+         a.note == b.note;
+}
+
+}  // namespace drivecheck::conformance
