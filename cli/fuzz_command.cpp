@@ -1,10 +1,51 @@
-// drivecheck fuzz: the live fuzzer against a drive on a bus.
+// drivecheck fuzz: the live-bus fuzzer (fuzz/live/live_fuzzer.hpp) against a drive on a bus.
+//
+//   drivecheck fuzz --bus socketcan:can0 --node 5 --duration 1h [--eds FILE] [--allow-motion]
+//   drivecheck fuzz --bus sim --node 1 --duration 60s [--profile NAME] [--deviation NAME...]
+//   drivecheck fuzz --replay anomaly-1-sdo-no-answer.min.log --bus ... --node N
+//
+// --bus sim: the embedded reference drive (cli/embedded_drive.hpp) on the simulated bus in
+// this process, in simulated time (a 60 s run takes about a second); --profile gives it that
+// profile's personality, --deviation injects faults; a fresh drive for every minimisation try.
+// The objects the generator addresses: the EDS (--eds), else the profile's object list.
+//
+// Output: one line per anomaly and a summary on stdout, the reproducers (candump -L logs) and
+// summary.json in --out DIR (default reports/fuzz/). Exit codes: 0 nothing found, 1 anomalies
+// found (replay: the anomaly reproduced), 2 bad usage or input, 3 the device does not answer at
+// the start, 130 interrupted (the drive is put in a safe state first).
+#include <fmt/format.h>
+
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
+#include "fuzz/live/live_fuzzer.hpp"
+#include "protocol/can/candump_log.hpp"
+#include "protocol/can/sim_bus.hpp"
+#include "protocol/can/socketcan_bus.hpp"
+#include "protocol/cia301/data_type.hpp"
+#include "protocol/cia306/eds.hpp"
+#include "protocol/profile/drive_profile.hpp"
+#include "reports/report_writers.hpp"
+
+#ifndef DRIVECHECK_VECTORS_DIR
+#error "DRIVECHECK_VECTORS_DIR must be defined by the build (cli/CMakeLists.txt)"
+#endif
+#ifndef DRIVECHECK_VERSION
+#error "DRIVECHECK_VERSION must be defined by the build (cli/CMakeLists.txt)"
+#endif
 
 namespace drivecheck::cli {
 namespace {
@@ -14,25 +55,409 @@ struct FuzzOptions {
   int node = 0;
   std::string duration = "60s";
   bool allow_motion = false;
+  std::uint64_t seed = 1;
+  std::string profile = "cia402-reference";
+  std::vector<std::string> deviations;
+  std::string eds;
+  std::string out = "reports/fuzz";
+  std::string replay;
+  std::uint64_t max_cases = 0;
+  double babble_limit = 2000.0;
+  std::string sdo_timeout = "100ms";
+  bool no_minimise = false;
 };
+
+std::atomic<bool> g_interrupted{false};
+std::atomic<can::Bus*> g_stoppable{nullptr};
+
+extern "C" void interrupt_fuzz(int) {
+  g_interrupted.store(true);
+  if (auto* bus = g_stoppable.load()) bus->stop();
+}
+
+class InterruptScope {
+ public:
+  InterruptScope() {
+    struct sigaction action {};
+    action.sa_handler = interrupt_fuzz;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &previous_int_);
+    sigaction(SIGTERM, &action, &previous_term_);
+  }
+  ~InterruptScope() {
+    sigaction(SIGINT, &previous_int_, nullptr);
+    sigaction(SIGTERM, &previous_term_, nullptr);
+    g_stoppable.store(nullptr);
+  }
+  InterruptScope(const InterruptScope&) = delete;
+  InterruptScope& operator=(const InterruptScope&) = delete;
+
+ private:
+  struct sigaction previous_int_ {};
+  struct sigaction previous_term_ {};
+};
+
+// The embedded reference drive on a simulated bus; power_cycle() builds a new bus and drive
+// with the same seed, so every try starts from the same state.
+class SimTarget final : public fuzz_live::Target {
+ public:
+  SimTarget(std::uint8_t node, std::uint64_t seed, const profile::DriveProfile& profile,
+            std::vector<std::string> deviations)
+      : node_(node), seed_(seed), profile_(profile), deviations_(std::move(deviations)) {}
+
+  Expected<void, std::string> start() {
+    drive_.reset();
+    port_.reset();
+    bus_ = std::make_unique<can::SimBus>(can::SimBusConfig{.bitrate = 1'000'000, .seed = seed_});
+    port_ = bus_->attach("harness");
+    auto created = EmbeddedDrive::create(*bus_, node_, profile_, deviations_);
+    if (!created) return Unexpected(std::move(created).error());
+    drive_ = std::move(*created);
+    return {};
+  }
+  can::Bus& port() override { return *port_; }
+  bool power_cycle() override { return start().has_value(); }
+  std::string interface_name() const override { return "sim"; }
+
+ private:
+  std::uint8_t node_;
+  std::uint64_t seed_;
+  const profile::DriveProfile& profile_;
+  std::vector<std::string> deviations_;
+  std::unique_ptr<can::SimBus> bus_;
+  std::unique_ptr<can::SimPort> port_;
+  std::unique_ptr<EmbeddedDrive> drive_;
+};
+
+class SocketCanTarget final : public fuzz_live::Target {
+ public:
+  SocketCanTarget(std::unique_ptr<can::SocketCanBus> bus, std::string interface)
+      : bus_(std::move(bus)), interface_(std::move(interface)) {}
+  can::Bus& port() override { return *bus_; }
+  bool power_cycle() override { return false; }
+  std::string interface_name() const override { return interface_; }
+
+ private:
+  std::unique_ptr<can::SocketCanBus> bus_;
+  std::string interface_;
+};
+
+bool writable(cia301::AccessType access) {
+  return access == cia301::AccessType::rw || access == cia301::AccessType::wo ||
+         access == cia301::AccessType::rwr || access == cia301::AccessType::rww;
+}
+
+std::vector<fuzz_live::FuzzObject> objects_of(const profile::DriveProfile& profile) {
+  std::vector<fuzz_live::FuzzObject> objects;
+  for (const auto& spec : profile.objects) {
+    objects.push_back({spec.index, spec.sub, cia301::info(spec.type).size, writable(spec.access),
+                       spec.min, spec.max});
+  }
+  return objects;
+}
+
+std::vector<fuzz_live::FuzzObject> objects_of(const cia301::ObjectDictionary& od) {
+  std::vector<fuzz_live::FuzzObject> objects;
+  for (const auto& object : od.objects()) {
+    for (const auto& entry : object.entries()) {
+      objects.push_back({object.index(), entry.sub_index(), cia301::info(entry.type()).size,
+                         writable(entry.access()), std::nullopt, std::nullopt});
+    }
+  }
+  return objects;
+}
+
+std::string utc_now() {
+  const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", tm.tm_year + 1900, tm.tm_mon + 1,
+                     tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
+}
+
+double seconds(can::Duration duration) {
+  return std::chrono::duration<double>(duration).count();
+}
+
+// reports/fuzz/summary.json (schema "drivecheck-fuzz" 1).
+std::string summary_json(const FuzzOptions& options, const fuzz_live::FuzzSummary& summary,
+                         const std::string& started, const std::string& personality) {
+  nlohmann::ordered_json json;
+  json["schema"] = "drivecheck-fuzz";
+  json["schema_version"] = 1;
+  json["generator"] = fmt::format("drivecheck {}", DRIVECHECK_VERSION);
+  json["started_utc"] = started;
+  json["bus"] = options.bus;
+  json["node"] = options.node;
+  json["seed"] = options.seed;
+  json["personality"] = personality;
+  json["deviations"] = options.deviations;
+  json["allow_motion"] = options.allow_motion;
+  json["outcome"] = std::string(fuzz_live::to_string(summary.outcome));
+  json["duration_s"] = seconds(parse_duration(options.duration).value_or(can::Duration{0}));
+  json["elapsed_s"] = seconds(summary.elapsed);
+  json["cases_run"] = summary.cases_run;
+  json["cases_by_kind"] = summary.cases_by_kind;
+  json["anomalies_by_kind"] = summary.anomalies_by_kind;
+  json["emcy_frames"] = summary.emcy_frames;
+  json["device"] = {
+      {"device_type", fmt::format("{:08X}", summary.device_type)},
+      {"cia402", summary.cia402},
+      {"heartbeat_ms",
+       std::chrono::duration_cast<std::chrono::milliseconds>(summary.heartbeat_period).count()},
+      {"guarding", summary.guarding},
+      {"objects", summary.objects},
+      {"lost_during_run", summary.device_lost}};
+  auto anomalies = nlohmann::ordered_json::array();
+  for (const auto& a : summary.anomalies) {
+    nlohmann::ordered_json item;
+    item["case"] = a.case_number;
+    item["case_kind"] = a.case_kind;
+    item["kind"] = std::string(fuzz_live::to_string(a.anomaly.kind));
+    item["detail"] = a.anomaly.detail;
+    item["case_frames"] = a.case_frames;
+    item["log"] = a.log.string();
+    item["minimised"] = a.minimised;
+    item["minimised_frames"] = a.minimised_frames;
+    item["minimisation_tries"] = a.minimisation_tries;
+    item["reproducer"] = a.minimised_log.string();
+    auto frames = nlohmann::ordered_json::array();
+    for (const auto& frame : a.reproducer)
+      frames.push_back(can::to_candump(frame));
+    item["reproducer_frames"] = frames;
+    item["note"] = a.minimisation_note;
+    anomalies.push_back(item);
+  }
+  json["anomalies"] = anomalies;
+  json["notes"] = summary.notes;
+  return json.dump(2) + "\n";
+}
+
+void fuzz(const FuzzOptions& options) {
+  const auto spec = parse_bus_spec(options.bus);
+  if (!spec) usage_error("fuzz", spec.error());
+  const bool sim = spec->kind == BusSpec::Kind::sim;
+  if (!sim && !options.deviations.empty())
+    usage_error("fuzz", "--deviation injects faults into the embedded drive: only with --bus sim");
+  const auto duration = parse_duration(options.duration);
+  if (!duration) usage_error("fuzz", duration.error());
+  const auto sdo_timeout = parse_duration(options.sdo_timeout);
+  if (!sdo_timeout || sdo_timeout->count() <= 0)
+    usage_error("fuzz", "--sdo-timeout: " + options.sdo_timeout);
+  if (!(options.babble_limit > 0)) usage_error("fuzz", "--babble-limit must be above 0");
+  const auto node = static_cast<std::uint8_t>(options.node);
+
+  auto profile = profile::find_profile(options.profile,
+                                       std::filesystem::path(DRIVECHECK_VECTORS_DIR) / "drives");
+  if (!profile) {
+    fmt::print(stderr, "{}\n", profile.error().to_string());
+    exit_with(kExitUsage);
+    return;
+  }
+
+  fuzz_live::LiveFuzzerOptions fuzz_options;
+  fuzz_options.node = node;
+  fuzz_options.seed = options.seed;
+  fuzz_options.duration = *duration;
+  fuzz_options.max_cases = options.max_cases;
+  fuzz_options.allow_motion = options.allow_motion;
+  if (profile->supports("cia402")) fuzz_options.cia402 = true;
+  fuzz_options.babble_limit = options.babble_limit;
+  fuzz_options.sdo_timeout = *sdo_timeout;
+  fuzz_options.minimise = !options.no_minimise;
+  fuzz_options.out_dir = options.out;
+  fuzz_options.interrupted = &g_interrupted;
+  fuzz_options.progress = [](std::string_view line) {
+    fmt::print("{}\n", line);
+    std::fflush(stdout);
+  };
+  // The objects: the EDS given, else the profile's list; the standard profile has none, and on
+  // the simulated bus the reference drive's own EDS describes exactly that drive.
+  std::string eds_file = options.eds;
+  if (eds_file.empty() && sim && profile->objects.empty() && profile->name == "cia402-reference")
+    eds_file = std::string(DRIVECHECK_VECTORS_DIR) + "/../reference_drive/reference_drive.eds";
+  if (!eds_file.empty()) {
+    auto eds = cia306::read_eds_file(eds_file);
+    if (!eds) {
+      fmt::print(stderr, "{}\n", eds.error().to_string());
+      exit_with(kExitUsage);
+      return;
+    }
+    auto od = cia306::to_object_dictionary(eds->eds, node, eds_file);
+    if (!od) {
+      for (const auto& d : od.error())
+        fmt::print(stderr, "{}\n", d.to_string());
+      usage_error("fuzz", fmt::format("{} does not give an object dictionary", eds_file));
+    }
+    fuzz_options.objects = objects_of(*od);
+  } else {
+    fuzz_options.objects = objects_of(*profile);
+  }
+
+  // Replay: the reproducer's harness frames against a fresh device.
+  std::vector<can::LogRecord> records;
+  std::optional<fuzz_live::AnomalyKind> expected;
+  if (!options.replay.empty()) {
+    std::ifstream in(options.replay, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    if (!in) usage_error("fuzz", fmt::format("cannot read {}", options.replay));
+    auto parsed = can::read_candump_log(text.str(), options.replay);
+    if (!parsed) {
+      fmt::print(stderr, "{}\n", parsed.error().to_string());
+      exit_with(kExitUsage);
+      return;
+    }
+    records = std::move(*parsed);
+    expected = fuzz_live::reproducer_anomaly(text.str());
+  }
+
+  std::unique_ptr<fuzz_live::Target> target;
+  std::string personality;
+  if (sim) {
+    auto sim_target = std::make_unique<SimTarget>(node, options.seed, *profile, options.deviations);
+    if (auto started = sim_target->start(); !started) usage_error("fuzz", started.error());
+    target = std::move(sim_target);
+    personality = profile->name == "cia402-reference" ? std::string() : profile->name;
+  } else {
+    auto opened = can::SocketCanBus::open(spec->interface);
+    if (!opened) usage_error("fuzz", can::describe_open_error(spec->interface, opened.error()));
+    target = std::make_unique<SocketCanTarget>(std::move(*opened), spec->interface);
+    g_stoppable.store(&target->port());
+  }
+  g_interrupted.store(false);
+  InterruptScope interrupts;
+  if (!sim) g_stoppable.store(&target->port());
+
+  if (!options.replay.empty()) {
+    const auto result = fuzz_live::replay_reproducer(*target, records, fuzz_options);
+    for (const auto& note : result.notes)
+      fmt::print("note: {}\n", note);
+    if (!result.device_answered) {
+      fmt::print(stderr, "drivecheck fuzz: node {} does not answer on {}\n", options.node,
+                 options.bus);
+      exit_with(kExitDutLost);
+      return;
+    }
+    const bool reproduced = result.anomaly && (!expected || result.anomaly->kind == *expected);
+    fmt::print("replayed {} harness frame(s) of {}: {}\n", result.frames_sent, options.replay,
+               result.anomaly ? fmt::format("{}: {}", fuzz_live::to_string(result.anomaly->kind),
+                                            result.anomaly->detail)
+                              : std::string("no anomaly"));
+    if (expected) {
+      fmt::print("the reproducer's anomaly ({}) {}\n", fuzz_live::to_string(*expected),
+                 reproduced ? "reproduces" : "does not reproduce");
+    }
+    if (g_interrupted.load()) {
+      exit_with(kExitInterrupted);
+      return;
+    }
+    exit_with(reproduced ? kExitFail : kExitPass);
+    return;
+  }
+
+  std::error_code error;
+  std::filesystem::create_directories(options.out, error);
+  if (error) usage_error("fuzz", fmt::format("cannot create {}: {}", options.out, error.message()));
+  const std::string started = utc_now();
+  fmt::print("drivecheck fuzz: node {} on {}, seed {}, {}{}\n", options.node, options.bus,
+             options.seed, options.duration,
+             options.deviations.empty()
+                 ? std::string()
+                 : fmt::format(", deviations {}", fmt::join(options.deviations, " ")));
+  const auto summary = fuzz_live::run_live_fuzzer(*target, fuzz_options);
+
+  fmt::print("{} case(s) in {:.1f} s of bus time, {} anomal{}, {} EMCY frame(s)\n",
+             summary.cases_run, seconds(summary.elapsed), summary.anomalies.size(),
+             summary.anomalies.size() == 1 ? "y" : "ies", summary.emcy_frames);
+  for (const auto& [kind, count] : summary.anomalies_by_kind)
+    fmt::print("  {}: {}\n", kind, count);
+  for (const auto& a : summary.anomalies) {
+    if (!a.minimised) continue;
+    fmt::print("  reproducer for {} ({} frame(s)): {}\n", fuzz_live::to_string(a.anomaly.kind),
+               a.minimised_frames, a.minimised_log.string());
+  }
+  for (const auto& note : summary.notes)
+    fmt::print("note: {}\n", note);
+  const auto summary_path = std::filesystem::path(options.out) / "summary.json";
+  bool written = true;
+  if (auto done = reports::write_file_atomically(
+          summary_path, summary_json(options, summary, started, personality));
+      !done) {
+    fmt::print(stderr, "drivecheck fuzz: {}\n", done.error());
+    written = false;
+  } else {
+    fmt::print("summary: {}\n", summary_path.string());
+  }
+
+  switch (summary.outcome) {
+    case fuzz_live::FuzzOutcome::device_lost_at_start:
+      fmt::print(stderr, "drivecheck fuzz: node {} does not answer on {}\n", options.node,
+                 options.bus);
+      exit_with(kExitDutLost);
+      return;
+    case fuzz_live::FuzzOutcome::interrupted:
+      exit_with(kExitInterrupted);
+      return;
+    case fuzz_live::FuzzOutcome::anomalies:
+      exit_with(kExitFail);
+      return;
+    case fuzz_live::FuzzOutcome::clean:
+      exit_with(written ? kExitPass : kExitUsage);
+      return;
+  }
+}
 
 }  // namespace
 
 void add_fuzz_command(CLI::App& app) {
   auto options = std::make_shared<FuzzOptions>();
-  CLI::App* cmd = app.add_subcommand("fuzz", "Fuzz a live drive's CANopen services");
+  CLI::App* cmd = app.add_subcommand(
+      "fuzz", "Fuzz a live drive's CANopen services (or the reference drive with --bus sim)");
   cmd->add_option("--bus", options->bus, "The bus: sim, or socketcan:IF")
       ->required()
       ->check(bus_validator());
   cmd->add_option("--node", options->node, "Node id of the drive")
       ->required()
       ->check(CLI::Range(kMinNodeId, kMaxNodeId));
-  cmd->add_option("--duration", options->duration, "How long to fuzz, e.g. 90s, 10min, 2h")
+  cmd->add_option("--duration", options->duration,
+                  "How long to fuzz (bus time: simulated on --bus sim), e.g. 90s, 10min, 2h")
       ->check(duration_validator())
       ->capture_default_str();
   cmd->add_flag("--allow-motion", options->allow_motion,
                 "Also fuzz in Operation Enabled (the motor may move)");
-  cmd->callback([options] { not_built_yet("fuzz", "the live fuzzer is not built yet"); });
+  cmd->add_option("--seed", options->seed, "Seed of the case generator (and the simulated bus)")
+      ->check(seed_validator())
+      ->capture_default_str();
+  cmd->add_option("--profile,--personality", options->profile,
+                  "Drive profile (vectors/drives): the objects to fuzz; on --bus sim also the "
+                  "reference drive's personality")
+      ->type_name("NAME|FILE")
+      ->capture_default_str();
+  cmd->add_option("--deviation", options->deviations,
+                  "Inject a named deviation into the embedded drive (repeatable; --bus sim only)")
+      ->type_name("NAME");
+  cmd->add_option("--eds", options->eds, "The drive's EDS/DCF: the objects to fuzz")
+      ->check(CLI::ExistingFile)
+      ->type_name("FILE");
+  cmd->add_option("--out", options->out, "Directory of the reproducers and summary.json")
+      ->type_name("DIR")
+      ->capture_default_str();
+  cmd->add_option("--replay", options->replay,
+                  "Send a reproducer's harness frames again and re-run the oracle (exit 1 if "
+                  "its anomaly reproduces)")
+      ->check(CLI::ExistingFile)
+      ->type_name("FILE");
+  cmd->add_option("--max-cases", options->max_cases, "Stop after this many cases (0: no limit)")
+      ->capture_default_str();
+  cmd->add_option("--babble-limit", options->babble_limit,
+                  "Frames per second from the node above which it babbles")
+      ->capture_default_str();
+  cmd->add_option("--sdo-timeout", options->sdo_timeout, "How long the SDO ping waits")
+      ->check(duration_validator())
+      ->capture_default_str();
+  cmd->add_flag("--no-minimise", options->no_minimise, "Do not minimise anomalies");
+  cmd->callback([options] { fuzz(*options); });
 }
 
 }  // namespace drivecheck::cli

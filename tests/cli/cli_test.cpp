@@ -131,14 +131,6 @@ TEST(CliUsage, BadOptionValuesExitTwo) {
   expect_usage_error(drivecheck({"run", "--bus", "socketcan:sixteen-chars-xx"}), "1..15");
 }
 
-TEST(CliNotBuiltYet, SubcommandsWithoutMachinerySaySoAndExitTwo) {
-  // Given subcommands whose machinery does not exist yet (remove a line when its part lands)
-  // When run with valid options
-  // Then each says so in one line and exits 2, never pretending to work
-  expect_usage_error(drivecheck({"fuzz", "--bus", "sim", "--node", "5", "--duration", "90s"}),
-                     "not built yet");
-}
-
 TEST(CliDecode, PrintsEachRecordWithTimeInterfaceDirectionAndFrame) {
   // Given a small log with comments, blank lines, R/T flags and every kind of frame
   // When decoded
