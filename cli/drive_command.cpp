@@ -28,6 +28,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/options.hpp"
+#include "cli/signal_scope.hpp"
 #include "protocol/can/socketcan_bus.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/deviations.hpp"
@@ -53,28 +54,6 @@ extern "C" void stop_on_signal(int signal_number) {
   g_signal = signal_number;
   if (can::Bus* bus = g_running_bus.load()) bus->stop();
 }
-
-// Installs the SIGINT/SIGTERM handlers for its lifetime.
-class SignalScope {
- public:
-  SignalScope() {
-    struct sigaction action {};
-    action.sa_handler = stop_on_signal;
-    sigemptyset(&action.sa_mask);
-    for (int i = 0; i < 2; ++i)
-      sigaction(kSignals[i], &action, &previous_[i]);
-  }
-  ~SignalScope() {
-    for (int i = 0; i < 2; ++i)
-      sigaction(kSignals[i], &previous_[i], nullptr);
-  }
-  SignalScope(const SignalScope&) = delete;
-  SignalScope& operator=(const SignalScope&) = delete;
-
- private:
-  static constexpr int kSignals[2] = {SIGINT, SIGTERM};
-  struct sigaction previous_[2]{};
-};
 
 void run_drive(const DriveOptions& options) {
   const auto spec = parse_bus_spec(options.bus);
@@ -128,7 +107,7 @@ void run_drive(const DriveOptions& options) {
              deviations->empty() ? std::string() : ", deviations " + deviations->names(),
              options.store.empty() ? "" : ", parameters in " + options.store);
   {
-    SignalScope signals;
+    SignalScope signals(stop_on_signal);
     g_signal = 0;
     g_running_bus.store(bus->get());
     (*drive)->power_on();

@@ -31,6 +31,7 @@
 #include "cli/commands.hpp"
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
+#include "cli/signal_scope.hpp"
 #include "fuzz/live/live_fuzzer.hpp"
 #include "protocol/can/candump_log.hpp"
 #include "protocol/can/sim_bus.hpp"
@@ -75,26 +76,16 @@ extern "C" void interrupt_fuzz(int) {
   if (auto* bus = g_stoppable.load()) bus->stop();
 }
 
+// The signal handlers stop the bus in g_stoppable while this lives; cleared at its end.
 class InterruptScope {
  public:
-  InterruptScope() {
-    struct sigaction action {};
-    action.sa_handler = interrupt_fuzz;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, &previous_int_);
-    sigaction(SIGTERM, &action, &previous_term_);
-  }
-  ~InterruptScope() {
-    sigaction(SIGINT, &previous_int_, nullptr);
-    sigaction(SIGTERM, &previous_term_, nullptr);
-    g_stoppable.store(nullptr);
-  }
+  InterruptScope() : signals_(interrupt_fuzz) {}
+  ~InterruptScope() { g_stoppable.store(nullptr); }
   InterruptScope(const InterruptScope&) = delete;
   InterruptScope& operator=(const InterruptScope&) = delete;
 
  private:
-  struct sigaction previous_int_ {};
-  struct sigaction previous_term_ {};
+  SignalScope signals_;
 };
 
 // The embedded reference drive on a simulated bus; power_cycle() builds a new bus and drive

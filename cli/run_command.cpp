@@ -25,6 +25,7 @@
 #include "cli/commands.hpp"
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
+#include "cli/signal_scope.hpp"
 #include "conformance/engine.hpp"
 #include "conformance/od_checks.hpp"
 #include "conformance/sha256.hpp"
@@ -70,27 +71,18 @@ extern "C" void interrupt_run(int) {
   if (auto* engine = g_engine.load()) engine->interrupt();
 }
 
+// The engine the signal handlers interrupt, set while the run goes on.
 class InterruptScope {
  public:
-  explicit InterruptScope(conformance::Engine& engine) {
+  explicit InterruptScope(conformance::Engine& engine) : signals_(interrupt_run) {
     g_engine.store(&engine);
-    struct sigaction action {};
-    action.sa_handler = interrupt_run;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, &previous_int_);
-    sigaction(SIGTERM, &action, &previous_term_);
   }
-  ~InterruptScope() {
-    sigaction(SIGINT, &previous_int_, nullptr);
-    sigaction(SIGTERM, &previous_term_, nullptr);
-    g_engine.store(nullptr);
-  }
+  ~InterruptScope() { g_engine.store(nullptr); }
   InterruptScope(const InterruptScope&) = delete;
   InterruptScope& operator=(const InterruptScope&) = delete;
 
  private:
-  struct sigaction previous_int_ {};
-  struct sigaction previous_term_ {};
+  SignalScope signals_;
 };
 
 std::string utc_now() {
