@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
+#include <chrono>
+#include <ctime>
 
 namespace drivecheck::cli {
 
@@ -13,6 +15,14 @@ void exit_with(int code) {
 void usage_error(std::string_view command, std::string_view message) {
   fmt::print(stderr, "drivecheck {}: {}\n", command, message);
   throw CLI::RuntimeError(kExitUsage);
+}
+
+std::string utc_now() {
+  const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", tm.tm_year + 1900, tm.tm_mon + 1,
+                     tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
 }
 
 void not_built_yet(std::string_view command, std::string_view what) {

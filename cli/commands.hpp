@@ -10,6 +10,7 @@
 // or "file:line: ..." for bad input files.
 #pragma once
 
+#include <string>
 #include <string_view>
 
 namespace CLI {
@@ -34,6 +35,9 @@ void add_report_command(CLI::App& app);
 
 // Ends the running subcommand with `code` (0 returns normally instead of throwing).
 void exit_with(int code);
+
+// Now in UTC, ISO 8601 to the second ("2026-11-21T13:45:00Z"): when a run or fuzz session began.
+std::string utc_now();
 
 // "drivecheck <command>: <message>" on stderr, then exit 2. `command` is the full path,
 // e.g. "eds lint".

@@ -158,14 +158,6 @@ std::vector<fuzz_live::FuzzObject> objects_of(const cia301::ObjectDictionary& od
   return objects;
 }
 
-std::string utc_now() {
-  const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", tm.tm_year + 1900, tm.tm_mon + 1,
-                     tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
-}
-
 double seconds(can::Duration duration) {
   return std::chrono::duration<double>(duration).count();
 }

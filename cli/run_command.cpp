@@ -85,14 +85,6 @@ class InterruptScope {
   SignalScope signals_;
 };
 
-std::string utc_now() {
-  const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", tm.tm_year + 1900, tm.tm_mon + 1,
-                     tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
-}
-
 [[noreturn]] void bad_input(const std::string& message) {
   fmt::print(stderr, "{}\n", message);
   exit_with(kExitUsage);

@@ -108,6 +108,17 @@ Cia402ApplicationConfig normalised(Cia402ApplicationConfig config) {
 
 }  // namespace
 
+FactorGroup read_factor_group(const cia301::ObjectDictionary& od) {
+  FactorGroup factors;
+  factors.position = read_fraction(od, 0x6093);
+  factors.velocity = read_fraction(od, 0x6094);
+  factors.acceleration = read_fraction(od, 0x6097);
+  if (const cia301::Entry* e = od.find(cia402::kPolarity.index, 0)) {
+    factors.polarity = static_cast<std::uint8_t>(e->as_unsigned());
+  }
+  return factors;
+}
+
 Cia402Application::Cia402Application(Cia402ApplicationConfig config)
     : config_(normalised(std::move(config))),
       axis_(config_.axis),
@@ -420,12 +431,7 @@ void Cia402Application::on_cycle(ReferenceDrive& drive, can::TimePoint now) {
 
 void Cia402Application::read_parameters() {
   const cia301::ObjectDictionary& od = *od_;
-  factors_.position = read_fraction(od, 0x6093);
-  factors_.velocity = read_fraction(od, 0x6094);
-  factors_.acceleration = read_fraction(od, 0x6097);
-  if (const cia301::Entry* e = od.find(cia402::kPolarity.index, 0)) {
-    factors_.polarity = static_cast<std::uint8_t>(e->as_unsigned());
-  }
+  factors_ = read_factor_group(od);
   if (config_.deviations.has(Deviation::factor_polarity_ignored)) factors_.polarity = 0;
   axis_.set_acceleration_factor(factors_.acceleration_to_internal(1.0));
   axis_.set_torque_limit(static_cast<double>(context_->read_unsigned(cia402::kMaxTorque)));

@@ -112,6 +112,11 @@ struct Cia402ApplicationConfig {
   std::size_t jerk_smoothing_cycles = 20;
 };
 
+// The factor group as the dictionary holds it: 6093h/6094h/6097h (a fraction with a zero part
+// reads as 1/1) and polarity 607Eh. The drive reads it every cycle; a personality that keeps
+// parameters in internal units converts with it.
+FactorGroup read_factor_group(const cia301::ObjectDictionary& od);
+
 class Cia402Application final : public DriveApplication, private FaultReporter, private ModeStatus {
  public:
   explicit Cia402Application(Cia402ApplicationConfig config = {});

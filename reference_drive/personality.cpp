@@ -321,24 +321,7 @@ Expected<void, std::string> apply_object_rules(cia301::ObjectDictionary& od,
 }
 
 FactorGroup InternalUnitParameters::read_factors(const cia301::ObjectDictionary& od) {
-  auto fraction = [&od](std::uint16_t index) {
-    const cia301::Entry* n = od.find(index, 1);
-    const cia301::Entry* d = od.find(index, 2);
-    Fraction f;
-    if (n != nullptr && d != nullptr && n->as_unsigned() != 0 && d->as_unsigned() != 0) {
-      f.numerator = static_cast<std::uint32_t>(n->as_unsigned());
-      f.divisor = static_cast<std::uint32_t>(d->as_unsigned());
-    }
-    return f;
-  };
-  FactorGroup f;
-  f.position = fraction(0x6093);
-  f.velocity = fraction(0x6094);
-  f.acceleration = fraction(0x6097);
-  if (const cia301::Entry* e = od.find(0x607E, 0)) {
-    f.polarity = static_cast<std::uint8_t>(e->as_unsigned());
-  }
-  return f;
+  return read_factor_group(od);
 }
 
 double InternalUnitParameters::to_internal(const FactorGroup& f, Kind kind, double user) {
