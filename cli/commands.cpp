@@ -25,8 +25,4 @@ std::string utc_now() {
                      tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
 }
 
-void not_built_yet(std::string_view command, std::string_view what) {
-  usage_error(command, what);
-}
-
 }  // namespace drivecheck::cli

@@ -43,9 +43,4 @@ std::string utc_now();
 // e.g. "eds lint".
 [[noreturn]] void usage_error(std::string_view command, std::string_view message);
 
-// The honest answer of a subcommand whose machinery is not there yet: prints
-// "drivecheck <command>: <what>" and exits 2, e.g.
-// not_built_yet("drive", "the reference drive is not built yet (issue 4)").
-[[noreturn]] void not_built_yet(std::string_view command, std::string_view what);
-
 }  // namespace drivecheck::cli
