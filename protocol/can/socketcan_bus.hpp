@@ -22,9 +22,14 @@
 //    txqueuelen is 10 by default) it waits in poll() with exponential back-off (50 us doubling
 //    to 5 ms) up to SocketCanOptions::send_timeout, then returns BusError::queue_full (or
 //    bus_off when the controller reported bus-off);
-//  - waiting (receive, run_until) blocks only in epoll_wait() on the socket, an eventfd and a
-//    timerfd (the deadline), registered once; stop() writes to the eventfd, which is
-//    async-signal-safe.
+//  - waiting (receive, run_until): when nothing is due for a while (the deadline and the next
+//    timer are at least kBlockingReceiveHorizon away) the port waits in a blocking recvmsg()
+//    whose SO_RCVTIMEO is kBlockingReceiveSlice, so a round trip costs one system call on the
+//    receive side, as a plain blocking read() does; otherwise it waits in epoll_wait() on the
+//    socket, an eventfd and a timerfd (the deadline), registered once. stop() writes to the
+//    eventfd, which is async-signal-safe. A signal interrupts a blocking recvmsg() at once
+//    (EINTR: calls with SO_RCVTIMEO are never restarted); a stop() from another thread, or
+//    from a handler that ran just before the call, ends the wait within one slice.
 //
 // Errors from open() and send(): BusError codes for the conditions bus.hpp names. Any other
 // system error is returned as std::system_category() code (errno), so its message is errno's
@@ -149,7 +154,9 @@ class SocketCanBus final : public Bus {
   // Reads every frame available now (non-blocking) into inbox_.
   void read_available();
   // Reads one frame if there is one (non-blocking); false when there was none.
-  bool read_one();
+  bool read_one() { return receive_one(false); }
+  // Reads one frame; with `block`, waits for one up to the socket's SO_RCVTIMEO.
+  bool receive_one(bool block);
   void accept(const TimedFrame& frame);
   bool passes_filters(const Frame& frame) const;
   // Fires the timers due now that were started before this call; returns whether any fired.
@@ -163,6 +170,7 @@ class SocketCanBus final : public Bus {
   int timer_fd_;  // CLOCK_MONOTONIC timerfd: the wait's deadline
   int epoll_fd_;  // socket, stop_fd_ and timer_fd_, registered once
   bool wakeup_armed_ = false;
+  bool blocking_receive_ = false;  // SO_RCVTIMEO is set: blocking recvmsg() may be used
   TimePoint armed_at_{};
   std::string interface_;
   SocketCanOptions options_;

@@ -6,9 +6,11 @@
 #include <signal.h>
 #include <sys/time.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "protocol/can/error_frame.hpp"
@@ -572,6 +574,46 @@ TEST(SocketCanVm, StopFromASignalHandlerEndsTheWait) {
   t0 = bus->now();
   bus->run_until(t0 + 100ms);
   EXPECT_GE(bus->now() - t0, 100ms);
+}
+
+TEST(SocketCanVm, StopFromAnotherThreadEndsABlockingWait) {
+  // Given a port waiting with nothing due for 5 s (the blocking recvmsg() path)
+  // When another thread calls stop() 100 ms later
+  // Then receive() returns nothing within one receive slice (20 ms) of the stop, far before 5 s
+  auto bus = open_bus(kPlain);
+  ASSERT_TRUE(bus);
+  const TimePoint t0 = bus->now();
+  std::jthread stopper([&bus] {
+    std::this_thread::sleep_for(100ms);
+    bus->stop();
+  });
+  EXPECT_FALSE(bus->receive(t0 + 5s));
+  EXPECT_GE(bus->now() - t0, 90ms);
+  EXPECT_LT(bus->now() - t0, 500ms);
+}
+
+TEST(SocketCanVm, FrameEndsABlockingWaitAtOnce) {
+  // Given a port waiting with nothing due for 5 s (the blocking recvmsg() path)
+  // When the echo peer answers a frame
+  // Then receive() returns the answer at once: the median round trip is far below one receive
+  //      slice (20 ms), which every answer would take if the frame did not end the wait
+  auto bus = open_bus(kPlain);
+  ASSERT_TRUE(bus);
+  auto peer = start_peer("echo", {kPlain});
+  ASSERT_TRUE(peer);
+  std::vector<Duration> round_trips;
+  for (int i = 0; i < 21; ++i) {
+    // ccs=2 upload request, index 1000h sub 0
+    ASSERT_FALSE(bus->send(frame_of("601#4000100000000000")));
+    const TimePoint sent = bus->now();
+    const auto answer = bus->receive(sent + 5s);
+    ASSERT_TRUE(answer);
+    EXPECT_EQ(to_candump(answer->frame), "602#4000100000000000");
+    round_trips.push_back(bus->now() - sent);
+  }
+  std::nth_element(round_trips.begin(), round_trips.begin() + 10, round_trips.end());
+  EXPECT_LT(round_trips[10], 5ms);
+  quit(*bus, *peer);
 }
 
 }  // namespace
