@@ -346,13 +346,14 @@ Expected<std::unique_ptr<SocketCanBus>, std::error_code> SocketCanBus::open(
   if (stop_fd.get() < 0) return Unexpected(system_error(errno));
   FileDescriptor timer_fd(::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC));
   if (timer_fd.get() < 0) return Unexpected(system_error(errno));
-  // The three descriptors are registered once in an epoll set: poll() would install and
-  // remove a wait-queue entry on each of them at every wait, which is most of a round trip's
-  // cost on a slow (emulated) machine.
+  // The descriptors are registered in an epoll set, not passed to poll() at every wait:
+  // poll() would install and remove a wait-queue entry on each of them every time, which is
+  // most of a round trip's cost on a slow (emulated) machine. The socket joins the set when
+  // the port first waits in epoll (see wait_and_read).
   FileDescriptor epoll_fd(::epoll_create1(EPOLL_CLOEXEC));
   if (epoll_fd.get() < 0) return Unexpected(system_error(errno));
-  const int registered[3] = {socket_fd.get(), stop_fd.get(), timer_fd.get()};
-  for (std::uint32_t i = 0; i < 3; ++i) {
+  const int registered[3] = {-1, stop_fd.get(), timer_fd.get()};
+  for (std::uint32_t i = 1; i < 3; ++i) {
     epoll_event event{};
     event.events = EPOLLIN;
     event.data.u32 = i;  // 0 socket, 1 stop, 2 timer
@@ -607,11 +608,19 @@ bool SocketCanBus::arm_wakeup(TimePoint until, TimePoint now_time) {
 }
 
 void SocketCanBus::wait_and_read(TimePoint until, TimePoint now_time) {
-  if (blocking_receive_ && until - now_time >= kBlockingReceiveHorizon) {
+  if (blocking_receive_ && until - now_time >= kBlockingReceiveHorizon &&
+      (!socket_in_epoll_ || watch_socket_in_epoll(false))) {
     // Nothing is due within the slice: wait and read in one call, as a plain blocking read()
-    // does (epoll_wait + recvmsg cost a round trip ~10 % more under QEMU). A timeout (EAGAIN)
+    // does (epoll_wait + recvmsg cost a round trip ~10 % more under QEMU). Outside the epoll
+    // set, so that each frame does not also run epoll's wake-up callback. A timeout (EAGAIN)
     // or a signal (EINTR) returns with nothing read; the caller's loop looks at stop and time.
     receive_one(true);
+    return;
+  }
+  if (!socket_in_epoll_ && !watch_socket_in_epoll(true)) {
+    // No epoll on the socket: wait in ppoll with its own (nanosecond) timeout instead.
+    const timespec timeout = to_timespec(std::max(until - now_time, Duration::zero()));
+    wait_with_ppoll(until == kForever ? nullptr : &timeout);
     return;
   }
   // The deadline is the timerfd in the epoll set rather than a timeout: arming a kernel timer
@@ -622,7 +631,8 @@ void SocketCanBus::wait_and_read(TimePoint until, TimePoint now_time) {
     timeout_ms = 0;
   } else if (until != kForever && !arm_wakeup(until, now_time)) {
     // No timerfd deadline: wait in ppoll with its own (nanosecond) timeout instead.
-    wait_with_ppoll(to_timespec(until - now_time));
+    const timespec timeout = to_timespec(until - now_time);
+    wait_with_ppoll(&timeout);
     return;
   }
   epoll_event events[3];
@@ -645,9 +655,20 @@ void SocketCanBus::wait_and_read(TimePoint until, TimePoint now_time) {
   handle_wake(readable, error, stopped, timer);
 }
 
-void SocketCanBus::wait_with_ppoll(timespec timeout) {
+bool SocketCanBus::watch_socket_in_epoll(bool watch) {
+  epoll_event event{};
+  event.events = EPOLLIN;
+  event.data.u32 = 0;  // the socket
+  if (::epoll_ctl(epoll_fd_, watch ? EPOLL_CTL_ADD : EPOLL_CTL_DEL, socket_fd_, &event) != 0) {
+    return false;
+  }
+  socket_in_epoll_ = watch;
+  return true;
+}
+
+void SocketCanBus::wait_with_ppoll(const timespec* timeout) {
   pollfd fds[2] = {{socket_fd_, POLLIN, 0}, {stop_fd_, POLLIN, 0}};
-  const int ready = ::ppoll(fds, 2, &timeout, nullptr);
+  const int ready = ::ppoll(fds, 2, timeout, nullptr);
   if (ready <= 0) {
     if (ready < 0 && errno != EINTR) last_error_ = system_error(errno);
     return;

@@ -23,10 +23,11 @@
 //    to 5 ms) up to SocketCanOptions::send_timeout, then returns BusError::queue_full (or
 //    bus_off when the controller reported bus-off);
 //  - waiting (receive, run_until): when nothing is due for a while (the deadline and the next
-//    timer are at least kBlockingReceiveHorizon away) the port waits in a blocking recvmsg()
-//    whose SO_RCVTIMEO is kBlockingReceiveSlice, so a round trip costs one system call on the
-//    receive side, as a plain blocking read() does; otherwise it waits in epoll_wait() on the
-//    socket, an eventfd and a timerfd (the deadline), registered once. stop() writes to the
+//    timer are at least 40 ms away) the port waits in a blocking recvmsg() whose SO_RCVTIMEO
+//    is one slice (20 ms), so a round trip costs one system call on the receive side, as a
+//    plain blocking read() does; otherwise it waits in epoll_wait() on the socket, an eventfd
+//    and a timerfd (the deadline), registered in an epoll set (the socket only while the port
+//    waits there, so that frames do not run epoll's callback in vain). stop() writes to the
 //    eventfd, which is async-signal-safe. A signal interrupts a blocking recvmsg() at once
 //    (EINTR: calls with SO_RCVTIMEO are never restarted); a stop() from another thread, or
 //    from a handler that ran just before the call, ends the wait within one slice.
@@ -147,8 +148,10 @@ class SocketCanBus final : public Bus {
   bool arm_wakeup(TimePoint until, TimePoint now_time);
   // Waits in epoll until a frame is readable, `until`, or stop(); reads one frame.
   void wait_and_read(TimePoint until, TimePoint now_time);
-  // The fallback when the timerfd cannot be armed: ppoll with a timeout.
-  void wait_with_ppoll(timespec timeout);
+  // The fallback when the timerfd cannot be armed: ppoll with a timeout (nullptr: none).
+  void wait_with_ppoll(const timespec* timeout);
+  // Adds the socket to the epoll set or removes it; false (unchanged) when epoll refuses.
+  bool watch_socket_in_epoll(bool watch);
   // What a wait found: reads a frame, records a socket error, clears the stop / timer fds.
   void handle_wake(bool readable, bool error, bool stopped, bool timer);
   // Reads every frame available now (non-blocking) into inbox_.
@@ -168,9 +171,10 @@ class SocketCanBus final : public Bus {
   int socket_fd_;
   int stop_fd_;
   int timer_fd_;  // CLOCK_MONOTONIC timerfd: the wait's deadline
-  int epoll_fd_;  // socket, stop_fd_ and timer_fd_, registered once
+  int epoll_fd_;  // stop_fd_ and timer_fd_, and the socket while the port waits in epoll
   bool wakeup_armed_ = false;
   bool blocking_receive_ = false;  // SO_RCVTIMEO is set: blocking recvmsg() may be used
+  bool socket_in_epoll_ = false;   // the socket is in epoll_fd_'s set (only while needed)
   TimePoint armed_at_{};
   std::string interface_;
   SocketCanOptions options_;

@@ -3,7 +3,7 @@
 //      handler in run_until, answering with send),
 //   b. the baseline: plain blocking raw sockets on both sides (write + read),
 //   c. for the diagnosis: raw sockets doing a's kernel work without drivecheck's code
-//      (ppoll on the socket and an eventfd, SO_TIMESTAMPING, SO_RXQ_OVFL, recvmsg).
+//      (SO_TIMESTAMPING, SO_RXQ_OVFL, a blocking recvmsg with SO_RCVTIMEO).
 // They run in rotating rounds in the same boot, so all see the same machine; the median
 // round of each is compared. Exits 1 when a round trip fails, or when a reaches less than
 // 90% of b's round trips per second.
@@ -33,9 +33,9 @@ using drivecheck::can::SocketCanBus;
 using Clock = std::chrono::steady_clock;
 
 constexpr const char* kInterface = "vcan0";
-constexpr std::uint32_t kBusRequest = 0x601;   // answered with 602h by the SocketCanBus peer
-constexpr std::uint32_t kRawRequest = 0x611;   // answered with 612h by the raw-socket peer
-constexpr std::uint32_t kPollRequest = 0x621;  // answered with 622h by the polling raw peer
+constexpr std::uint32_t kBusRequest = 0x601;      // answered with 602h by the SocketCanBus peer
+constexpr std::uint32_t kRawRequest = 0x611;      // answered with 612h by the raw-socket peer
+constexpr std::uint32_t kStampedRequest = 0x621;  // answered with 622h by the stamped raw peer
 constexpr double kTarget = 0.90;
 
 using Round = drivecheck::vm::RoundTrips;
@@ -97,21 +97,21 @@ std::optional<Round> raw_round(int fd, Clock::duration length, std::uint32_t& se
   return summarize(latencies, now - start);
 }
 
-std::optional<Round> polling_round(drivecheck::vm::PollingRawSocket& socket, Clock::duration length,
+std::optional<Round> stamped_round(drivecheck::vm::StampedRawSocket& socket, Clock::duration length,
                                    std::uint32_t& sequence) {
   std::vector<double> latencies;
   const auto start = Clock::now();
   auto now = start;
   while (now - start < length) {
-    const Frame sent = request(kPollRequest, ++sequence);
+    const Frame sent = request(kStampedRequest, ++sequence);
     can_frame out{};
-    out.can_id = kPollRequest;
+    out.can_id = kStampedRequest;
     out.len = 8;
     std::memcpy(out.data, sent.data.data(), 8);
     can_frame in{};
-    if (!socket.send(out) || !socket.receive(in) || in.can_id != kPollRequest + 1 ||
+    if (!socket.send(out) || !socket.receive(in) || in.can_id != kStampedRequest + 1 ||
         std::memcmp(in.data, out.data, 8) != 0) {
-      fmt::print(stderr, "bench: polling raw socket: no or wrong answer to request {}: {}\n",
+      fmt::print(stderr, "bench: stamped raw socket: no or wrong answer to request {}: {}\n",
                  sequence, std::strerror(errno));
       return std::nullopt;
     }
@@ -138,7 +138,7 @@ int run(int rounds, Clock::duration length) {
   std::string error;
   std::vector<std::unique_ptr<drivecheck::vm::PeerProcess>> peers;
   for (const auto& [role, id] : {std::pair{"echo", kBusRequest}, std::pair{"raw-echo", kRawRequest},
-                                 std::pair{"poll-echo", kPollRequest}}) {
+                                 std::pair{"stamped-echo", kStampedRequest}}) {
     auto peer = drivecheck::vm::PeerProcess::start(role, {kInterface, std::to_string(id)}, error);
     if (!peer) {
       fmt::print(stderr, "bench: {}\n", error);
@@ -157,9 +157,9 @@ int run(int rounds, Clock::duration length) {
   }
   SocketCanBus& bus = **opened;
   const int raw = drivecheck::vm::open_raw_socket(kInterface, static_cast<int>(kRawRequest + 1));
-  auto polling =
-      drivecheck::vm::PollingRawSocket::open(kInterface, static_cast<int>(kPollRequest + 1));
-  if (raw < 0 || !polling) {
+  auto stamped =
+      drivecheck::vm::StampedRawSocket::open(kInterface, static_cast<int>(kStampedRequest + 1));
+  if (raw < 0 || !stamped) {
     fmt::print(stderr, "bench: raw socket: {}\n", std::strerror(errno));
     return 1;
   }
@@ -174,7 +174,7 @@ int run(int rounds, Clock::duration length) {
        [&](Clock::duration l, std::uint32_t& n) { return raw_round(raw, l, n); },
        {}},
       {"c. raw sockets + a's kernel work",
-       [&](Clock::duration l, std::uint32_t& n) { return polling_round(*polling, l, n); },
+       [&](Clock::duration l, std::uint32_t& n) { return stamped_round(*stamped, l, n); },
        {}},
   };
   std::uint32_t sequence = 0;

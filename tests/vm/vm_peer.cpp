@@ -108,24 +108,24 @@ int role_raw_echo(int ready_fd, const std::vector<std::string>& args) {
   }
 }
 
-int role_poll_echo(int ready_fd, const std::vector<std::string>& args) {
+int role_stamped_echo(int ready_fd, const std::vector<std::string>& args) {
   if (args.size() < 2) return 2;
-  auto socket = PollingRawSocket::open(args[0], static_cast<int>(std::stoul(args[1], nullptr, 0)));
+  auto socket = StampedRawSocket::open(args[0], static_cast<int>(std::stoul(args[1], nullptr, 0)));
   if (!socket) {
-    fmt::print(stderr, "peer poll-echo: {}: {}\n", args[0], std::strerror(errno));
+    fmt::print(stderr, "peer stamped-echo: {}: {}\n", args[0], std::strerror(errno));
     return 3;
   }
   signal_ready(ready_fd);
   can_frame frame{};
   for (;;) {
     if (!socket->receive(frame, false)) {
-      fmt::print(stderr, "peer poll-echo: receive: {}\n", std::strerror(errno));
+      fmt::print(stderr, "peer stamped-echo: receive: {}\n", std::strerror(errno));
       return 1;
     }
     if (frame.can_id == (CAN_EFF_FLAG | quit_frame().id)) return 0;
     frame.can_id = (frame.can_id + 1) & CAN_SFF_MASK;
     if (!socket->send(frame)) {
-      fmt::print(stderr, "peer poll-echo: send: {}\n", std::strerror(errno));
+      fmt::print(stderr, "peer stamped-echo: send: {}\n", std::strerror(errno));
       return 1;
     }
   }
@@ -234,7 +234,7 @@ int open_raw_socket(const std::string& interface, int filter_id) {
   return fd;
 }
 
-std::unique_ptr<PollingRawSocket> PollingRawSocket::open(const std::string& interface,
+std::unique_ptr<StampedRawSocket> StampedRawSocket::open(const std::string& interface,
                                                          int filter_id) {
   const int fd = open_raw_socket(interface, filter_id);
   if (fd < 0) return nullptr;
@@ -246,49 +246,36 @@ std::unique_ptr<PollingRawSocket> PollingRawSocket::open(const std::string& inte
   const int one = 1;
   ::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPING, &flags, sizeof flags);
   ::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &one, sizeof one);
-  ::fcntl(fd, F_SETFL, O_NONBLOCK);
-  const int event_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-  const int timer_fd = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
-  itimerspec every_second{};
-  every_second.it_value.tv_sec = 1;
-  every_second.it_interval.tv_sec = 1;
-  ::timerfd_settime(timer_fd, 0, &every_second, nullptr);
-  return std::unique_ptr<PollingRawSocket>(new PollingRawSocket(fd, event_fd, timer_fd));
+  const timeval slice{0, 20'000};  // SocketCanBus's receive slice
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &slice, sizeof slice);
+  return std::unique_ptr<StampedRawSocket>(new StampedRawSocket(fd));
 }
 
-PollingRawSocket::~PollingRawSocket() {
+StampedRawSocket::~StampedRawSocket() {
   ::close(socket_fd_);
-  ::close(event_fd_);
-  ::close(timer_fd_);
 }
 
-bool PollingRawSocket::send(const can_frame& frame) {
+bool StampedRawSocket::send(const can_frame& frame) {
   return ::send(socket_fd_, &frame, sizeof frame, MSG_DONTWAIT) ==
          static_cast<ssize_t>(sizeof frame);
 }
 
-bool PollingRawSocket::receive(can_frame& frame, bool limited) {
-  // The timerfd ticks every second (armed once); two ticks without a frame is a timeout.
-  int ticks = 0;
-  for (;;) {
-    pollfd fds[3] = {{socket_fd_, POLLIN, 0}, {event_fd_, POLLIN, 0}, {timer_fd_, POLLIN, 0}};
-    if (::ppoll(fds, 3, nullptr, nullptr) < 1) return false;
-    if ((fds[0].revents & POLLIN) != 0) break;
-    std::uint64_t expirations = 0;
-    if ((fds[2].revents & POLLIN) != 0 && ::read(timer_fd_, &expirations, sizeof expirations) > 0 &&
-        limited && ++ticks == 2) {
-      errno = ETIMEDOUT;
-      return false;
-    }
-  }
+bool StampedRawSocket::receive(can_frame& frame, bool limited) {
   alignas(cmsghdr) unsigned char control[256];
   iovec vector{&frame, sizeof frame};
   msghdr header{};
   header.msg_iov = &vector;
   header.msg_iovlen = 1;
-  header.msg_control = control;
-  header.msg_controllen = sizeof control;
-  return ::recvmsg(socket_fd_, &header, MSG_DONTWAIT) == static_cast<ssize_t>(sizeof frame);
+  // Timeouts of one slice are retried, 50 of them (1 s) end a limited wait.
+  for (int slices = 0; !limited || slices < 50; ++slices) {
+    header.msg_control = control;
+    header.msg_controllen = sizeof control;
+    const ssize_t n = ::recvmsg(socket_fd_, &header, 0);
+    if (n == static_cast<ssize_t>(sizeof frame)) return true;
+    if (n >= 0 || (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) return false;
+  }
+  errno = ETIMEDOUT;
+  return false;
 }
 
 std::unique_ptr<PeerProcess> PeerProcess::start(const std::string& role,
@@ -369,7 +356,7 @@ int run_peer_if_asked(int argc, char** argv) {
   try {
     if (role == "echo") return role_echo(ready_fd, args);
     if (role == "raw-echo") return role_raw_echo(ready_fd, args);
-    if (role == "poll-echo") return role_poll_echo(ready_fd, args);
+    if (role == "stamped-echo") return role_stamped_echo(ready_fd, args);
     if (role == "send") return role_send(ready_fd, args, false);
     if (role == "raw-send") return role_send(ready_fd, args, true);
     if (role == "count") return role_count(ready_fd, args);

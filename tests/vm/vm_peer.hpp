@@ -6,7 +6,7 @@
 //   echo IF [ID]        SocketCanBus on IF (only standard id ID if given): answers every
 //                       frame with the same frame, id + 1; quits on kQuitFrame
 //   raw-echo IF ID      the same with a plain blocking raw socket (benchmark baseline)
-//   poll-echo IF ID     the same with a PollingRawSocket (benchmark: cost of the kernel work)
+//   stamped-echo IF ID  the same with a StampedRawSocket (benchmark: cost of the kernel work)
 //   send IF FRAME...    sends the candump-text frames with SocketCanBus, then exits
 //   raw-send IF FRAME...  sends them with a plain raw socket (can inject error frames)
 //   count IF N MS       receives with SocketCanBus until N frames or MS ms of silence; exits 0
@@ -58,27 +58,23 @@ int run_peer_if_asked(int argc, char** argv);
 // `filter_id` >= 0; -1 on error (errno set).
 int open_raw_socket(const std::string& interface, int filter_id = -1);
 
-// A raw socket doing, without drivecheck's code, the kernel work SocketCanBus does for each
-// frame: SO_TIMESTAMPING and SO_RXQ_OVFL on the socket, waiting in ppoll() on it and an
-// eventfd, reading with recvmsg() and its control messages. ppoll has no timeout: a timerfd
-// armed once, ticking every second, guards against a lost frame.
-class PollingRawSocket {
+// A raw socket doing the kernel work SocketCanBus does per frame, without its code: kernel
+// receive timestamps (SO_TIMESTAMPING), the drop counter (SO_RXQ_OVFL), and a blocking
+// recvmsg() with a receive timeout. The benchmark's line c.
+class StampedRawSocket {
  public:
   // nullptr on error (errno set).
-  static std::unique_ptr<PollingRawSocket> open(const std::string& interface, int filter_id);
-  ~PollingRawSocket();
-  PollingRawSocket(const PollingRawSocket&) = delete;
-  PollingRawSocket& operator=(const PollingRawSocket&) = delete;
+  static std::unique_ptr<StampedRawSocket> open(const std::string& interface, int filter_id);
+  ~StampedRawSocket();
+  StampedRawSocket(const StampedRawSocket&) = delete;
+  StampedRawSocket& operator=(const StampedRawSocket&) = delete;
   bool send(const can_frame& frame);
-  // Waits for a frame; with `limited`, fails (ETIMEDOUT) after 1..2 s without one.
+  // Waits for a frame; with `limited`, fails (ETIMEDOUT) after 1 s without one.
   bool receive(can_frame& frame, bool limited = true);
 
  private:
-  PollingRawSocket(int socket_fd, int event_fd, int timer_fd)
-      : socket_fd_(socket_fd), event_fd_(event_fd), timer_fd_(timer_fd) {}
+  explicit StampedRawSocket(int socket_fd) : socket_fd_(socket_fd) {}
   int socket_fd_;
-  int event_fd_;
-  int timer_fd_;
 };
 
 // Round trips measured in one run of a benchmark: rate and latency percentiles.
