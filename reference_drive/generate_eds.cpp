@@ -1,5 +1,6 @@
 // reference_drive_eds: prints the reference drive's EDS (CiA 306, CRLF line ends), generated
-// from the object dictionary defined in reference_drive/dictionary.cpp. The checked-in
+// from the standard ServoDrive's object dictionary (servo_drive_eds.hpp: the CiA 301 part of
+// reference_drive/dictionary.cpp and the CiA 402 objects of the application). The checked-in
 // reference_drive/reference_drive.eds is this program's output:
 //
 //   build/dev/reference_drive/reference_drive_eds > reference_drive/reference_drive.eds
@@ -10,10 +11,10 @@
 #include <cstdio>
 #include <fstream>
 
-#include "reference_drive/dictionary.hpp"
+#include "reference_drive/servo_drive_eds.hpp"
 
 int main(int argc, char** argv) {
-  const auto text = drivecheck::reference_drive::reference_eds_text();
+  const auto text = drivecheck::reference_drive::servo_drive_eds_text();
   if (!text) {
     fmt::print(stderr, "reference_drive_eds: {}\n", text.error());
     return 1;

@@ -23,12 +23,16 @@ LAYOUTS = {
                       "home-switch-to": 2100},
     "window": {"limit-negative-at": -10000, "limit-positive-at": 10000,
                "home-switch-from": 2100, "home-switch-to": 3400},
+    "stops": {"limit-negative-at": -10000, "limit-positive-at": 10000,
+              "stop-negative-at": -11000, "stop-positive-at": 11000},
 }
 LAYOUT_TEXT = {
     "limits": "LS- at -10000, LS+ at 10000, no home switch",
     "positive-home": "LS- at -10000, LS+ at 10000, home switch active from 2100 up",
     "negative-home": "LS- at -10000, LS+ at 10000, home switch active up to 2100",
     "window": "LS- at -10000, LS+ at 10000, home switch active over [2100, 3400]",
+    "stops": ("LS- at -10000, LS+ at 10000 (ignored on the way to a stop), mechanical end stops "
+              "at -11000 and 11000, no home switch"),
 }
 START_NAMES = {
     ("limits", 0): "between-limits", ("limits", -10500): "on-negative-limit",
@@ -37,8 +41,17 @@ START_NAMES = {
     ("positive-home", 0): "switch-inactive", ("positive-home", 5000): "switch-active",
     ("negative-home", 0): "switch-active", ("negative-home", 5000): "switch-inactive",
     ("window", 0): "left-of-switch", ("window", 2800): "on-switch",
-    ("window", 6000): "right-of-switch",
+    ("window", 6000): "right-of-switch", ("stops", 0): "between-stops",
 }
+# The stop is detected by the following error (homing.hpp): 6065h is written to this window
+# in the stop vectors, so the home event comes window / search speed = 0.25 s after the touch.
+STOP_WINDOW = 500
+STOP_SOURCES = {"festo": ["000_33c1d912b8b6010a.txt §5.7 L3697-3701",
+                          "000_33c1d912b8b6010a.txt §B.3 L7845-7848"],
+                "kollmorgen": ["002_953174ea6ca45cdb.txt §5.10.4.2 L4527-4528",
+                               "002_953174ea6ca45cdb.txt §6.1.3 L6333-6333"]}
+# Kollmorgen -3 (NREF=7) takes DREF from the method written before it: (method, DREF text).
+DREF_FROM = {-6: "positive", -7: "negative"}
 
 # (method, vendor, layout, start, first direction, home physical)
 CASES = [
@@ -80,6 +93,12 @@ CASES += [
     (-1, "kollmorgen", "limits", 600, -1, 250), (-1, "kollmorgen", "limits", 1000, +1, 1250),
     (-2, "kollmorgen", "limits", 1234, 0, 1234),
     (-127, "irtsa", "limits", 1234, 0, 1234), (-126, "irtsa", "limits", 1234, 0, 1234),
+    # Mechanical end stops (Festo Tab. 7.1 L6224-6227, Kollmorgen L4527-4530): home is the stop,
+    # or the first index pulse crawling back off it (pulses at 250 + k*1000).
+    (-1, "festo", "stops", 0, -1, -10750), (-2, "festo", "stops", 0, +1, 10250),
+    (-17, "festo", "stops", 0, -1, -11000), (-18, "festo", "stops", 0, +1, 11000),
+    (-6, "kollmorgen", "stops", 0, +1, 11000), (-7, "kollmorgen", "stops", 0, -1, -11000),
+    (-3, "kollmorgen", "stops", 0, +1, 10250, -6), (-3, "kollmorgen", "stops", 0, -1, -10750, -7),
 ]
 PROFILE = {"festo": "festo-cmmp", "kollmorgen": "kollmorgen-s300-s700",
            "irtsa": "irtsa-drive-fb"}
@@ -106,7 +125,7 @@ def signed_name(n):
     return f"method-{n}" if n >= 0 else f"method--{-n}"
 
 
-def setup_steps(layout, start, method, out):
+def setup_steps(layout, start, method, out, dref_from=None):
     out.append("    - simulate: {input: switch-layout-clear, value: 1}")
     for name, value in LAYOUTS[layout].items():
         out.append(f"    - simulate: {{input: {name}, value: {value}}}")
@@ -116,11 +135,17 @@ def setup_steps(layout, start, method, out):
     out.append("    - sdo_write: {index: 0x6060, sub: 0, value: 6, size: 1}  # homing mode")
     out.append("    - poll: {index: 0x6061, sub: 0, value: 6, mask: 0xFF}")
     out.append("      within: $timing.state_change")
+    if dref_from is not None:
+        out.append(f"    - sdo_write: {{index: 0x6098, sub: 0, value: {dref_from}, size: 1}}"
+                   f"  # sets DREF = {1 if dref_from == -6 else 0} ({DREF_FROM[dref_from]})")
     out.append(f"    - sdo_write: {{index: 0x6098, sub: 0, value: {method}, size: 1}}  # homing method")
     out.append(f"    - sdo_write: {{index: 0x607C, sub: 0, value: {OFFSET}, size: 4}}  # home offset")
     out.append(f"    - sdo_write: {{index: 0x6099, sub: 1, value: {SEARCH}, size: 4}}  # search for switch")
     out.append(f"    - sdo_write: {{index: 0x6099, sub: 2, value: {CRAWL}, size: 4}}  # search for zero")
     out.append(f"    - sdo_write: {{index: 0x609A, sub: 0, value: {ACCEL}, size: 4}}  # homing acceleration")
+    if layout == "stops":
+        out.append(f"    - sdo_write: {{index: 0x6065, sub: 0, value: {STOP_WINDOW}, size: 4}}"
+                   "  # following error window: detects the stop")
     out.append("    - controlword: 0x0006  # shutdown")
     out.append("    - expect_statusword: {mask: 0x006F, value: 0x0021}")
     out.append("    - controlword: 0x000F  # enable operation, bit 4 = 0")
@@ -128,10 +153,14 @@ def setup_steps(layout, start, method, out):
 
 
 def vector(case, rows):
-    method, vendor, layout, start, first, home = case
+    method, vendor, layout, start, first, home = case[:6]
+    dref_from = case[6] if len(case) > 6 else None
     source, text = rows[(method, vendor)]
     start_name = START_NAMES[(layout, start)]
     vid = f"cia402/homing/{signed_name(method)}/start-{start_name}"
+    if dref_from is not None:
+        vid += f"-dref-{DREF_FROM[dref_from]}"
+        text = f"{text}; DREF {DREF_FROM[dref_from]} from 6098h = {dref_from} before"
     feature = f"homing.method.{method}"
     out = [f"- id: {vid}"]
     if method == -126:
@@ -146,7 +175,7 @@ def vector(case, rows):
                  f"set home at {home}: 6064h = 607Ch there, 13/12/10 = 0/0/0 then 0/1/1")
     out.append(f'  title: "{title}"')
     out.append("  source:")
-    for s in source.split("; "):
+    for s in source.split("; ") + (STOP_SOURCES[vendor] if layout == "stops" else []):
         out.append(f'    - "{s}"')
     out.append(f'    - "{STATUS_TABLE}"')
     out.append(f'    - "{CONTROL}"')
@@ -158,7 +187,7 @@ def vector(case, rows):
     out.append("  drive_state: switch-on-disabled")
     out.append("  timeout: 60s")
     out.append("  steps:")
-    setup_steps(layout, start, method, out)
+    setup_steps(layout, start, method, out, dref_from)
     out.append("    - controlword: 0x001F  # bit 4 0 -> 1: start homing")
     # 6064h at `home` afterwards: 607Ch; IRTSA -126 takes whole index periods of 607Ch only and
     # keeps the position within the period (L421): 1234 + round((1000 - 1234) / 1000) * 1000.
@@ -191,8 +220,13 @@ def vector(case, rows):
     out.append("    - sdo_read: {index: 0x6064, sub: 0}")
     out.append("      signed: true")
     out.append(f"      expect: {{range: [{at_home + 498}, {at_home + 502}]}}")
+    stop_note = ""
+    if layout == "stops":
+        stop_note = (f" 6065h = {STOP_WINDOW}: the drive detects the stop by the following error "
+                     f"(home {STOP_WINDOW / SEARCH:g} s after the touch); at a stop home is where "
+                     "the axis stands (no braking), and it stays there.")
     out.append(f'  note: "Layout: {LAYOUT_TEXT[layout]}; index pulses at 250 + k*1000; '
-               f'6099h = {SEARCH}/{CRAWL}, 609Ah = {ACCEL}, 607Ch = {OFFSET}."')
+               f'6099h = {SEARCH}/{CRAWL}, 609Ah = {ACCEL}, 607Ch = {OFFSET}.{stop_note}"')
     return out
 
 
@@ -317,8 +351,9 @@ def main():
         "# generator and run  scripts/generate_homing_vectors.py > vectors/cia402/homing.yaml",
         "#",
         "# Homing mode (6060h = 6): every CiA 402-2 method (1..14, 17..30, 33..35, 37) and the",
-        "# manufacturer methods that need no mechanical stop (Festo -23, -27; Kollmorgen -1, -2),",
-        "# each against a simulated switch layout from each side; then halt, bit 4, errors.",
+        "# manufacturer methods (Festo -1, -2, -17, -18, -23, -27; Kollmorgen -1, -2, -3, -6, -7;",
+        "# IRTSA -127, -126), each against a simulated switch layout (and mechanical end stops) from",
+        "# each side; then halt, bit 4, errors.",
         "# Statusword bits 13/12/10 (CiA 402-2 table; IRTSA Tab. 20 L464-473): 0/0/0 in progress,",
         "# 0/0/1 interrupted or not started, 0/1/0 attained but target not reached, 0/1/1 completed,",
         "# 1/0/0 error with velocity, 1/0/1 error at standstill.",

@@ -141,9 +141,17 @@ void AxisModel::step(double dt) {
       wanted = (v_ref - v0) / dt;
       break;
     case AxisControl::velocity: {
-      v_ref = velocity_ref_;
+      // The ramp generator runs on its own (from the velocity the axis had when velocity
+      // control began); the controller follows the ramp as far as the torque allows, so a
+      // blocked axis (end stop, overload) drives the torque to its limit.
+      if (velocity_accel_ > 0.0) {
+        const double step_accel = velocity_accel_ * dt;
+        ramp_velocity_ += std::clamp(velocity_ref_ - ramp_velocity_, -step_accel, step_accel);
+      } else {
+        ramp_velocity_ = velocity_ref_;
+      }
+      v_ref = ramp_velocity_;
       wanted = (v_ref - v0) / dt;
-      if (velocity_accel_ > 0.0) wanted = std::clamp(wanted, -velocity_accel_, velocity_accel_);
       break;
     }
     case AxisControl::torque:
@@ -199,7 +207,23 @@ void AxisModel::step(double dt) {
 
   const double p0 = physical_;
   physical_ += (v0 + v1) / 2.0 * dt;
+  // Mechanical end stops: the axis stops dead there (or stays where it was when it was put
+  // beyond one), the motor torque stays what the controller asked for (up to the limit).
+  const SwitchLayout& layout = config_.switches;
+  if (layout.stop_negative && physical_ < p0 &&
+      physical_ < static_cast<double>(*layout.stop_negative)) {
+    physical_ = std::min(p0, static_cast<double>(*layout.stop_negative));
+    v1 = 0.0;
+    accel_ = (v1 - v0) / dt;
+  }
+  if (layout.stop_positive && physical_ > p0 &&
+      physical_ > static_cast<double>(*layout.stop_positive)) {
+    physical_ = std::max(p0, static_cast<double>(*layout.stop_positive));
+    v1 = 0.0;
+    accel_ = (v1 - v0) / dt;
+  }
   velocity_ = v1;
+  if (control_ != AxisControl::velocity) ramp_velocity_ = v1;  // velocity control starts here
 
   if (control_ == AxisControl::stopping && !holding_ && v1 == 0.0) {
     holding_ = true;
@@ -221,6 +245,12 @@ void AxisModel::step(double dt) {
       if (at >= physical_) index_crossed_ = at + offset_;
     }
   }
+}
+
+bool AxisModel::at_end_stop() const {
+  const SwitchLayout& layout = config_.switches;
+  return (layout.stop_negative && physical_ <= static_cast<double>(*layout.stop_negative)) ||
+         (layout.stop_positive && physical_ >= static_cast<double>(*layout.stop_positive));
 }
 
 std::int64_t AxisModel::actual_position() const {
@@ -274,6 +304,7 @@ void AxisModel::place(double physical_position) {
   const double shift = physical_position - physical_;
   physical_ = physical_position;
   velocity_ = 0.0;
+  ramp_velocity_ = 0.0;
   accel_ = 0.0;
   demand_ += shift;
   hold_at_ += shift;

@@ -25,8 +25,9 @@
 //   position (command_position)  a cascaded controller: v_ref = v_ff + kp·(p_demand − p), the
 //                                torque that reaches v_ref within one cycle, limited; the
 //                                following error is p_demand − p (60F4h)
-//   velocity (command_velocity)  the torque that reaches v_ref, ramped by the acceleration given
-//                                (0: as fast as the torque limit allows)
+//   velocity (command_velocity)  a ramp generator moves v_ref to the velocity asked for with the
+//                                acceleration given (0: a step), the torque follows the ramp
+//                                (limited: a blocked axis drives it to the torque limit)
 //   torque (command_torque)      T_motor = the demand (limited); speed limited to max_speed
 //   stopping (ramp_to_stop, stop_at_current_limit, stop_at_voltage_limit)
 //                                decelerate to 0 with the deceleration given, then hold the
@@ -39,6 +40,17 @@
 // Index pulse: at every physical position index_offset + k·index_period (k integer); advance()
 // reports the crossing (index_pulse_crossed, at its actual-frame position). A limit switch does
 // not stop the axis by itself: the application reacts (fault "limit switch" or a quick stop).
+//
+// Mechanical end stops (SwitchLayout::stop_negative / stop_positive, physical frame; absent =
+// none): hard blocks the axis cannot pass, as Festo's homing methods -1 -2 -17 -18 and
+// Kollmorgen's -3 -6 -7 need them (000_33c1d912b8b6010a.txt §7.2.3 L6224-6227,
+// 002_953174ea6ca45cdb.txt §5.10.4.2 L4527-4530). Travelling into one, the axis stops dead at
+// the stop (velocity 0 in that step, no rebound, no elasticity); whatever the controller then
+// asks, it does not move further out: the torque rises to the torque limit (the current
+// limit) and, under position control, the following error grows with the demand. Moving away
+// from the stop is free. An axis put beyond a stop (place()) cannot move further out either.
+// The stops are not inputs (60FDh has no bit for them): a drive sees them only through the
+// following error or the current, as the manuals say (homing.hpp).
 #pragma once
 
 #include <cstdint>
@@ -57,6 +69,9 @@ struct SwitchLayout {
   // (an open end extends to infinity).
   std::optional<std::int64_t> home_from;
   std::optional<std::int64_t> home_to;
+  // Mechanical end stops: the axis cannot go below stop_negative / above stop_positive.
+  std::optional<std::int64_t> stop_negative;
+  std::optional<std::int64_t> stop_positive;
   bool home_present() const { return home_from.has_value() || home_to.has_value(); }
   friend bool operator==(const SwitchLayout&, const SwitchLayout&) = default;
 };
@@ -165,6 +180,9 @@ class AxisModel final : public Axis {
   // decelerations the PDS passes to ramp_to_stop). Default 1.
   void set_acceleration_factor(double factor) { acceleration_factor_ = factor; }
 
+  // The axis stands against a mechanical end stop (at or beyond it; either direction).
+  bool at_end_stop() const;
+
   // PDS commands received (for "nothing moves" checks).
   std::uint64_t commands() const { return commands_; }
   const AxisConfig& config() const { return config_; }
@@ -198,6 +216,7 @@ class AxisModel final : public Axis {
   double max_speed_ = 0.0;
   double acceleration_factor_ = 1.0;
   double last_velocity_ref_ = 0.0;
+  double ramp_velocity_ = 0.0;  // the velocity ramp generator (velocity control)
   std::optional<double> index_crossed_;
   SwitchForce forces_[3] = {SwitchForce::layout, SwitchForce::layout, SwitchForce::layout};
   std::uint64_t commands_ = 0;

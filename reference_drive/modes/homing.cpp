@@ -16,7 +16,33 @@ namespace {
 constexpr double kStandstill = 1e-9;  // units/s
 
 bool is_stop_method(HomingSignal signal) {
-  return signal == HomingSignal::hard_stop_negative || signal == HomingSignal::hard_stop_positive;
+  return signal == HomingSignal::hard_stop_negative || signal == HomingSignal::hard_stop_positive ||
+         signal == HomingSignal::hard_stop_dref;
+}
+
+// Kollmorgen: the DREF (352Ch) a 6098h write sets (the NREF/DREF column of
+// 002_953174ea6ca45cdb.txt §5.10.4.2 L4526-4562); nullopt: the method leaves DREF as it is.
+std::optional<std::uint8_t> kollmorgen_dref_of(std::int8_t method) {
+  switch (method) {
+    case 1:
+    case 12:
+    case 17:
+    case 28:
+    case 33:
+    case -7:
+      return 0;
+    case 2:
+    case 8:
+    case 18:
+    case 24:
+    case 34:
+    case -6:
+      return 1;
+    case -1:
+      return 2;
+    default:
+      return std::nullopt;
+  }
 }
 
 }  // namespace
@@ -44,6 +70,8 @@ HomingMode::HomingMode(HomingConfig config) : config_(std::move(config)) {
   params_.search_speed = config_.search_speed;
   params_.zero_speed = config_.zero_speed;
   params_.acceleration = config_.acceleration;
+  params_.stop_window = config_.stop_window;
+  dref_ = config_.kollmorgen_dref;
 }
 
 Expected<void, cia301::SdoAbort> HomingMode::check_method(std::int8_t method) const {
@@ -59,6 +87,9 @@ Expected<void, cia301::SdoAbort> HomingMode::check_method(std::int8_t method) co
 Expected<void, cia301::SdoAbort> HomingMode::set_method(std::int8_t method) {
   if (auto ok = check_method(method); !ok) return ok;
   params_.method = method;
+  if (config_.vendor == HomingVendor::kollmorgen) {
+    if (const auto dref = kollmorgen_dref_of(method)) dref_ = *dref;
+  }
   return {};
 }
 
@@ -70,6 +101,11 @@ void HomingMode::reset() {
   home_position_.reset();
   finished_.reset();
   method_ = nullptr;
+  dref_ = config_.kollmorgen_dref;
+  if (config_.vendor == HomingVendor::kollmorgen) {
+    if (const auto dref = kollmorgen_dref_of(params_.method)) dref_ = *dref;
+  }
+  following_error_ = 0.0;
 }
 
 std::uint16_t HomingMode::statusword_bits() const {
@@ -148,6 +184,11 @@ void HomingMode::start(can::TimePoint now, HomingAxis& axis) {
   }
   approach_ = method_->approach;
   edge_ = method_->edge;
+  stop_direction_ = method_->first;
+  if (method_->signal == HomingSignal::hard_stop_dref) {
+    stop_direction_ = dref_ == 1 ? +1 : -1;  // 2 (by distance) has no meaning for a stop
+    approach_ = -stop_direction_;            // the zero mark crawling back off the stop
+  }
   if (config_.deviations.wrong_edge) {
     if (method_->signal == HomingSignal::home_window) {
       edge_ = edge_ == SwitchEdge::lower ? SwitchEdge::upper : SwitchEdge::lower;
@@ -193,7 +234,8 @@ void HomingMode::start(can::TimePoint now, HomingAxis& axis) {
       return;
     case HomingSignal::hard_stop_negative:
     case HomingSignal::hard_stop_positive:
-      move(Phase::to_limit, method_->first, false, axis);
+    case HomingSignal::hard_stop_dref:
+      move(Phase::to_limit, stop_direction_, false, axis);
       return;
     case HomingSignal::home_window:
       if (method_->via_limit) {
@@ -256,6 +298,31 @@ void HomingMode::move(Phase phase, int direction, bool crawl, HomingAxis& axis) 
   dir_ = direction;
   const double speed = crawl ? active_.zero_speed : active_.search_speed;
   axis.command_velocity(direction * speed, active_.acceleration);
+  // A new velocity profile: its demand starts where the axis is.
+  target_velocity_ = direction * speed;
+  ramp_velocity_ = axis.velocity();
+  demand_position_ = axis.position();
+  demand_at_ = now_;
+  following_error_ = 0.0;
+}
+
+void HomingMode::track_demand(const HomingAxis& axis) {
+  // The velocity ramp the mode commanded (609Ah; 0: a step), integrated to a demand position.
+  const double dt = std::chrono::duration<double>(now_ - demand_at_).count();
+  demand_at_ = now_;
+  if (dt > 0.0) {
+    const double v0 = ramp_velocity_;
+    const double a = static_cast<double>(active_.acceleration);
+    if (a <= 0.0) {
+      ramp_velocity_ = target_velocity_;
+    } else if (ramp_velocity_ < target_velocity_) {
+      ramp_velocity_ = std::min(target_velocity_, ramp_velocity_ + a * dt);
+    } else {
+      ramp_velocity_ = std::max(target_velocity_, ramp_velocity_ - a * dt);
+    }
+    demand_position_ += (v0 + ramp_velocity_) / 2.0 * dt;
+  }
+  following_error_ = demand_position_ - axis.position();
 }
 
 void HomingMode::run_phase(HomingAxis& axis) {
@@ -268,7 +335,10 @@ void HomingMode::run_phase(HomingAxis& axis) {
   const bool neg = axis.limit_negative();
   const bool pos = axis.limit_positive();
   const bool limit_ahead = dir_ > 0 ? pos : neg;
-  const bool stop = axis.at_hard_stop();
+  // Blocked: the following error of the commanded profile beyond the window, in the direction
+  // of travel (a mechanical stop; Kollmorgen L4527-4528, Festo 11-5 L7845-7848).
+  track_demand(axis);
+  const bool stop = dir_ != 0 && following_error_ * dir_ > static_cast<double>(active_.stop_window);
   const bool seeks_limit = phase_ == Phase::to_limit || phase_ == Phase::seek_window;
   if (is_stop_method(signal)) {
     if (stop && phase_ != Phase::to_limit) return fail(axis);  // limit switches ignored
@@ -417,6 +487,12 @@ HomingObjects::HomingObjects(cia301::ObjectDictionary& od, HomingMode& mode)
                 std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
           return mode.check_method(static_cast<std::int8_t>(cia301::load_signed(data)));
         });
+    // The method takes effect when written, not at the next cycle: on a Kollmorgen drive a
+    // 6098h write sets DREF (352Ch), which stays when the next write names a method without
+    // a DREF (e.g. -6 then -3 in one go, before the drive cycles).
+    entry->set_write_observer([&mode](cia301::ObjectDictionary&, cia301::Entry& written) {
+      if (!mode.running()) (void)mode.set_method(static_cast<std::int8_t>(written.as_signed()));
+    });
   }
 }
 
@@ -437,6 +513,11 @@ void HomingObjects::read_parameters() {
   }
   if (const auto* e = od_.find(cia402::kHomingAcceleration.index, 0)) {
     mode_.set_acceleration(static_cast<std::uint32_t>(e->as_unsigned()));
+  }
+  // The stop detection uses the following error window while it is on (not FFFFFFFFh).
+  if (const auto* e = od_.find(cia402::kFollowingErrorWindow.index, 0)) {
+    const auto window = static_cast<std::uint32_t>(e->as_unsigned());
+    mode_.set_stop_window(window != 0xFFFF'FFFFU ? window : mode_.config().stop_window);
   }
 }
 

@@ -1,6 +1,6 @@
 // Homing mode (hm, 6060h = 6) of the reference drive: CiA 402-2 §"Homing mode" (IEC 61800-7-201
 // §"Homing mode"), every standard method 1..14, 17..30, 33..35, 37 and the manufacturer methods
-// the manuals define (Festo -1 -2 -17 -18 -23 -27, Kollmorgen -1 -2 -6 -7, IRTSA -127 -126).
+// the manuals define (Festo -1 -2 -17 -18 -23 -27, Kollmorgen -1 -2 -3 -6 -7, IRTSA -127 -126).
 // The methods are data (homing_methods.inc); one engine runs them all. A pure state machine:
 // the owner calls step(now, inputs, axis) once per drive cycle; no bus, no clock, no threads.
 //
@@ -47,8 +47,23 @@
 //     (via_limit) go to the limit or stop in `first` direction first, whatever the switch shows.
 //   index pulse (1..14, 33, 34, Festo -1/-2): after the edge, on in the approach direction at
 //     crawl speed to the first index pulse: home is that pulse.
-//   mechanical stop (Festo, Kollmorgen): search speed to the stop (limit switches ignored,
-//     Festo footnote 2 L6196); home is the stop or the first index pulse after it.
+//   mechanical stop (Festo -1 -2 -17 -18, Kollmorgen -3 -6 -7): search speed to the stop
+//     (limit switches ignored, Festo footnote 2 L6196); home is the stop or, with the index
+//     pulse (Festo -1/-2, Kollmorgen -3 "mit Nullpunktsuche"), the first index pulse crawling
+//     back off it. Kollmorgen -3 sets NREF = 7 only: its direction is DREF (352Ch, §6.1.1 L5276) as
+//     the last 6098h write left it (0 negative after 1 12 17 28 33 -7, 1 positive after 2 8 18 24
+//     34 -6; L4527-4562); 2 (after -1) or never set: negative (the manual gives no rule).
+//   The stop is detected as the manuals describe it, by the following error: Kollmorgen
+//     -6/-7 "Schleppfehler setzt Referenz" (002_953174ea6ca45cdb.txt §5.10.4.2 L4527-4528),
+//     Festo error 11-5 "Homing: I2t / following error", cause "end stop reached"
+//     (000_33c1d912b8b6010a.txt Annex B L7845-7848). The mode integrates the velocity profile it
+//     commands into a demand position; when demand − actual exceeds the following error
+//     window (6065h, read with the other objects; HomingConfig::stop_window without a
+//     dictionary) in the direction of travel, the axis is blocked. The home position is the
+//     actual position at that moment (the axis stands at the stop), and the time from
+//     touching the stop to the home event is window / search speed. The axis is not driven
+//     off the stop afterwards (no travel to zero under CANopen, Festo L6040; Festo footnote 3
+//     L6197 asks the user to parameterise it).
 //   current position (35, 37, Kollmorgen -2, IRTSA -127): home is where the axis stands, no
 //     motion, completed at the start step. IRTSA -126: 6064h := the value nearest 607Ch that
 //     keeps the position within the index period (whole periods of 607Ch only, L421).
@@ -59,9 +74,10 @@
 // the reference travel"), so 6064h ends at 607Ch ± the braking distance crawl²/(2·609Ah), in
 // the approach direction.
 // Errors (bit 13; the axis stops with 609Ah): a limit switch ahead that the phase does not
-// seek (both limit switches at once included; Festo 11-4 / 11-5), the mechanical stop in a
-// switch method, no index pulse configured for an index method, the run exceeding
-// config.timeout (Festo 2045h, error 11-3), leaving OPERATION ENABLED.
+// seek (both limit switches at once included; Festo 11-4 / 11-5), a blocked axis (following
+// error as above) in a switch or index method or while crawling off a stop, no index pulse
+// configured for an index method, the run exceeding config.timeout (Festo 2045h, error 11-3),
+// leaving OPERATION ENABLED.
 #pragma once
 
 #include <cstdint>
@@ -90,8 +106,6 @@ class HomingAxis {
   virtual bool limit_negative() const = 0;
   virtual bool limit_positive() const = 0;
   virtual bool home_switch() const = 0;
-  // The axis pushes against a mechanical end stop (it is blocked).
-  virtual bool at_hard_stop() const = 0;
   // The first index pulse passed travelling from `from` to `to` (from excluded, to included),
   // as a position actual value; nullopt when none (or the axis has no index pulse).
   virtual std::optional<double> index_pulse_between(double from, double to) const = 0;
@@ -111,6 +125,7 @@ enum class HomingSignal : std::uint8_t {
   index_pulse,
   hard_stop_negative,
   hard_stop_positive,
+  hard_stop_dref,  // Kollmorgen -3: the stop in DREF's direction
   current_position,
   current_position_tolerant,
   nearest_index,
@@ -175,6 +190,11 @@ struct HomingConfig {
   can::Duration timeout = std::chrono::seconds(60);
   // IRTSA: homing "may be executed in any state except the fault states" (L268, L423).
   bool start_outside_operation_enabled = false;
+  // The following error (units) beyond which the axis counts as blocked (mechanical stop);
+  // HomingObjects replaces it with 6065h while 6065h is set (not FFFFFFFFh = off).
+  std::uint32_t stop_window = 500;
+  // Kollmorgen DREF (352Ch) at power on: the direction of -3 until a 6098h write sets it.
+  std::uint8_t kollmorgen_dref = 0;
   HomingDeviations deviations;
 };
 
@@ -194,6 +214,7 @@ struct HomingParameters {
   std::uint32_t search_speed = 0;
   std::uint32_t zero_speed = 0;
   std::uint32_t acceleration = 0;
+  std::uint32_t stop_window = 500;  // following error that means "blocked" (6065h)
 };
 
 class HomingMode {
@@ -208,6 +229,9 @@ class HomingMode {
   void set_search_speed(std::uint32_t speed) { params_.search_speed = speed; }
   void set_zero_speed(std::uint32_t speed) { params_.zero_speed = speed; }
   void set_acceleration(std::uint32_t acceleration) { params_.acceleration = acceleration; }
+  void set_stop_window(std::uint32_t window) { params_.stop_window = window; }
+  // Kollmorgen DREF (direction of -3): 0 negative, 1 positive, 2 by distance (method -1).
+  std::uint8_t kollmorgen_dref() const { return dref_; }
   const HomingParameters& parameters() const { return params_; }
 
   // One drive cycle. Commands the axis only while it runs or stops a run it started.
@@ -225,6 +249,8 @@ class HomingMode {
   std::optional<double> home_position() const { return home_position_; }
   can::TimePoint started_at() const { return started_; }
   std::optional<can::TimePoint> finished_at() const { return finished_; }
+  // demand − actual of the velocity profile the mode commands (the stop detection), units.
+  double following_error() const { return following_error_; }
   const HomingConfig& config() const { return config_; }
   void set_deviations(const HomingDeviations& deviations) { config_.deviations = deviations; }
 
@@ -247,6 +273,7 @@ class HomingMode {
   void move(Phase phase, int direction, bool crawl, HomingAxis& axis);
   bool signal_level(const HomingAxis& axis) const;
   bool level_after_edge() const;  // the signal level after crossing the edge in approach_
+  void track_demand(const HomingAxis& axis);  // following error of the commanded profile
   void run_phase(HomingAxis& axis);
 
   HomingConfig config_;
@@ -267,6 +294,14 @@ class HomingMode {
   bool homed_ = false;
   bool halted_ = false;  // the run ended by halt
   bool previous_bit4_ = false;
+  std::uint8_t dref_ = 0;
+  int stop_direction_ = 0;  // first travel of a stop method (Kollmorgen -3: from DREF)
+  // The commanded velocity profile (the stop detection): target, ramp, demand position.
+  double target_velocity_ = 0.0;
+  double ramp_velocity_ = 0.0;
+  double demand_position_ = 0.0;
+  double following_error_ = 0.0;
+  can::TimePoint demand_at_{};
   std::optional<double> home_position_;
   can::TimePoint started_{};
   std::optional<can::TimePoint> finished_;
@@ -301,9 +336,8 @@ class HomingObjects {
 // ---------------------------------------------------------------------------------------------
 // HomingAxis over the simulated axis (axis_model.hpp) in user units (the factor group): the
 // switches of its SwitchLayout, its index pulses (index_offset + k·index_period, physical
-// frame), set_actual_position() for the shift. AxisModel has no mechanical end stop:
-// at_hard_stop() is always false, so the stop methods (Festo -1 -2 -17 -18, Kollmorgen -6 -7)
-// end in the timeout error on this axis.
+// frame), set_actual_position() for the shift. The mechanical end stops of the layout block
+// the axis (axis_model.hpp); the mode sees them only through the following error.
 class AxisModelHomingAxis final : public HomingAxis {
  public:
   AxisModelHomingAxis(AxisModel& axis, const FactorGroup& factors)
@@ -314,7 +348,6 @@ class AxisModelHomingAxis final : public HomingAxis {
   bool limit_negative() const override { return axis_.switch_active(AxisSwitch::negative_limit); }
   bool limit_positive() const override { return axis_.switch_active(AxisSwitch::positive_limit); }
   bool home_switch() const override { return axis_.switch_active(AxisSwitch::home); }
-  bool at_hard_stop() const override { return false; }
   std::optional<double> index_pulse_between(double from, double to) const override;
   double index_period() const override;
   void shift_position(double delta) override;

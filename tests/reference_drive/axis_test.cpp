@@ -2,6 +2,7 @@
 // factor group.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <utility>
@@ -136,6 +137,84 @@ TEST(AxisModel, LoadBeyondTheTorqueLimitStallsTheAxis) {
   EXPECT_LT(axis.position(), 0.0);
   EXPECT_GT(axis.following_error(), 1000.0);
   EXPECT_DOUBLE_EQ(axis.torque(), 3000.0);
+}
+
+// Mechanical end stops: layout with a negative stop at -1000 and a positive stop at +2000.
+AxisModel axis_with_stops() {
+  AxisConfig config;
+  config.switches.stop_negative = -1000;
+  config.switches.stop_positive = 2000;
+  return AxisModel(config);
+}
+
+TEST(AxisEndStop, VelocityControlStopsDeadAtTheStopAndTorqueRisesToTheLimit) {
+  // Given stops at -1000 / +2000 and an axis at 0 in velocity control
+  AxisModel axis = axis_with_stops();
+  axis.follow_set_points();
+  EXPECT_FALSE(axis.at_end_stop());
+  // When it is driven at 20000 increments/s toward the positive stop for 200 ms (4000 ahead)
+  for (int i = 0; i < 200; ++i) {
+    axis.command_velocity(20000.0, 1'000'000.0);
+    axis.advance(1ms);
+  }
+  // Then it stands exactly at the stop, velocity 0, the torque at the limit (3000 ‰)
+  EXPECT_DOUBLE_EQ(axis.physical_position(), 2000.0);
+  EXPECT_DOUBLE_EQ(axis.velocity(), 0.0);
+  EXPECT_TRUE(axis.at_end_stop());
+  EXPECT_DOUBLE_EQ(axis.torque(), 3000.0);
+  // When it is driven the other way, Then it leaves the stop freely
+  for (int i = 0; i < 20; ++i) {
+    axis.command_velocity(-5000.0);
+    axis.advance(1ms);
+  }
+  EXPECT_LT(axis.physical_position(), 1950.0);
+  EXPECT_FALSE(axis.at_end_stop());
+}
+
+TEST(AxisEndStop, PositionControlBuildsUpFollowingError) {
+  // Given stops at -1000 / +2000 and position control
+  AxisModel axis = axis_with_stops();
+  axis.follow_set_points();
+  // When the demand runs to -5000 at 10000 increments/s (500 ms)
+  for (int i = 1; i <= 500; ++i) {
+    const double demand = -10.0 * i;
+    axis.command_position(demand, -10000.0);
+    axis.advance(1ms);
+  }
+  // Then the axis is held at -1000 and the following error is the rest of the way: -4000
+  EXPECT_DOUBLE_EQ(axis.physical_position(), -1000.0);
+  EXPECT_NEAR(axis.following_error(), -4000.0, 1e-6);
+  EXPECT_DOUBLE_EQ(axis.torque(), -3000.0);
+}
+
+TEST(AxisEndStop, AxisPutBeyondAStopCannotGoFurtherOut) {
+  // Given an axis put at -1500 (beyond the negative stop at -1000)
+  AxisModel axis = axis_with_stops();
+  axis.place(-1500.0);
+  axis.follow_set_points();
+  // When driven negative, Then it stays at -1500; When driven positive, Then it moves
+  for (int i = 0; i < 50; ++i) {
+    axis.command_velocity(-5000.0);
+    axis.advance(1ms);
+  }
+  EXPECT_DOUBLE_EQ(axis.physical_position(), -1500.0);
+  for (int i = 0; i < 50; ++i) {
+    axis.command_velocity(5000.0);
+    axis.advance(1ms);
+  }
+  EXPECT_GT(axis.physical_position(), -1300.0);
+}
+
+TEST(AxisEndStop, NoStopsMeansFreeTravel) {
+  // Given the default layout (no stops), When driven to 5000, Then it gets there
+  AxisModel axis;
+  axis.follow_set_points();
+  for (int i = 0; i < 500; ++i) {
+    axis.command_position(std::min(5000.0, 20.0 * i));
+    axis.advance(1ms);
+  }
+  EXPECT_NEAR(axis.physical_position(), 5000.0, 1.0);
+  EXPECT_FALSE(axis.at_end_stop());
 }
 
 TEST(Trajectory, TrapezoidLandsExactlyWithinTheLimits) {

@@ -13,6 +13,7 @@
 #include "protocol/cia306/eds.hpp"
 #include "protocol/cia306/eds_lint.hpp"
 #include "reference_drive/dictionary.hpp"
+#include "reference_drive/servo_drive_eds.hpp"
 #include "tests/reference_drive/drive_rig.hpp"
 
 #ifndef DRIVECHECK_SOURCE_DIR
@@ -153,10 +154,10 @@ TEST(ObjectDictionary, ManyNodeIdsGiveNodeRelativeDefaults) {
 // The EDS
 
 TEST(ReferenceEds, CheckedInFileIsTheGeneratedOne) {
-  // Given the dictionary defined in reference_drive/dictionary.cpp
+  // Given the standard servo drive's dictionary (CiA 301 part + CiA 402 application)
   // When its EDS is generated
   // Then it equals reference_drive/reference_drive.eds byte for byte
-  const auto generated = reference_eds_text();
+  const auto generated = servo_drive_eds_text();
   ASSERT_TRUE(generated) << generated.error();
   EXPECT_TRUE(*generated == checked_in_eds())
       << "reference_drive/reference_drive.eds is stale: regenerate it with\n"
@@ -174,17 +175,24 @@ TEST(ReferenceEds, LintFindsNothing) {
     ADD_FAILURE() << finding.to_string();
 }
 
+TEST(ReferenceEds, ListsTheCia402Objects) {
+  // Given the checked-in EDS, When its objects are listed, Then the CiA 402 objects the drive
+  // has are there (controlword, statusword, modes, homing, position actual value)
+  const auto eds = cia306::read_eds(checked_in_eds(), "reference_drive.eds");
+  for (const std::uint16_t index : {0x6040, 0x6041, 0x6060, 0x6061, 0x6064, 0x6098, 0x6099}) {
+    EXPECT_NE(eds.eds.find(index), nullptr) << fmt::format("{:04X}h missing from the EDS", index);
+  }
+}
+
 TEST(ReferenceEds, DescribesWhatTheDriveAnswers) {
   // Given the EDS read back as an object dictionary for node 9
-  // When it is compared with a drive's dictionary at node 9
+  // When it is compared with the standard servo drive's dictionary at node 9
   // Then both have the same objects, entries, types, access, mapping flags and values
   const auto eds = cia306::read_eds(checked_in_eds(), "reference_drive.eds");
   ASSERT_FALSE(eds.has_errors());
   const auto from_eds = cia306::to_object_dictionary(eds.eds, 9);
   ASSERT_TRUE(from_eds);
-  DictionaryOptions options;
-  options.node_id = 9;
-  const auto built = build_dictionary(options);
+  const auto built = servo_drive_dictionary(9);
   ASSERT_TRUE(built) << built.error();
   ASSERT_EQ(from_eds->objects().size(), built->objects().size());
   for (const auto& object : built->objects()) {

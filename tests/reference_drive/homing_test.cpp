@@ -17,6 +17,9 @@
 //   stop |  LS- ]   ...   |    |    [====home====]    |          ...   [ LS+  | stop
 //
 // Index pulses near the edges: ... -10750 -9750 ... 1250 | 2100 | 2250 ... 3250 | 3400 | 4250
+//
+// The test axis stops dead at a mechanical stop; the mode finds the stop only through the
+// following error of the velocity profile it commands (window 500, HomingConfig::stop_window).
 #include "reference_drive/modes/homing.hpp"
 
 #include <gtest/gtest.h>
@@ -25,6 +28,7 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <tuple>
 #include <vector>
 
 #include "protocol/cia402/controlword.hpp"
@@ -107,10 +111,6 @@ class TestAxis final : public HomingAxis {
     if (!layout_.home_from && !layout_.home_to) return false;
     return (!layout_.home_from || x_ >= *layout_.home_from) &&
            (!layout_.home_to || x_ <= *layout_.home_to);
-  }
-  bool at_hard_stop() const override {
-    return (layout_.stop_negative && x_ <= *layout_.stop_negative && target_ < 0) ||
-           (layout_.stop_positive && x_ >= *layout_.stop_positive && target_ > 0);
   }
   std::optional<double> index_pulse_between(double from, double to) const override {
     const double p = layout_.index_period;
@@ -395,6 +395,99 @@ TEST(HomingMethods, KollmorgenMethods) {
   check({-7, stops(), 0, -1, -11000}, HomingVendor::kollmorgen, true);
 }
 
+TEST(HomingMethods, KollmorgenStopWithZeroMarkTakesDrefFromThePreviousMethod) {
+  // Given the stops layout and Kollmorgen's -3 (NREF=7, no DREF of its own, L4530), When -6
+  // (DREF=1) was written before, Then -3 goes to the positive stop and home is the index pulse
+  // crawling back off it (10250); after -7 (DREF=0) it is the negative one (-10750).
+  for (const auto& [before, first, home] :
+       {std::tuple{std::int8_t{-6}, +1, 10250.0}, std::tuple{std::int8_t{-7}, -1, -10750.0}}) {
+    SCOPED_TRACE(::testing::Message() << "6098h = " << int{before} << " before -3");
+    HomingConfig config;
+    config.vendor = HomingVendor::kollmorgen;
+    Rig rig(config, stops(), 0);
+    ASSERT_TRUE(rig.mode.set_method(before));
+    ASSERT_TRUE(rig.mode.set_method(-3));
+    EXPECT_EQ(rig.mode.kollmorgen_dref(), first > 0 ? 1 : 0);
+    for (int i = 0; i < 10; ++i)
+      rig.cycle(kEnable);
+    int direction = 0;
+    for (int i = 0; i < 30000; ++i) {
+      rig.cycle(kStart);
+      if (direction == 0 && rig.axis.velocity() != 0) direction = rig.axis.velocity() > 0 ? 1 : -1;
+      if (!rig.mode.running() && rig.axis.velocity() == 0) break;
+    }
+    EXPECT_EQ(rig.mode.status(), HomingStatus::attained);
+    EXPECT_EQ(direction, first);
+    EXPECT_NEAR(rig.axis.physical() - (rig.axis.position() - 0.0), home, kEdgeTolerance);
+    EXPECT_EQ(rig.bits,
+              (std::vector<std::uint16_t>{kNotStarted, kInProgress, kAttainedMoving, kCompleted}));
+  }
+  // Given power on (DREF 0) and only -3 written, Then the first travel is negative.
+  HomingConfig config;
+  config.vendor = HomingVendor::kollmorgen;
+  EXPECT_EQ(HomingMode(config).kollmorgen_dref(), 0);
+  EXPECT_EQ(run_method(-3, stops(), 0, HomingVendor::kollmorgen).first_direction, -1);
+}
+
+TEST(HomingStops, TheStopIsFoundByTheFollowingErrorAfterWindowOverSpeed) {
+  // Given stops at ±11000, 6099h = 2000/200, 609Ah = 20000, the stop window 500 (6065h), When
+  // Festo -17 runs from 0, Then the axis needs 0.1 s to reach 2000/s (100 units), 5.45 s more
+  // to the stop, then 500 / 2000 = 0.25 s of growing following error: home after 5.8 s, at
+  // the stop itself, and the mode's following error at the event is just over the window.
+  HomingConfig config;
+  config.vendor = HomingVendor::festo;
+  Rig rig(config, stops(), 0);
+  ASSERT_TRUE(rig.mode.set_method(-17));
+  for (int i = 0; i < 10; ++i)
+    rig.cycle(kEnable);
+  const can::TimePoint started = rig.now;
+  std::optional<double> touched;  // time the axis reached the stop
+  double error_at_event = 0;
+  do {
+    rig.cycle(kStart);
+    if (!touched && rig.axis.physical() <= -11000) {
+      touched = std::chrono::duration<double>(rig.now - started).count();
+    }
+    if (!rig.mode.running()) error_at_event = rig.mode.following_error();
+  } while (rig.mode.running() && rig.now - started < 20s);
+  ASSERT_EQ(rig.mode.status(), HomingStatus::attained);
+  ASSERT_TRUE(touched);
+  EXPECT_NEAR(*touched, 5.55, 0.01);
+  const double at = std::chrono::duration<double>(*rig.mode.finished_at() - started).count();
+  EXPECT_NEAR(at - *touched, 0.25, 0.01);
+  EXPECT_LT(error_at_event, -500.0);
+  EXPECT_GT(error_at_event, -510.0);
+  EXPECT_DOUBLE_EQ(rig.axis.physical(), -11000.0);
+  EXPECT_DOUBLE_EQ(rig.axis.position(), 0.0);  // 607Ch = 0 there, no braking distance
+  // And the axis is left at the stop, not driven into it (velocity command 0).
+  for (int i = 0; i < 100; ++i)
+    rig.cycle(kStart);
+  EXPECT_DOUBLE_EQ(rig.axis.physical(), -11000.0);
+  EXPECT_EQ(rig.mode.statusword_bits(), kCompleted);
+}
+
+TEST(HomingStops, StopInTheWayOfAnIndexMethodIsAnError) {
+  // Given a negative stop at -500 between the start (0) and the next pulse below (-750), When
+  // method 33 crawls negative, Then it is blocked (Festo 11-5: "zero pulse method: end stop
+  // reached", L7845-7848) and ends in homing error 1/0/1 without a home.
+  Layout l = limits();
+  l.stop_negative = -500;
+  const HomingRun run = run_method(33, l, 0);
+  EXPECT_EQ(run.status, HomingStatus::error);
+  EXPECT_EQ(run.bits.back(), kErrorStopped);
+  EXPECT_LT(run.duration_s, 6.0);  // 2.5 s crawl + 2.5 s of following error at crawl speed
+}
+
+TEST(HomingStops, ViaLimitMethodsReverseAtAStopWithoutLimitSwitch) {
+  // Given the window layout without LS+ but a positive stop at 11000, When Festo -23 runs from
+  // 0 ("positive direction to stop or limit switch", L6235), Then it reverses at the stop and
+  // ends at the lower edge 2100.
+  Layout l = window();
+  l.limit_positive.reset();
+  l.stop_positive = 11000;
+  check({-23, l, 0, +1, 2100}, HomingVendor::festo);
+}
+
 TEST(HomingMethods, IrtsaSettingAndTolerant) {
   // Given IRTSA's -127 with 607Ch = 500 at 1234, When started, Then 6064h = 500 at once.
   const HomingRun set = run_method(-127, limits(), 1234, HomingVendor::irtsa, 500);
@@ -422,6 +515,7 @@ TEST(HomingMethods, EveryTableRowHasACase) {
   EXPECT_EQ(standard, expected);
   EXPECT_EQ(homing_methods_of(HomingVendor::festo).size(), expected.size() + 6);
   EXPECT_EQ(homing_methods_of(HomingVendor::irtsa).size(), expected.size() + 2);
+  EXPECT_EQ(homing_methods_of(HomingVendor::kollmorgen).size(), expected.size() + 5);
 }
 
 TEST(HomingMethods, HomeOffsetIsPositionActualAtHome) {
@@ -753,7 +847,7 @@ TEST(HomingInTheDrive, MethodTwentyThreeOverSdo) {
 // 1000, start, 0/0/0 and 606Ch's sign after 100 ms, 0/1/1, 6064h = 1000 ± braking, then the
 // axis put at home + 500 (disabled) reads 1500.
 void check_in_drive(const Case& c, HomingVendor vendor = HomingVendor::cia402,
-                    DeviationSet deviations = {}) {
+                    DeviationSet deviations = {}, std::optional<std::int8_t> method_before = {}) {
   SCOPED_TRACE(::testing::Message() << "method " << int{c.method} << " from " << c.start);
   DriveHoming d(vendor, deviations);
   d.simulate("switch-layout-clear", 1);
@@ -762,13 +856,22 @@ void check_in_drive(const Case& c, HomingVendor vendor = HomingVendor::cia402,
   if (c.layout.limit_positive) d.simulate("limit-positive-at", at(c.layout.limit_positive));
   if (c.layout.home_from) d.simulate("home-switch-from", at(c.layout.home_from));
   if (c.layout.home_to) d.simulate("home-switch-to", at(c.layout.home_to));
+  if (c.layout.stop_negative) d.simulate("stop-negative-at", at(c.layout.stop_negative));
+  if (c.layout.stop_positive) d.simulate("stop-positive-at", at(c.layout.stop_positive));
   d.simulate("index-period", static_cast<std::int64_t>(c.layout.index_period));
   d.simulate("index-offset", static_cast<std::int64_t>(c.layout.index_offset));
   d.simulate("axis-position", static_cast<std::int64_t>(c.start));
   auto& rig = *d.rig;
   ASSERT_EQ(rig.write(0x6060, 0, 6, 1), 0u);
   rig.run(10ms);
+  if (method_before) {
+    ASSERT_EQ(rig.write(0x6098, 0, static_cast<std::uint8_t>(*method_before), 1), 0u);
+  }
   ASSERT_EQ(rig.write(0x6098, 0, static_cast<std::uint8_t>(c.method), 1), 0u);
+  // The stop detection: following error window 500 (the vectors write it too).
+  if (c.layout.stop_negative || c.layout.stop_positive) {
+    ASSERT_EQ(rig.write(0x6065, 0, 500, 4), 0u);
+  }
   ASSERT_EQ(rig.write(0x607C, 0, 1000, 4), 0u);
   ASSERT_EQ(rig.write(0x6099, 1, 2000, 4), 0u);
   ASSERT_EQ(rig.write(0x6099, 2, 200, 4), 0u);
@@ -820,6 +923,20 @@ TEST(HomingInTheDrive, FestoAndKollmorgenMethodsWithoutStops) {
   }
   check_in_drive({-1, limits(), 600, -1, 250}, HomingVendor::kollmorgen);
   check_in_drive({-2, limits(), 1234, 0, 1234}, HomingVendor::kollmorgen);
+}
+
+TEST(HomingInTheDrive, StopMethodsAgainstTheAxisModelsEndStops) {
+  // Given the reference drive's AxisModel with end stops at ±11000 (simulate stop-*-at) and
+  // 6065h = 500, When Festo -1 -2 -17 -18 and Kollmorgen -6 -7 -3 run over SDO, Then each
+  // ends at the stop or the pulse off it, 6064h = 607Ch there, no homing error on the way.
+  check_in_drive({-1, stops(), 0, -1, -10750}, HomingVendor::festo);
+  check_in_drive({-2, stops(), 0, +1, 10250}, HomingVendor::festo);
+  check_in_drive({-17, stops(), 0, -1, -11000}, HomingVendor::festo);
+  check_in_drive({-18, stops(), 0, +1, 11000}, HomingVendor::festo);
+  check_in_drive({-6, stops(), 0, +1, 11000}, HomingVendor::kollmorgen);
+  check_in_drive({-7, stops(), 0, -1, -11000}, HomingVendor::kollmorgen);
+  check_in_drive({-3, stops(), 0, +1, 10250}, HomingVendor::kollmorgen, {}, std::int8_t{-6});
+  check_in_drive({-3, stops(), 0, -1, -10750}, HomingVendor::kollmorgen, {}, std::int8_t{-7});
 }
 
 TEST(HomingInTheDrive, DeviationSetReachesTheMode) {
