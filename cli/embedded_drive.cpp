@@ -13,18 +13,39 @@ namespace drivecheck::cli {
 // The servo drive's simulated inputs, as the engine's `simulate` steps name them.
 class ServoSimulation final : public conformance::SimulationControl {
  public:
-  explicit ServoSimulation(reference_drive::ServoDrive& drive) : drive_(drive) {}
+  ServoSimulation(reference_drive::ServoDrive& drive, can::SimPort& port)
+      : drive_(drive), port_(port) {}
   std::string set_input(std::string_view input, std::int64_t value) override {
     auto done = drive_.simulate(input, value);
     return done ? std::string() : std::move(done).error();
   }
+  // The port goes bus-off first and recovers first: the drive's controller reports the change
+  // (ReferenceDrive::set_bus_off) once the port is in that state, so the recovery EMCY goes out.
+  bool can_bus_off() const override { return true; }
+  std::string set_bus_off(bool bus_off) override {
+    port_.set_bus_off(bus_off);
+    drive_.device().set_bus_off(bus_off);
+    return {};
+  }
   std::string reset_inputs() override {
+    if (port_.bus_off()) set_bus_off(false);  // a bus_off step that did not end
     // The inputs cia402_application.hpp documents, at their power-on values.
     static constexpr std::pair<std::string_view, std::int64_t> kPowerOn[] = {
-        {"hardware-enable", 1},       {"switch-layout-clear", 0},    {"limit-positive", -1},
-        {"limit-negative", -1},       {"home-switch", -1},           {"load-torque", 0},
-        {"fault:following-error", 0}, {"fault:limit-switch", 0},     {"fault:overcurrent", 0},
-        {"fault:over-voltage", 0},    {"fault:over-temperature", 0},
+        {"hardware-enable", 1},
+        {"switch-layout-clear", 0},
+        {"limit-positive", -1},
+        {"limit-negative", -1},
+        {"home-switch", -1},
+        {"load-torque", 0},
+        {"fault:following-error", 0},
+        {"fault:limit-switch", 0},
+        {"fault:overcurrent", 0},
+        {"fault:over-voltage", 0},
+        {"fault:over-temperature", 0},
+        // Not an input: a vector that ended with the power stage off (a fault reaction that
+        // coasts, e.g. Festo's) leaves the load spinning for minutes on its friction. An
+        // operator waits for standstill between tests; on the simulated axis it is immediate.
+        {"axis-coast-to-rest", 1},
     };
     for (const auto& [input, value] : kPowerOn) {
       if (auto error = set_input(input, value); !error.empty()) {
@@ -36,6 +57,7 @@ class ServoSimulation final : public conformance::SimulationControl {
 
  private:
   reference_drive::ServoDrive& drive_;
+  can::SimPort& port_;
 };
 
 struct EmbeddedDrive::State {
@@ -66,7 +88,7 @@ Expected<std::unique_ptr<EmbeddedDrive>, std::string> EmbeddedDrive::create(
   auto drive = reference_drive::ServoDrive::create(*state->port, std::move(options));
   if (!drive) return Unexpected(std::move(drive).error());
   state->drive = std::move(*drive);
-  state->simulation = std::make_unique<ServoSimulation>(*state->drive);
+  state->simulation = std::make_unique<ServoSimulation>(*state->drive, *state->port);
   state->personality = standard ? std::string() : profile.name;
   state->drive->power_on();
   return std::unique_ptr<EmbeddedDrive>(new EmbeddedDrive(std::move(state), deviations));

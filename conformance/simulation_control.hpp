@@ -22,6 +22,13 @@ class SimulationControl {
   // forced switches and no switch layout, no fault cause, no load torque); the axis keeps its
   // position. The engine calls it before each vector's setup. Returns "" or why not.
   virtual std::string reset_inputs() = 0;
+  // Puts the DUT's CAN controller bus-off (true) or lets it recover (false): FORMAT.md
+  // `bus_off`. Returns "" or why not. Only a DUT on the simulated bus can do this.
+  virtual bool can_bus_off() const { return false; }
+  virtual std::string set_bus_off(bool bus_off) {
+    (void)bus_off;
+    return "the DUT's CAN controller cannot be put bus-off";
+  }
 };
 
 }  // namespace drivecheck::conformance

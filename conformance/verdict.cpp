@@ -22,6 +22,8 @@ std::string not_applicable_reason(const Vector& vector, const profile::DriveProf
       return fmt::format("requires {} (profile {} lacks it)", feature, profile.name);
     }
   }
+  if (vector.has_bus_off_step() && !context.bus_off)
+    return "the bus_off step needs the DUT's CAN controller on the simulated bus (embedded drive)";
   if (vector.drive_state && !profile.supports("cia402"))
     return fmt::format("drive_state needs cia402 (profile {} lacks it)", profile.name);
   if (vector.setup == Setup::restore_defaults && !profile.supports("restore"))

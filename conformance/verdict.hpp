@@ -14,6 +14,7 @@ namespace drivecheck::conformance {
 struct ApplicabilityContext {
   bool simulation = false;      // a SimulationControl is present (embedded drive)
   bool motion_allowed = false;  // simulated bus, or --allow-motion on a real bus
+  bool bus_off = false;         // the DUT's controller can be put bus-off (simulated bus)
 };
 
 // "" when the vector applies; else the reason it is not applicable, e.g.

@@ -1,17 +1,55 @@
 #include "reference_drive/device.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <utility>
 
 #include "protocol/cia301/emcy.hpp"
+#include "protocol/cia301/nmt_slave.hpp"
+#include "protocol/cia301/sdo_server_parameter.hpp"
 
 namespace drivecheck::reference_drive {
 namespace {
 
 constexpr auto kCommunicationBit =
     static_cast<std::uint8_t>(cia301::ErrorRegisterBit::communication);
+constexpr auto kRecoveredFromBusOff =
+    static_cast<std::uint16_t>(cia301::EmcyCode::recovered_from_bus_off);
 
 }  // namespace
+
+// The drive's side of its port: every call goes to the bus it currently stands on, which
+// restart() changes (the services keep one Bus& for their lifetime; this is it).
+class ReboundBus final : public can::Bus {
+ public:
+  explicit ReboundBus(can::Bus& bus) : bus_(&bus) {}
+  void retarget(can::Bus& bus) { bus_ = &bus; }
+
+  can::TimePoint now() const override { return bus_->now(); }
+  can::Duration unix_offset() const override { return bus_->unix_offset(); }
+  std::error_code send(const can::Frame& frame) override { return bus_->send(frame); }
+  std::optional<can::TimedFrame> receive(can::TimePoint deadline) override {
+    return bus_->receive(deadline);
+  }
+  void set_frame_handler(FrameHandler handler) override {
+    bus_->set_frame_handler(std::move(handler));
+  }
+  void set_filters(std::span<const can::Filter> filters) override { bus_->set_filters(filters); }
+  std::size_t queued(std::uint32_t id, can::IdFormat format) const override {
+    return bus_->queued(id, format);
+  }
+  void set_loopback(bool enabled) override { bus_->set_loopback(enabled); }
+  can::TimerId start_timer(can::TimePoint at, TimerCallback callback) override {
+    return bus_->start_timer(at, std::move(callback));
+  }
+  void cancel_timer(can::TimerId id) override { bus_->cancel_timer(id); }
+  void run_until(can::TimePoint deadline) override { bus_->run_until(deadline); }
+  void stop() override { bus_->stop(); }
+
+ private:
+  can::Bus* bus_;
+};
 
 Expected<std::unique_ptr<ReferenceDrive>, std::string> ReferenceDrive::create(can::Bus& bus,
                                                                               DriveConfig config) {
@@ -21,10 +59,11 @@ Expected<std::unique_ptr<ReferenceDrive>, std::string> ReferenceDrive::create(ca
 }
 
 ReferenceDrive::ReferenceDrive(can::Bus& bus, DriveConfig config)
-    : deviation_port_(config.deviations.empty()
+    : rebound_bus_(std::make_unique<ReboundBus>(bus)),
+      deviation_port_(config.deviations.empty()
                           ? nullptr
-                          : std::make_unique<DeviationPort>(bus, config.deviations)),
-      bus_(deviation_port_ ? *deviation_port_ : bus),
+                          : std::make_unique<DeviationPort>(*rebound_bus_, config.deviations)),
+      bus_(deviation_port_ ? static_cast<can::Bus&>(*deviation_port_) : *rebound_bus_),
       config_(std::move(config)) {}
 
 Expected<void, std::string> ReferenceDrive::start() {
@@ -37,7 +76,11 @@ Expected<void, std::string> ReferenceDrive::start() {
       return Unexpected("application objects: " + ok.error());
     }
   }
+  take_snapshot();
+  return bind_services();
+}
 
+Expected<void, std::string> ReferenceDrive::bind_services() {
   cia301::ParameterStorage* storage = config_.storage;
   if (storage == nullptr) {
     own_storage_ = std::make_unique<cia301::MemoryParameterStorage>();
@@ -56,6 +99,24 @@ Expected<void, std::string> ReferenceDrive::start() {
   if (has(Deviation::sdo_no_timeout)) sdo.timeout = can::Duration::max();  // deviation
   sdo_ = std::make_unique<cia301::SdoServer>(*od_, sdo);
   sdo_runner_ = std::make_unique<cia301::SdoServerRunner>(bus_, *sdo_);
+  // Further channels (1201h..): on the COB-IDs their records hold, re-read after each write.
+  for (unsigned i = 1; i <= config_.dictionary.extra_sdo_servers; ++i) {
+    const auto index = static_cast<std::uint16_t>(kSdoServerParameterIndex + i);
+    extra_sdo_.push_back(std::make_unique<cia301::SdoServer>(*od_, sdo));
+    extra_sdo_runners_.push_back(
+        std::make_unique<cia301::SdoServerRunner>(bus_, *extra_sdo_.back()));
+    for (std::uint8_t sub = cia301::sdo_server_sub::kRequestCobId;
+         sub <= cia301::sdo_server_sub::kNodeId; ++sub) {
+      cia301::Entry* entry = od_->find(index, sub);
+      if (entry == nullptr) continue;
+      entry->set_write_observer([this, chained = entry->write_observer()](
+                                    cia301::ObjectDictionary& od, cia301::Entry& self) {
+        if (chained) chained(od, self);
+        sdo_channels_changed_ = true;  // applied once the writing frame is answered
+      });
+    }
+  }
+  sync_sdo_channels();
 
   cia301::DeviceServicesHandlers handlers;
   handlers.on_reset = [this](cia301::ResetKind kind) { on_reset(kind); };
@@ -84,6 +145,72 @@ Expected<void, std::string> ReferenceDrive::start() {
   return {};
 }
 
+Expected<void, std::string> ReferenceDrive::restart(can::Bus& bus) {
+  if (deviation_port_) {
+    return Unexpected(std::string("restart: a drive with deviations cannot restart, create one"));
+  }
+  release_bus();
+  rebound_bus_->retarget(bus);
+  // Every member that changes while the drive runs goes back to its initial value here.
+  application_reset_ = false;
+  sdo_channels_changed_ = false;
+  bus_off_ = false;
+  transmitted_ = false;
+  powered_ = false;
+  next_cycle_ = can::kForever;
+  in_tick_ = false;
+  stats_ = {};
+  if (auto ok = restore_snapshot(); !ok) return ok;
+  return bind_services();
+}
+
+void ReferenceDrive::release_bus() {
+  // The old bus is left first (timers, frame handler, filters), while it exists.
+  timer_.disarm();
+  services_.reset();
+  extra_sdo_runners_.clear();
+  extra_sdo_.clear();
+  sdo_runner_.reset();
+  sdo_.reset();
+  pdos_.reset();
+  store_.reset();
+  own_storage_.reset();  // bind_services() makes an empty one
+}
+
+void ReferenceDrive::take_snapshot() {
+  pristine_.clear();
+  pristine_node_id_ = od_->node_id();
+  for (const cia301::Object& object : od_->objects()) {
+    for (const cia301::Entry& entry : object.entries()) {
+      const auto bytes = entry.bytes();
+      pristine_.push_back({od_->find(object.index(), entry.sub_index()),
+                           {bytes.begin(), bytes.end()},
+                           entry.revision(),
+                           entry.read_hook(),
+                           entry.write_validator(),
+                           entry.write_observer()});
+    }
+  }
+}
+
+Expected<void, std::string> ReferenceDrive::restore_snapshot() {
+  od_->set_node_id(pristine_node_id_);
+  for (PristineEntry& pristine : pristine_) {
+    cia301::Entry& entry = *pristine.entry;
+    if (entry.revision() != pristine.revision) {
+      if (!entry.assign_bytes(pristine.bytes)) {
+        return Unexpected(fmt::format("restart: {:04X}h sub {} could not be restored",
+                                      entry.index(), entry.sub_index()));
+      }
+      pristine.revision = entry.revision();
+    }
+    entry.set_read_hook(pristine.read_hook);
+    entry.set_write_validator(pristine.validator);
+    entry.set_write_observer(pristine.observer);
+  }
+  return {};
+}
+
 ReferenceDrive::~ReferenceDrive() {
   if (config_.application != nullptr) config_.application->on_drive_destroyed(*this);
   timer_.disarm();
@@ -102,6 +229,26 @@ void ReferenceDrive::power_on() {
 
 void ReferenceDrive::command(cia301::NmtCommand command) {
   services_->command(command);
+  rearm();
+}
+
+void ReferenceDrive::set_bus_off(bool bus_off) {
+  if (bus_off == bus_off_) return;
+  bus_off_ = bus_off;
+  if (bus_off) {
+    // CiA 301 1029h:01: bus-off is a communication error (0: Operational -> Pre-operational).
+    const cia301::Entry* behaviour = od_->find(cia301::kErrorBehaviourIndex, 1);
+    const auto value = behaviour != nullptr ? static_cast<std::uint8_t>(behaviour->as_unsigned())
+                                            : std::uint8_t{0};
+    if (powered_) {
+      if (auto reaction = cia301::communication_error_command(state(), value)) command(*reaction);
+    }
+  }
+  if (config_.on_bus_off) {
+    config_.on_bus_off(*this, bus_off, transmitted_);
+  } else if (!bus_off && powered_) {
+    services_->raise_error(kRecoveredFromBusOff, kCommunicationBit);  // CiA 301 Table 21
+  }
   rearm();
 }
 
@@ -126,15 +273,24 @@ bool ReferenceDrive::trigger_tpdo(std::uint16_t number) {
 void ReferenceDrive::on_frame(const can::TimedFrame& timed) {
   if (timed.frame.is_error()) return;
   if (timed.own) {
+    transmitted_ = true;
     // The end of our own frame on the wire: the PDOs pace synchronous TPDOs by it (1007h).
     handle(pdos_->on_sent(timed.frame, timed.timestamp));
     rearm();
     return;
   }
+  cia301::SdoServerRunner* sdo = nullptr;
   if (sdo_->is_request(timed.frame)) {
-    if (services_->allows(cia301::NmtService::sdo) ||
-        (has(Deviation::sdo_in_stopped) && state() == cia301::NmtState::stopped)) {
-      sdo_runner_->handle(timed);
+    sdo = sdo_runner_.get();
+  } else {
+    for (std::size_t i = 0; i < extra_sdo_.size() && sdo == nullptr; ++i) {
+      if (extra_sdo_[i]->is_request(timed.frame)) sdo = extra_sdo_runners_[i].get();
+    }
+  }
+  if (sdo != nullptr) {
+    if (sdo_allowed()) {
+      sdo->handle(timed);
+      if (sdo_channels_changed_) sync_sdo_channels();
       // An SDO write may have changed a PDO (new timers, errors to clear): let the PDOs look.
       handle(pdos_->on_time(timed.timestamp));
       rearm();
@@ -145,18 +301,46 @@ void ReferenceDrive::on_frame(const can::TimedFrame& timed) {
   rearm();
 }
 
+bool ReferenceDrive::sdo_allowed() const {
+  return services_->allows(cia301::NmtService::sdo) ||
+         (has(Deviation::sdo_in_stopped) && state() == cia301::NmtState::stopped);
+}
+
+void ReferenceDrive::sync_sdo_channels() {
+  sdo_channels_changed_ = false;
+  for (std::size_t i = 0; i < extra_sdo_.size(); ++i) {
+    const auto index = static_cast<std::uint16_t>(kSdoServerParameterIndex + i + 1);
+    const auto channel = cia301::read_sdo_server_channel(*od_, index);
+    if (!channel) continue;
+    extra_sdo_[i]->set_channel(channel->request_cob_id, channel->response_cob_id, channel->valid);
+    extra_sdo_runners_[i]->transmit({});  // re-arms (cancels) a dropped transfer's timer
+  }
+}
+
+void ReferenceDrive::reset_sdo_servers() {
+  sdo_->reset();
+  sdo_runner_->transmit({});  // re-arms (cancels) the runner's timeout timer
+  for (std::size_t i = 0; i < extra_sdo_.size(); ++i) {
+    extra_sdo_[i]->reset();
+    extra_sdo_runners_[i]->transmit({});
+  }
+}
+
 void ReferenceDrive::on_reset(cia301::ResetKind kind) {
   if (kind == cia301::ResetKind::application) {
     store_->apply(cia301::kStoreApplication);
     store_->apply(cia301::kStoreManufacturer);
     application_reset_ = true;
   } else {
-    sdo_->reset();
+    reset_sdo_servers();
     // Deviation: a reset communication on its own keeps the communication objects as written.
     if (application_reset_ || !has(Deviation::nmt_reset_communication_keeps_values)) {
       store_->apply(cia301::kStoreCommunication);
     }
     application_reset_ = false;
+    sync_sdo_channels();
+    // The bus-off recovery EMCY belongs to the communication that was just reset.
+    if (!config_.on_bus_off) services_->clear_error(kRecoveredFromBusOff);
     pdos_->reload(bus_.now());
     // PDO errors belong to the communication that was just reset.
     handle(pdos_->clear_errors());
@@ -168,10 +352,7 @@ void ReferenceDrive::on_state_changed(cia301::NmtState from, cia301::NmtState to
   const can::TimePoint now = bus_.now();
   const bool sdo_in_stopped =
       has(Deviation::sdo_in_stopped) && to == cia301::NmtState::stopped;  // deviation
-  if (!cia301::nmt_allows(to, cia301::NmtService::sdo) && !sdo_in_stopped) {
-    sdo_->reset();
-    sdo_runner_->transmit({});  // re-arms (cancels) the runner's timeout timer
-  }
+  if (!cia301::nmt_allows(to, cia301::NmtService::sdo) && !sdo_in_stopped) reset_sdo_servers();
   // Deviation pdo-in-pre-operational: the PDOs run as if Operational.
   const bool pdo_in_pre_operational =
       has(Deviation::pdo_in_pre_operational) && to == cia301::NmtState::pre_operational;

@@ -2,7 +2,9 @@
 // composed of the protocol services (protocol/cia301):
 //
 //   DeviceServices  NMT slave, heartbeat producer/consumer, node guarding, EMCY, SYNC
-//   SdoServer       the default SDO server channel (600h/580h + node-ID, 1200h)
+//   SdoServer       the default SDO server channel (600h/580h + node-ID, 1200h), and the
+//                   further channels of DictionaryOptions::extra_sdo_servers (1201h.., on the
+//                   COB-IDs its record holds, off while they are not valid)
 //   PdoService      4 RPDOs and 4 TPDOs, dynamic mapping (pdo_service.hpp)
 //   StoreRestore    1010h/1011h over an injected ParameterStorage (memory or a file)
 // over one object dictionary (dictionary.hpp). Any number of drives share a SimBus, one port
@@ -14,7 +16,16 @@
 // an open SDO transfer is dropped without a frame in Stopped and at every reset; PDOs run only
 // in Operational. Resets (and power on) apply the stored parameters (StoreRestore::apply):
 // reset node the application and manufacturer groups, then (every reset) the communication
-// group; then the PDOs are reconfigured and their EMCYs cleared.
+// group; then the PDOs are reconfigured and their EMCYs cleared. A write of a further SDO
+// channel's record takes effect once the frame that wrote it is answered (the answer leaves on
+// the old COB-ID); a channel on the default channel's request COB-ID gets nothing (the default
+// channel takes the frame).
+//
+// Bus-off: the owner of the port tells the drive what its CAN controller reports
+// (set_bus_off, as a controller's status interrupt would). CiA 301: at bus-off the
+// communication error behaviour of 1029h:01 applies; at recovery the drive sends EMCY 8140h
+// (recovered from bus off, error register bit 4), active until the next reset communication.
+// DriveConfig::on_bus_off lets the application react instead (Kollmorgen F23, ESR 8180h).
 //
 // PDO errors become EMCYs with error register bit 4 (communication): 8210h, 8220h, 8250h.
 //
@@ -38,8 +49,10 @@
 #include <array>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "protocol/can/bus.hpp"
 #include "protocol/can/deadline_timer.hpp"
@@ -55,6 +68,7 @@
 namespace drivecheck::reference_drive {
 
 class ReferenceDrive;
+class ReboundBus;  // device.cpp: the port the drive talks through, re-pointed by restart()
 
 // The device's application: everything above CiA 301 communication.
 class DriveApplication {
@@ -111,6 +125,11 @@ struct DriveConfig {
   cia301::ParameterStorage* storage = nullptr;
   // nullptr: no application. Must outlive the drive.
   DriveApplication* application = nullptr;
+  // Bus-off reaction in place of CiA 301's (see the file comment); called with true at bus-off
+  // (after the NMT reaction of 1029h:01) and false at recovery (no EMCY 8140h is sent then).
+  // `transmitted` says whether a frame of the drive got onto the wire since power on. Empty:
+  // the CiA 301 reaction only.
+  std::function<void(ReferenceDrive&, bool bus_off, bool transmitted)> on_bus_off;
   // Named deviations (deviations.hpp; empty: the conformant drive). The drive applies the
   // CiA 301 ones (a DeviationPort between it and `bus`, and its own hooks); the application
   // applies the CiA 402 ones from its own copy.
@@ -131,6 +150,20 @@ class ReferenceDrive {
   static Expected<std::unique_ptr<ReferenceDrive>, std::string> create(can::Bus& bus,
                                                                        DriveConfig config);
   ~ReferenceDrive();
+  // The drive as create() left it, now on `bus` (which must outlive the drive; the previous
+  // bus must still exist during this call unless release_bus() left it): services unbound
+  // from the old bus and bound anew, every entry's value and hooks as they were before the
+  // services bound (only entries whose revision() moved are copied back), the drive's own
+  // parameter storage emptied (an injected DriveConfig::storage keeps what it holds, as it
+  // would over a power cycle), statistics cleared, powered off. Much cheaper than create(): no
+  // dictionary is built. The application is not told: its owner resets its state. Error: a
+  // drive with deviations (their port keeps fatal states "until power off"), or a service that
+  // does not bind.
+  Expected<void, std::string> restart(can::Bus& bus);
+  // Leaves the bus, e.g. before it is destroyed: the services go (timers cancelled, frame
+  // handler removed, their memory freed). Afterwards only restart() and destruction are allowed.
+  // (A drive with deviations cannot restart; its deviation port stays on the bus.)
+  void release_bus();
   ReferenceDrive(const ReferenceDrive&) = delete;
   ReferenceDrive& operator=(const ReferenceDrive&) = delete;
 
@@ -139,6 +172,9 @@ class ReferenceDrive {
   void power_on();
   // Local NMT control, as if the master had sent it.
   void command(cia301::NmtCommand command);
+  // What the CAN controller reports: bus-off (true) or recovered (false). Repeats are ignored.
+  void set_bus_off(bool bus_off);
+  bool bus_off() const { return bus_off_; }
 
   cia301::ObjectDictionary& dictionary() { return *od_; }
   const cia301::ObjectDictionary& dictionary() const { return *od_; }
@@ -155,6 +191,9 @@ class ReferenceDrive {
 
   const cia301::DeviceServices& services() const { return *services_; }
   const cia301::SdoServer& sdo_server() const { return *sdo_; }
+  // The further SDO server channels, 1201h + i (i < extra_sdo_server_count()).
+  std::size_t extra_sdo_server_count() const { return extra_sdo_.size(); }
+  const cia301::SdoServer& extra_sdo_server(std::size_t i) const { return *extra_sdo_.at(i); }
   const cia301::PdoService& pdos() const { return *pdos_; }
   const cia301::StoreRestore& store() const { return *store_; }
   const DriveStatistics& statistics() const { return stats_; }
@@ -165,9 +204,17 @@ class ReferenceDrive {
  private:
   ReferenceDrive(can::Bus& bus, DriveConfig config);
   Expected<void, std::string> start();
+  // start() after the dictionary: storage, services, frame handler (also restart()).
+  Expected<void, std::string> bind_services();
+  // The entries' values and hooks before the services bound, and restoring them (restart()).
+  void take_snapshot();
+  Expected<void, std::string> restore_snapshot();
 
   bool has(Deviation deviation) const { return config_.deviations.has(deviation); }
   void on_frame(const can::TimedFrame& frame);
+  bool sdo_allowed() const;
+  void sync_sdo_channels();
+  void reset_sdo_servers();
   void on_reset(cia301::ResetKind kind);
   void on_state_changed(cia301::NmtState from, cia301::NmtState to);
   void on_sync(const cia301::SyncConsumerEvent& event);
@@ -178,6 +225,7 @@ class ReferenceDrive {
 
   // Deviations: the wire-level ones sit between the drive and the bus passed to create()
   // (declared before bus_, which refers to it when there is one).
+  std::unique_ptr<ReboundBus> rebound_bus_;  // between bus_ (or the deviation port) and the bus
   std::unique_ptr<DeviationPort> deviation_port_;
   bool application_reset_ = false;  // nmt-reset-communication-keeps-values
   can::Bus& bus_;
@@ -188,12 +236,29 @@ class ReferenceDrive {
   std::unique_ptr<cia301::PdoService> pdos_;
   std::unique_ptr<cia301::SdoServer> sdo_;
   std::unique_ptr<cia301::SdoServerRunner> sdo_runner_;
+  std::vector<std::unique_ptr<cia301::SdoServer>> extra_sdo_;
+  std::vector<std::unique_ptr<cia301::SdoServerRunner>> extra_sdo_runners_;  // after extra_sdo_
+  bool sdo_channels_changed_ = false;
+  bool bus_off_ = false;
+  bool transmitted_ = false;  // a frame of ours reached the wire since power on
   std::unique_ptr<cia301::DeviceServices> services_;
   bool powered_ = false;
   can::TimePoint next_cycle_ = can::kForever;
   can::DeadlineTimer timer_{bus_, [this] { tick(); }};
   bool in_tick_ = false;
   DriveStatistics stats_;
+  // restart(): each entry's value (with the revision() it had when taken or last put back) and
+  // hooks before the services bound. Entry pointers stay valid: no object is added after start().
+  struct PristineEntry {
+    cia301::Entry* entry = nullptr;
+    std::vector<std::uint8_t> bytes;
+    std::uint64_t revision = 0;
+    cia301::ReadHook read_hook;
+    cia301::WriteValidator validator;
+    cia301::WriteObserver observer;
+  };
+  std::vector<PristineEntry> pristine_;
+  std::uint8_t pristine_node_id_ = 0;
 };
 
 }  // namespace drivecheck::reference_drive

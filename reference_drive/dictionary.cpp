@@ -104,6 +104,18 @@ Expected<cia301::ObjectDictionary, std::string> build_dictionary(const Dictionar
     return Unexpected(ok.error());
   }
 
+  if (options.extra_sdo_servers > 127) {
+    return Unexpected(fmt::format("{} further SDO servers: at most 127 (1201h..127Fh)",
+                                  options.extra_sdo_servers));
+  }
+  for (unsigned i = 1; i <= options.extra_sdo_servers; ++i) {
+    if (auto ok = cia301::add_sdo_server_parameter(
+            od, static_cast<std::uint16_t>(kSdoServerParameterIndex + i), options.sdo_node_id_sub);
+        !ok) {
+      return Unexpected(ok.error());
+    }
+  }
+
   if (auto ok = cia301::add_pdo_objects(od, options.pdo); !ok) return Unexpected(ok.error());
   return od;
 }

@@ -1,6 +1,7 @@
 // The reference drive's object dictionary: every CiA 301 object the device supports, defined
-// once, here in code. The EDS (reference_drive/reference_drive.eds) is generated from it
-// (reference_eds, and the reference_drive_eds program), never written by hand.
+// once, here in code. The EDS (reference_drive/reference_drive.eds) is generated from it plus
+// the CiA 402 application's objects (servo_drive_eds.hpp: reference_eds of the standard
+// ServoDrive's dictionary, and the reference_drive_eds program), never written by hand.
 //
 // CiA 301 objects (§7.5.2), with where they come from:
 //   1000h  device type, UNSIGNED32 ro: 00020192h = CiA 402 (0192h = 402) servo drive
@@ -17,6 +18,8 @@
 //   1029h  error behaviour                                                      NMT slave
 //   1200h  SDO server parameter, RECORD: 01h COB-ID client->server ($NODEID+600h) ro,
 //          02h COB-ID server->client ($NODEID+580h) ro                          here
+//   1201h.. further SDO server channels (DictionaryOptions::extra_sdo_servers)
+//                                                                       sdo_server_parameter
 //   1400h-1403h, 1600h-1603h, 1800h-1803h, 1A00h-1A03h  4 RPDOs, 4 TPDOs        PDO service
 // The application (the CiA 402 part, next) adds its own objects (6000h-9FFFh, 2000h-5FFFh).
 #pragma once
@@ -26,6 +29,7 @@
 
 #include "protocol/cia301/object_dictionary.hpp"
 #include "protocol/cia301/pdo_service.hpp"
+#include "protocol/cia301/sdo_server_parameter.hpp"
 #include "protocol/cia306/eds.hpp"
 #include "protocol/common/expected.hpp"
 
@@ -62,6 +66,10 @@ struct DictionaryOptions {
   std::uint8_t heartbeat_consumer_entries = 4;  // 1016h
   std::uint8_t error_history_size = 8;          // 1003h
   cia301::PdoObjectOptions pdo;                 // 4 + 4 PDOs, 8 mapping entries each
+  // Further SDO server channels: records 1201h.. (sdo_server_parameter.hpp), not valid until
+  // written; sub 03h as sdo_node_id_sub says. 0..127; 0: the default channel 1200h only.
+  std::uint8_t extra_sdo_servers = 0;
+  cia301::SdoNodeIdSub sdo_node_id_sub = cia301::SdoNodeIdSub::client;
 };
 
 // The CiA 301 part of the dictionary. Error: a node-ID outside 1..127 (or an inconsistent
@@ -72,7 +80,8 @@ Expected<cia301::ObjectDictionary, std::string> build_dictionary(const Dictionar
 // reproducible byte for byte), DeviceInfo from the identity, dummy mapping 0002h-0007h enabled.
 cia306::Eds reference_eds(const cia301::ObjectDictionary& od, const Identity& identity);
 
-// reference_eds of build_dictionary({}) as CiA 306 text (CRLF), what reference_drive.eds holds.
+// reference_eds of build_dictionary({}) as CiA 306 text (CRLF): the CiA 301 part only
+// (reference_drive.eds is servo_drive_eds_text(), servo_drive_eds.hpp).
 Expected<std::string, std::string> reference_eds_text();
 
 }  // namespace drivecheck::reference_drive

@@ -40,7 +40,18 @@ SdoServer::SdoServer(ObjectDictionary& dictionary, SdoServerConfig config)
 }
 
 bool SdoServer::is_request(const can::Frame& frame) const {
-  return frame.id == config_.rx_cob_id && frame.format == config_.format && !frame.is_error();
+  return enabled_ && frame.id == config_.rx_cob_id && frame.format == config_.format &&
+         !frame.is_error();
+}
+
+void SdoServer::set_channel(std::uint32_t rx_cob_id, std::uint32_t tx_cob_id, bool enabled) {
+  if (rx_cob_id == config_.rx_cob_id && tx_cob_id == config_.tx_cob_id && enabled == enabled_) {
+    return;
+  }
+  close();
+  config_.rx_cob_id = rx_cob_id;
+  config_.tx_cob_id = tx_cob_id;
+  enabled_ = enabled;
 }
 
 void SdoServer::set_block_size(std::uint8_t block_size) {

@@ -180,6 +180,12 @@ class SdoServer {
   }
   // Drops an open transfer without a frame (NMT reset communication, Stopped).
   void reset();
+  // Moves the channel to other COB-IDs (its SDO server parameter record was written, 1200h..
+  // 127Fh): an open transfer is dropped without a frame when anything changes. enabled false
+  // (a COB-ID with bit 31 set): the server takes no request at all (is_request is false)
+  // until enabled again. A SdoServerRunner that attach()ed keeps its old filter: attach again.
+  void set_channel(std::uint32_t rx_cob_id, std::uint32_t tx_cob_id, bool enabled);
+  bool enabled() const { return enabled_; }
 
   // Changes the blksize asked for in the next block download initiate or sub-block ack.
   void set_block_size(std::uint8_t block_size);
@@ -219,6 +225,7 @@ class SdoServer {
   ObjectDictionary& od_;
   SdoServerConfig config_;
   SdoServerStatistics stats_;
+  bool enabled_ = true;
   State state_ = State::idle;
   Multiplexer mux_;
   can::TimePoint deadline_ = can::kForever;

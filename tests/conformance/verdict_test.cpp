@@ -57,6 +57,18 @@ TEST(Applicability, SimulationMotionAndProfiles) {
   EXPECT_EQ(not_applicable_reason(festo, p, {}), "only for profile festo-cmmp (selected: p)");
 }
 
+TEST(Applicability, BusOffStepNeedsTheSimulatedBus) {
+  // Given a vector with a bus_off step
+  auto vector = make_vector("cia301/bus-off/x");
+  vector.steps.push_back(Step{BusOffStep{DurationSpec{std::chrono::milliseconds(50), {}}}, {}, 1});
+  const auto p = make_profile();
+  // When checked with and without bus-off control; Then not applicable without it, by name
+  EXPECT_EQ(not_applicable_reason(vector, p, {true, true, false}),
+            "the bus_off step needs the DUT's CAN controller on the simulated bus (embedded "
+            "drive)");
+  EXPECT_EQ(not_applicable_reason(vector, p, {true, true, true}), "");
+}
+
 TEST(Verdict, FailureMatchedByDeviationGlob) {
   // Given a failing vector whose id a deviation's glob matches
   VectorResult result;

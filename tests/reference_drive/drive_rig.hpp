@@ -63,6 +63,7 @@ class DriveRig {
                     std::uint32_t bitrate = 1'000'000);
 
   can::SimBus& bus() { return bus_; }
+  can::SimPort& drive_port() { return *drive_port_; }
   ReferenceDrive& drive() { return *drive_; }
   TestApplication& application() { return application_; }
   cia301::MemoryParameterStorage& storage() { return storage_; }
