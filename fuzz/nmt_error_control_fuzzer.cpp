@@ -1,6 +1,7 @@
 // Fuzz target: NMT, heartbeat, node guarding and SYNC frames (and the SDO writes that configure
 // error control) into a whole reference drive (reference_drive/device.hpp) on the simulated
-// bus, node 5.
+// bus, node 5. Each input runs on a new bus with the drive restarted on it
+// (ReferenceDrive::restart: as created, without building the dictionary again).
 //
 // Input (fuzz/support/fuzz_input.hpp reads past the end as zeros):
 //   byte 0   producer heartbeat time 1017h at power on: {0, 10, 100, 1000} ms by byte % 4
@@ -17,6 +18,7 @@
 //                        1006h} by % 8, u32 value; expedited
 //     5 time step        u16 % 2000 milliseconds
 //     6 heartbeat        u8 producer node (1..127), u8 state byte
+//   Time stops once 4,000 frames were on the wire (kMaxFramesPerInput).
 //
 // Oracles (CiA 301 §7.3.2 NMT state machine, §7.2.8.3.2.3 boot-up):
 //   - the drive's NMT state is always pre-operational, operational or stopped once the bus
@@ -58,6 +60,12 @@ using drivecheck::fuzz::FuzzInput;
 constexpr std::uint8_t kNode = 5;
 constexpr std::uint32_t kErrorControlId = 0x700 + kNode;
 constexpr can::Duration kBootUpBound = 50ms;
+// Work per input: time stops (and no further operation runs) once this many frames were on the
+// wire. A SYNC period below the frame's own duration saturates the bus, and 256 time steps of
+// up to 2 s each then simulate millions of frames (inputs of 15 s and more under ASan, found as
+// libFuzzer timeouts). Every oracle still holds for the time that was simulated.
+constexpr std::uint64_t kMaxFramesPerInput = 4'000;
+constexpr can::Duration kTimeSlice = 10ms;
 
 struct SdoTarget {
   std::uint16_t index;
@@ -96,21 +104,58 @@ std::optional<NmtState> state_after(std::uint8_t command, NmtState before) {
   }
 }
 
-class Harness {
- public:
-  explicit Harness(std::uint16_t heartbeat_ms)
-      : bus_(can::SimBusConfig{.bitrate = 1'000'000}),
-        drive_port_(bus_.attach("drive")),
-        tester_(bus_.attach("tester")) {
+// One input's bus: a new one per input (time starts at 0, nothing queued).
+struct Rig {
+  can::SimBus bus{can::SimBusConfig{.bitrate = 1'000'000}};
+  std::unique_ptr<can::SimPort> drive_port = bus.attach("drive");
+  std::unique_ptr<can::SimPort> tester = bus.attach("tester");
+};
+
+// The drives live across inputs, one per 1017h default: an input restarts its drive on its
+// own new bus (ReferenceDrive::restart: the state create() leaves, without building the
+// dictionary again) and the drive leaves that bus at the end of the input (release_bus), so
+// that everything an input allocates is freed in the same input (libFuzzer's leak detection
+// re-runs an input that ends with more mallocs than frees).
+struct DriveSlot {
+  std::unique_ptr<reference_drive::ReferenceDrive> drive;
+};
+
+constexpr std::array<std::uint16_t, 4> kHeartbeats{0, 10, 100, 1000};
+
+// Every drive, created at the first input (an input that creates one ends with more mallocs
+// than frees, and libFuzzer runs it again to look for a leak), released until an input needs it.
+std::array<DriveSlot, kHeartbeats.size()> make_drives() {
+  std::array<DriveSlot, kHeartbeats.size()> slots;
+  Rig rig;
+  for (std::size_t i = 0; i < slots.size(); ++i) {
     reference_drive::DriveConfig config;
     config.dictionary.node_id = kNode;
     // No application cycle: nothing here needs one, and 1000 wake-ups per simulated second
     // would dominate the target's cost.
     config.control_cycle = can::Duration{0};
-    config.dictionary.producer_heartbeat_ms = heartbeat_ms;
-    auto drive = reference_drive::ReferenceDrive::create(*drive_port_, config);
+    config.dictionary.producer_heartbeat_ms = kHeartbeats[i];
+    auto drive = reference_drive::ReferenceDrive::create(*rig.drive_port, config);
     DRIVECHECK_FUZZ_CHECK(drive.has_value(), "the reference drive could not be created");
-    drive_ = std::move(*drive);
+    slots[i].drive = std::move(*drive);
+    slots[i].drive->release_bus();
+  }
+  return slots;
+}
+
+reference_drive::ReferenceDrive& drive_on(DriveSlot& slot, can::SimPort& port) {
+  auto restarted = slot.drive->restart(port);
+  DRIVECHECK_FUZZ_CHECK_DETAIL(restarted.has_value(), "the reference drive did not restart",
+                               restarted ? std::string() : restarted.error());
+  return *slot.drive;
+}
+
+class Harness {
+ public:
+  explicit Harness(DriveSlot& slot)
+      : rig_(std::make_unique<Rig>()),
+        bus_(rig_->bus),
+        tester_(rig_->tester.get()),
+        drive_(&drive_on(slot, *rig_->drive_port)) {
     bus_.add_monitor([this](const can::TimedFrame& seen) { on_frame(seen); });
     // The tester's own frames come back when they have been on the wire.
     tester_->set_loopback(true);
@@ -124,7 +169,12 @@ class Harness {
     run(1ms);
   }
 
+  ~Harness() { drive_->release_bus(); }  // before the bus goes
+  Harness(const Harness&) = delete;
+  Harness& operator=(const Harness&) = delete;
+
   NmtState state() const { return drive_->state(); }
+  std::uint64_t frames_on_wire() const { return bus_.frames_on_wire(); }
 
   // Sends a frame and runs until it has been on the wire (or 100 ms passed: a saturated bus,
   // e.g. a SYNC producer configured to a 29-bit COB-ID with a tiny period, may hold it back),
@@ -198,7 +248,12 @@ class Harness {
   }
 
   void run(can::Duration duration) {
-    bus_.run_for(duration);
+    const can::TimePoint until = bus_.now() + duration;
+    if (frames_on_wire() < kMaxFramesPerInput) {
+      do {
+        bus_.run_until(std::min(until, bus_.now() + kTimeSlice));
+      } while (bus_.now() < until && frames_on_wire() < kMaxFramesPerInput);
+    }
     DRIVECHECK_FUZZ_CHECK_DETAIL(valid_state(state()), "the NMT state is not one of the three",
                                  fmt::format("state {:02X}h", static_cast<unsigned>(state())));
     if (must_boot_ && bus_.now() - reset_since_ >= kBootUpBound) {
@@ -251,10 +306,10 @@ class Harness {
                                  fmt::format("{}", frame));
   }
 
-  can::SimBus bus_;
-  std::unique_ptr<can::SimPort> drive_port_;
-  std::unique_ptr<can::SimPort> tester_;
-  std::unique_ptr<reference_drive::ReferenceDrive> drive_;
+  std::unique_ptr<Rig> rig_;
+  can::SimBus& bus_;
+  can::SimPort* tester_;
+  reference_drive::ReferenceDrive* drive_;
   bool reset_pending_ = false;  // a reset was sent (maybe malformed): a boot-up may come
   bool must_boot_ = false;      // a well-formed reset was sent: a boot-up must come
   can::TimePoint reset_since_{};
@@ -268,12 +323,12 @@ class Harness {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzInput in(data, size);
-  static constexpr std::array<std::uint16_t, 4> kHeartbeats{0, 10, 100, 1000};
-  Harness harness(kHeartbeats[in.u8() % 4]);
+  static std::array<DriveSlot, kHeartbeats.size()> slots = make_drives();
+  Harness harness(slots[in.u8() % kHeartbeats.size()]);
 
   static constexpr std::array<std::uint8_t, 5> kCommands{0x01, 0x02, 0x80, 0x81, 0x82};
   int operations = 0;
-  while (!in.empty() && ++operations <= 256) {
+  while (!in.empty() && ++operations <= 256 && harness.frames_on_wire() < kMaxFramesPerInput) {
     switch (in.u8() % 7) {
       case 0: {
         const std::uint8_t pick = in.u8() % 6;

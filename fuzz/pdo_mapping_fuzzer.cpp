@@ -1,6 +1,7 @@
 // Fuzz target: PDO communication and mapping parameters written in any order (SDO), with NMT,
 // SYNC, RPDO and RTR frames and time, into a whole reference drive (node 5) whose application
-// has a few mappable objects.
+// has a few mappable objects. Each input runs on a new bus with the drive restarted on it
+// (ReferenceDrive::restart: as created, without building the dictionary again).
 //
 // Input (fuzz/support/fuzz_input.hpp reads past the end as zeros): operations, one byte each
 // (op % 7) and their operands; a frame is followed by bus time until it was on the wire (at
@@ -116,21 +117,50 @@ struct Mapped {
   std::uint8_t bits;
 };
 
+// One input's bus: a new one per input (time starts at 0, nothing queued).
+struct Rig {
+  can::SimBus bus{can::SimBusConfig{.bitrate = 1'000'000}};
+  std::unique_ptr<can::SimPort> drive_port = bus.attach("drive");
+  std::unique_ptr<can::SimPort> tester = bus.attach("tester");
+};
+
+// The drive lives across inputs: an input restarts it on its own new bus
+// (ReferenceDrive::restart: the state create() leaves, without building the dictionary
+// again) and the drive leaves that bus at the end of the input (release_bus), so that
+// everything an input allocates is freed in the same input (libFuzzer's leak detection re-runs
+// an input that ends with more mallocs than frees). The application has no state of its own
+// (its objects' values are the dictionary's).
+struct DriveSlot {
+  FuzzApplication application;  // before drive: destroyed after it
+  std::unique_ptr<reference_drive::ReferenceDrive> drive;
+
+  reference_drive::ReferenceDrive& on(can::SimPort& port) {
+    if (drive == nullptr) {
+      reference_drive::DriveConfig config;
+      config.dictionary.node_id = kNode;
+      // No application cycle: nothing here needs one, and 1000 wake-ups per simulated second
+      // would dominate the target's cost.
+      config.control_cycle = can::Duration{0};
+      config.application = &application;
+      auto created = reference_drive::ReferenceDrive::create(port, config);
+      DRIVECHECK_FUZZ_CHECK(created.has_value(), "the reference drive could not be created");
+      drive = std::move(*created);
+    } else {
+      auto restarted = drive->restart(port);
+      DRIVECHECK_FUZZ_CHECK_DETAIL(restarted.has_value(), "the reference drive did not restart",
+                                   restarted ? std::string() : restarted.error());
+    }
+    return *drive;
+  }
+};
+
 class Harness {
  public:
-  Harness()
-      : bus_(can::SimBusConfig{.bitrate = 1'000'000}),
-        drive_port_(bus_.attach("drive")),
-        tester_(bus_.attach("tester")) {
-    reference_drive::DriveConfig config;
-    config.dictionary.node_id = kNode;
-    // No application cycle: nothing here needs one, and 1000 wake-ups per simulated second
-    // would dominate the target's cost.
-    config.control_cycle = can::Duration{0};
-    config.application = &application_;
-    auto drive = reference_drive::ReferenceDrive::create(*drive_port_, config);
-    DRIVECHECK_FUZZ_CHECK(drive.has_value(), "the reference drive could not be created");
-    drive_ = std::move(*drive);
+  explicit Harness(DriveSlot& slot)
+      : rig_(std::make_unique<Rig>()),
+        bus_(rig_->bus),
+        tester_(rig_->tester.get()),
+        drive_(&slot.on(*rig_->drive_port)) {
     tester_->set_loopback(true);
     tester_->set_frame_handler([this](const can::TimedFrame& seen) {
       if (seen.own) ++delivered_;
@@ -140,26 +170,40 @@ class Harness {
     run(1ms);
   }
 
+  ~Harness() { drive_->release_bus(); }  // before the bus goes
+  Harness(const Harness&) = delete;
+  Harness& operator=(const Harness&) = delete;
+
   ObjectDictionary& od() { return drive_->dictionary(); }
 
   // A frame from the tester, the bus run until it was on the wire (at most 100 ms) + 1 ms.
   void send(const can::Frame& frame, std::set<std::pair<std::uint16_t, std::uint8_t>> may_change) {
-    const auto before = app_values();
-    const auto rpdo_before = rpdo_mapped();
+    observe();
     const std::uint64_t sent = delivered_;
     if (!tester_->send(frame)) {
       for (int waited = 0; delivered_ == sent && waited < 100; ++waited)
         bus_.run_for(1ms);
       bus_.run_for(1ms);
     }
-    after_step(before, rpdo_before, std::move(may_change));
+    after_step(std::move(may_change));
   }
 
   void run(can::Duration duration) {
-    const auto before = app_values();
-    const auto rpdo_before = rpdo_mapped();
+    observe();
     bus_.run_for(duration);
-    after_step(before, rpdo_before, {});
+    after_step({});
+  }
+
+  // End of input: the values the oracle last took (by the dictionary's revision) are the
+  // dictionary's, and every valid PDO is consistent, checked without the revision shortcut.
+  void verify() {
+    DRIVECHECK_FUZZ_CHECK(od().revision() != current_.revision ||
+                              (app_values() == current_.app && rpdo_mapped() == current_.rpdo),
+                          "the dictionary changed without its revision()");
+    for (std::uint16_t n = 0; n < 4; ++n) {
+      check_consistent(0x1400 + n, 0x1600 + n, false);
+      check_consistent(0x1800 + n, 0x1A00 + n, true);
+    }
   }
 
   void sdo_write(std::uint16_t index, std::uint8_t sub, std::uint32_t value) {
@@ -288,16 +332,41 @@ class Harness {
     DRIVECHECK_FUZZ_CHECK_DETAIL(total <= 64, "a valid PDO maps more than 64 bits", where);
   }
 
-  void after_step(const std::vector<std::uint64_t>& before, const std::set<Key>& rpdo_before,
-                  std::set<Key> may_change) {
+  // What the oracle knows of the dictionary: the application objects' values and the entries
+  // valid RPDOs map, as of the dictionary's revision() (ObjectDictionary change tracking: the
+  // same revision, the same values, so nothing to take or check again).
+  struct Observed {
+    std::uint64_t revision = 0;
+    bool taken = false;
+    std::vector<std::uint64_t> app;
+    std::set<Key> rpdo;
+  };
+
+  void observe() {
+    if (current_.taken && current_.revision == od().revision()) return;
+    current_.revision = od().revision();
+    current_.taken = true;
+    current_.app = app_values();
+    current_.rpdo = rpdo_mapped();
+  }
+
+  void after_step(std::set<Key> may_change) {
+    // No value changed in this step: the PDOs are as consistent as after the last check and
+    // no object changed (the first step is always checked).
+    if (checked_ && od().revision() == current_.revision) return;
+    checked_ = true;
+    std::swap(previous_, current_);
+    observe();
+    const std::vector<std::uint64_t>& before = previous_.app;
+    const std::set<Key>& rpdo_before = previous_.rpdo;
     for (std::uint16_t n = 0; n < 4; ++n) {
       check_consistent(0x1400 + n, 0x1600 + n, false);
       check_consistent(0x1800 + n, 0x1A00 + n, true);
     }
-    const auto after = app_values();
+    const std::vector<std::uint64_t>& after = current_.app;
     std::set<Key> allowed = std::move(may_change);
     allowed.insert(rpdo_before.begin(), rpdo_before.end());
-    const std::set<Key> rpdo_after = rpdo_mapped();
+    const std::set<Key>& rpdo_after = current_.rpdo;
     allowed.insert(rpdo_after.begin(), rpdo_after.end());
     for (std::size_t i = 0; i < kAppObjects.size(); ++i) {
       if (before[i] == after[i]) continue;
@@ -336,11 +405,13 @@ class Harness {
     }
   }
 
-  FuzzApplication application_;
-  can::SimBus bus_;
-  std::unique_ptr<can::SimPort> drive_port_;
-  std::unique_ptr<can::SimPort> tester_;
-  std::unique_ptr<reference_drive::ReferenceDrive> drive_;
+  std::unique_ptr<Rig> rig_;
+  can::SimBus& bus_;
+  can::SimPort* tester_;
+  reference_drive::ReferenceDrive* drive_;
+  Observed previous_;  // the values before the last step that changed the dictionary
+  Observed current_;   // the values now (as of current_.revision)
+  bool checked_ = false;
   std::uint64_t delivered_ = 0;
   can::TimePoint last_config_change_{};
   can::TimePoint last_value_change_{};
@@ -350,7 +421,8 @@ class Harness {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzInput in(data, size);
-  Harness harness;
+  static DriveSlot slot;
+  Harness harness(slot);
   int operations = 0;
   while (!in.empty() && ++operations <= 256) {
     switch (in.u8() % 7) {
@@ -429,5 +501,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
   }
   harness.run(100ms);
+  harness.verify();
   return 0;
 }

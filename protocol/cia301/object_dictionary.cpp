@@ -128,12 +128,14 @@ Expected<void, SdoAbort> Entry::assign_bytes(std::span<const std::uint8_t> bytes
     if (bytes.size() > size) return Unexpected(SdoAbort::length_too_high);
     if (bytes.size() < size) return Unexpected(SdoAbort::length_too_low);
     std::copy(bytes.begin(), bytes.end(), data_.begin());
+    revision_.touch();
     return {};
   }
   if (def_.max_size != 0 && bytes.size() > def_.max_size) {
     return Unexpected(SdoAbort::length_too_high);
   }
   data_.assign(bytes.begin(), bytes.end());
+  revision_.touch();
   return {};
 }
 
@@ -161,6 +163,7 @@ Expected<void, SdoAbort> Entry::assign(const Value& value) {
         return Unexpected(SdoAbort::invalid_value);
     }
     std::copy(buf.begin(), buf.begin() + size, data_.begin());
+    revision_.touch();
     return {};
   }
   return assign_bytes(value.as_bytes());
@@ -204,6 +207,43 @@ ObjectDefinition Object::definition() const {
 }
 
 // ---- ObjectDictionary -----------------------------------------------------------------------
+
+ObjectDictionary::ObjectDictionary(const ObjectDictionary& other)
+    : objects_(other.objects_), node_id_(other.node_id_), revision_(other.revision_) {
+  adopt_entries();
+}
+
+ObjectDictionary::ObjectDictionary(ObjectDictionary&& other) noexcept
+    : objects_(std::move(other.objects_)), node_id_(other.node_id_), revision_(other.revision_) {
+  adopt_entries();
+  other.objects_.clear();
+}
+
+ObjectDictionary& ObjectDictionary::operator=(const ObjectDictionary& other) {
+  if (this == &other) return *this;
+  objects_ = other.objects_;
+  node_id_ = other.node_id_;
+  revision_ = std::max(revision_, other.revision_) + 1;  // every value may have changed
+  adopt_entries();
+  return *this;
+}
+
+ObjectDictionary& ObjectDictionary::operator=(ObjectDictionary&& other) noexcept {
+  if (this == &other) return *this;
+  objects_ = std::move(other.objects_);
+  node_id_ = other.node_id_;
+  revision_ = std::max(revision_, other.revision_) + 1;
+  adopt_entries();
+  other.objects_.clear();
+  return *this;
+}
+
+void ObjectDictionary::adopt_entries() {
+  for (auto& o : objects_) {
+    for (auto& e : o.entries_)
+      e.revision_.dictionary = &revision_;
+  }
+}
 
 Expected<Object*, std::string> ObjectDictionary::add_object(ObjectDefinition definition) {
   const auto index = definition.index;
@@ -249,9 +289,53 @@ Expected<Object*, std::string> ObjectDictionary::add_object(ObjectDefinition def
     entry.def_ = std::move(def);
     entry.data_ = entry.default_bytes(node_id_);
     entry.data_.reserve(std::max(entry.def_.max_size, entry.data_.size()));
+    entry.revision_.dictionary = &revision_;
     object.entries_.push_back(std::move(entry));
   }
   return &*objects_.insert(pos, std::move(object));
+}
+
+Expected<void, std::string> ObjectDictionary::reshape_object(std::uint16_t index,
+                                                             std::uint8_t highest,
+                                                             std::vector<EntryDefinition> added) {
+  Object* object = find(index);
+  if (object == nullptr) return Unexpected(fmt::format("{:04X}h: no such object", index));
+  if (!has_sub_entries(object->code_) || object->entries_.empty() ||
+      object->entries_.front().sub_index() != 0 || highest == 0 || highest == 0xFF) {
+    return Unexpected(
+        fmt::format("{:04X}h: not an ARRAY/RECORD, or highest {} out of range", index, highest));
+  }
+  std::vector<Entry> fresh;
+  for (auto& def : added) {
+    if (def.sub_index == 0 || def.sub_index > highest || object->find(def.sub_index) != nullptr) {
+      return Unexpected(fmt::format("{:04X}h sub {}: cannot be added", index, def.sub_index));
+    }
+    if (auto ok = check_definition(index, def); !ok) return Unexpected(ok.error());
+    if (def.default_value.empty()) {
+      auto zero = decode(def.type, std::vector<std::uint8_t>(info(def.type).size, 0));
+      def.default_value = zero ? *zero : Value::of_bytes({});
+    }
+    Entry entry;
+    entry.index_ = index;
+    entry.store_group_ = default_store_group(index, def.access);
+    entry.def_ = std::move(def);
+    entry.data_ = entry.default_bytes(node_id_);
+    entry.revision_.dictionary = &revision_;
+    fresh.push_back(std::move(entry));
+  }
+  auto& entries = object->entries_;
+  entries.erase(std::remove_if(entries.begin(), entries.end(),
+                               [&](const Entry& e) { return e.sub_index() > highest; }),
+                entries.end());
+  for (auto& entry : fresh)
+    entries.push_back(std::move(entry));
+  std::sort(entries.begin(), entries.end(),
+            [](const Entry& a, const Entry& b) { return a.sub_index() < b.sub_index(); });
+  Entry& count = entries.front();
+  count.def_.default_value = Value::of_unsigned(highest);
+  count.data_ = {highest};
+  count.revision_.touch();
+  return {};
 }
 
 Expected<Object*, std::string> ObjectDictionary::add_var(std::uint16_t index, std::string name,
@@ -357,6 +441,7 @@ Expected<void, SdoAbort> ObjectDictionary::write(std::uint16_t index, std::uint8
   } else {
     e.data_.assign(data.begin(), data.end());
   }
+  e.revision_.touch();
   if (e.observer_) e.observer_(*this, e);
   return {};
 }
@@ -389,7 +474,27 @@ ObjectDictionary::StoredParameters ObjectDictionary::save(std::uint8_t group) co
 void ObjectDictionary::restore_defaults(std::uint8_t group) {
   for (auto& o : objects_) {
     for (auto& e : o.entries_) {
-      if (in_group(e.store_group_, group)) e.data_ = e.default_bytes(node_id_);
+      if (!in_group(e.store_group_, group)) continue;
+      // Fixed-size integer defaults are stored in place, as default_bytes would encode them
+      // (little endian, zeros when the value does not fit): no vector per entry at every reset.
+      const Value& value = e.def_.default_value;
+      const std::size_t size = info(e.def_.type).size;
+      const bool integer = value.kind() == Value::Kind::unsigned_integer ||
+                           value.kind() == Value::Kind::signed_integer;
+      if (integer && !e.def_.default_adds_node_id && size != 0 && size <= 8 &&
+          e.data_.size() == size) {
+        if (check_value(e.def_.type, value)) {
+          store_unsigned(value.kind() == Value::Kind::unsigned_integer
+                             ? value.as_unsigned()
+                             : static_cast<std::uint64_t>(value.as_signed()),
+                         e.data_);
+        } else {
+          std::fill(e.data_.begin(), e.data_.end(), std::uint8_t{0});
+        }
+      } else {
+        e.data_ = e.default_bytes(node_id_);
+      }
+      e.revision_.touch();
     }
   }
 }

@@ -25,6 +25,12 @@
 // Hot path: read and write of an existing fixed-size entry do not allocate (binary search
 // over sorted objects and entries, bytes copied into storage sized at creation).
 //
+// Change tracking: every store into an entry's value (SDO write, Entry::assign*, set,
+// restore_defaults, load, assignment of an Entry) increases the entry's revision() and the
+// dictionary's revision(), whether or not the bytes differ. A dictionary whose revision() did not
+// change has the same values; an entry whose revision() did not change has the same bytes. Each
+// dictionary (copies too) counts on its own; a copy starts at the revisions of its original.
+//
 // Hooks may read and change any entry's value (set/get/write) but must not add objects:
 // Object and Entry references stay valid until the next add_object.
 //
@@ -121,7 +127,12 @@ class Entry {
   Expected<void, SdoAbort> assign(const Value& value);
   Expected<void, SdoAbort> assign_bytes(std::span<const std::uint8_t> bytes);
   // Fast path for integer entries; precondition: an integer type and a value that fits.
-  void assign_unsigned(std::uint64_t value) { store_unsigned(value, data_); }
+  void assign_unsigned(std::uint64_t value) {
+    store_unsigned(value, data_);
+    revision_.touch();
+  }
+  // Increases with every store into the value (see the file comment).
+  std::uint64_t revision() const { return revision_.count; }
 
   // The default value (node-ID applied) as bytes.
   std::vector<std::uint8_t> default_bytes(std::uint8_t node_id) const;
@@ -141,7 +152,26 @@ class Entry {
   EntryDefinition def_;
   std::uint16_t index_ = 0;
   std::uint8_t store_group_ = kStoreNone;
+  // The entry's revision and the owning dictionary's counter. Copying an entry copies both (the
+  // dictionary re-points its copies to itself); assigning one over another is a store into its
+  // value: its own counters go up, it stays with its dictionary.
+  struct Revision {
+    std::uint64_t count = 0;
+    std::uint64_t* dictionary = nullptr;
+    Revision() = default;
+    Revision(const Revision&) = default;
+    Revision& operator=(const Revision&) {
+      touch();
+      return *this;
+    }
+    ~Revision() = default;
+    void touch() {
+      ++count;
+      if (dictionary != nullptr) ++*dictionary;
+    }
+  };
   std::vector<std::uint8_t> data_;
+  Revision revision_;
   ReadHook read_hook_;
   WriteValidator validator_;
   WriteObserver observer_;
@@ -169,11 +199,27 @@ class Object {
 class ObjectDictionary {
  public:
   explicit ObjectDictionary(std::uint8_t node_id = 1) : node_id_(node_id) {}
+  ObjectDictionary(const ObjectDictionary& other);
+  ObjectDictionary(ObjectDictionary&& other) noexcept;
+  ObjectDictionary& operator=(const ObjectDictionary& other);
+  ObjectDictionary& operator=(ObjectDictionary&& other) noexcept;
+  ~ObjectDictionary() = default;
+
+  // Increases with every store into any entry's value (see the file comment).
+  std::uint64_t revision() const { return revision_; }
 
   // Adds an object; its entries start at their defaults. Errors: index taken, entries not
   // sorted/unique, a VAR with other than sub 0 only, an ARRAY/RECORD without an UNSIGNED8
   // sub 0, a default or limit that does not fit its type.
   Expected<Object*, std::string> add_object(ObjectDefinition definition);
+  // Personality support (reference_drive/profile_objects.hpp): makes the ARRAY/RECORD `index`
+  // end at sub-index `highest` (1..254): entries above it are dropped, `added` (sub-indices
+  // 1..highest the object lacks, starting at their defaults) are inserted, and sub 0's value and
+  // default become `highest`. Kept entries keep their value and hooks; Entry pointers into this
+  // object are invalidated. Errors: no such object, not an ARRAY/RECORD, an added sub-index the
+  // object has or outside 1..highest, a definition that does not fit its type.
+  Expected<void, std::string> reshape_object(std::uint16_t index, std::uint8_t highest,
+                                             std::vector<EntryDefinition> added);
   // Shorthand for a VAR at sub 0.
   Expected<Object*, std::string> add_var(std::uint16_t index, std::string name, DataType type,
                                          AccessType access, Value default_value = {},
@@ -223,8 +269,12 @@ class ObjectDictionary {
   std::size_t load(const StoredParameters& stored);
 
  private:
+  // Points every entry's revision at this dictionary's counter (after a copy or move).
+  void adopt_entries();
+
   std::vector<Object> objects_;  // sorted by index
   std::uint8_t node_id_ = 1;
+  std::uint64_t revision_ = 0;
 };
 
 }  // namespace drivecheck::cia301

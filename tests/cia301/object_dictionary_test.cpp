@@ -365,5 +365,92 @@ TEST_F(ObjectDictionaryTest, ExpeditedAccessDoesNotAllocate) {
   EXPECT_EQ(sum, 1000u * (2 + 4 + 1 + 1 + 1));
 }
 
+TEST_F(ObjectDictionaryTest, EveryStoreMovesTheRevisions) {
+  // Given the dictionary and its 1017h entry
+  Entry& heartbeat = *od_.find(0x1017, 0);
+  const Entry& vendor = *od_.find(0x1018, 1);
+  std::uint64_t od_revision = od_.revision();
+  std::uint64_t revision = heartbeat.revision();
+  const std::uint64_t vendor_revision = vendor.revision();
+  // When its value is stored through each path, Then its revision and the dictionary's move
+  const auto moved = [&](const char* path) {
+    EXPECT_GT(heartbeat.revision(), revision) << path;
+    EXPECT_GT(od_.revision(), od_revision) << path;
+    revision = heartbeat.revision();
+    od_revision = od_.revision();
+  };
+  ASSERT_TRUE(od_.write(0x1017, 0, Bytes{0x64, 0x00}));
+  moved("SDO write");
+  ASSERT_TRUE(od_.write(0x1017, 0, Bytes{0x64, 0x00}));
+  moved("SDO write of the same bytes");
+  ASSERT_TRUE(od_.set(0x1017, 0, Value::of_unsigned(200)));
+  moved("set");
+  ASSERT_TRUE(heartbeat.assign(Value::of_unsigned(300)));
+  moved("assign");
+  ASSERT_TRUE(heartbeat.assign_bytes(Bytes{0x01, 0x02}));
+  moved("assign_bytes");
+  heartbeat.assign_unsigned(400);
+  moved("assign_unsigned");
+  od_.restore_defaults(kStoreCommunication);
+  moved("restore_defaults");
+  EXPECT_EQ(od_.load({{0x1017, 0, Bytes{0x05, 0x00}}}), 1u);
+  moved("load");
+  const Entry saved = heartbeat;
+  heartbeat = saved;
+  moved("assignment of an entry");
+  // And a failed write, a read and another entry's change leave this entry's revision alone
+  EXPECT_FALSE(od_.write(0x1017, 0, Bytes{0x01}));
+  (void)bytes_of(od_.read(0x1017, 0));
+  ASSERT_TRUE(od_.write(0x6040, 0, Bytes{0x06, 0x00}));
+  EXPECT_EQ(heartbeat.revision(), revision);
+  EXPECT_EQ(vendor.revision(), vendor_revision);
+}
+
+TEST_F(ObjectDictionaryTest, RestoredDefaultsAreTheDefaultBytes) {
+  // Given every writable entry changed
+  for (const Object& object : od_.objects()) {
+    for (const Entry& entry : object.entries()) {
+      Entry& e = *od_.find(object.index(), entry.sub_index());
+      if (e.store_group() == kStoreNone || e.bytes().empty()) continue;
+      std::vector<std::uint8_t> changed(e.bytes().begin(), e.bytes().end());
+      changed[0] ^= 0x01;
+      ASSERT_TRUE(e.assign_bytes(changed));
+    }
+  }
+  // When every group's defaults are restored
+  od_.restore_defaults(kStoreAll);
+  // Then every stored entry holds exactly its default bytes (node-ID applied)
+  for (const Object& object : od_.objects()) {
+    for (const Entry& entry : object.entries()) {
+      if (entry.store_group() == kStoreNone) continue;
+      const Bytes now(entry.bytes().begin(), entry.bytes().end());
+      EXPECT_EQ(now, entry.default_bytes(od_.node_id()))
+          << std::hex << object.index() << " sub " << int{entry.sub_index()};
+    }
+  }
+}
+
+TEST_F(ObjectDictionaryTest, CopiesCountOnTheirOwn) {
+  // Given a copy and a moved copy of the dictionary
+  ObjectDictionary copy = od_;
+  ObjectDictionary moved = ObjectDictionary(od_);
+  const std::uint64_t original = od_.revision();
+  const std::uint64_t copied = copy.revision();
+  const std::uint64_t moved_revision = moved.revision();
+  // When the copy and the moved copy are written
+  ASSERT_TRUE(copy.write(0x1017, 0, Bytes{0x0A, 0x00}));
+  ASSERT_TRUE(moved.write(0x1017, 0, Bytes{0x0A, 0x00}));
+  // Then only their own revisions move
+  EXPECT_EQ(od_.revision(), original);
+  EXPECT_GT(copy.revision(), copied);
+  EXPECT_GT(moved.revision(), moved_revision);
+  // And assigning a dictionary over another moves the target's revision
+  const std::uint64_t before = copy.revision();
+  copy = od_;
+  EXPECT_GT(copy.revision(), before);
+  ASSERT_TRUE(copy.write(0x1017, 0, Bytes{0x0B, 0x00}));
+  EXPECT_EQ(od_.revision(), original);
+}
+
 }  // namespace
 }  // namespace drivecheck::cia301
