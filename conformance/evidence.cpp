@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "conformance/samples.hpp"
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/sdo_abort.hpp"
 #include "protocol/profile/vocabulary.hpp"
@@ -33,6 +34,13 @@ std::optional<can::TimedFrame> VectorRun::pump(can::TimePoint deadline) {
     evidence.from_harness = frame->own;
     evidence.decoded = context_.dissector.dissect(frame->frame).summary();
     result_.frames.push_back(std::move(evidence));
+    const std::size_t samples_before = result_.samples.size();
+    context_.pdo.on_frame(frame->frame, frame->own, frame->timestamp, result_.samples);
+    for (std::size_t i = samples_before; i < result_.samples.size(); ++i) {
+      const Sample& pdo_sample = result_.samples[i];
+      if (pdo_sample.origin == SampleOrigin::tpdo && pdo_sample.signal == "statusword")
+        last_statusword_ = static_cast<std::uint16_t>(pdo_sample.value);
+    }
     if (frame->own) continue;
     ++dut_frames_;
     received_.push_back(*frame);
@@ -61,40 +69,31 @@ std::error_code VectorRun::send(const can::Frame& frame) {
   return context_.bus.send(frame);
 }
 
-void VectorRun::sample(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data) {
-  if (sub != 0 || data.empty()) return;
-  const char* signal = nullptr;
-  bool is_signed = false;
-  switch (index) {
-    case 0x6040:
-      signal = "controlword";
-      break;
-    case 0x6041:
-      signal = "statusword";
-      break;
-    case 0x6064:
-      signal = "position";
-      is_signed = true;
-      break;
-    case 0x606C:
-      signal = "velocity";
-      is_signed = true;
-      break;
-    case 0x6061:
-      signal = "mode";
-      is_signed = true;
-      break;
-    default:
-      return;
+std::error_code VectorRun::send_nmt(const can::Frame& frame, bool raw) {
+  const can::Duration spacing = resolve({{}, "nmt_spacing"});
+  const bool burst = raw && context_.last_nmt_raw;
+  if (!burst && context_.last_nmt && spacing > can::Duration{} &&
+      now() < *context_.last_nmt + spacing) {
+    wait_until(*context_.last_nmt + spacing);
   }
+  const std::error_code error = send(frame);
+  if (!error) {
+    context_.last_nmt = now();
+    context_.last_nmt_raw = raw;
+  }
+  return error;
+}
+
+void VectorRun::sample(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data) {
+  const SignalInfo* signal = signal_of(index, sub);
+  if (signal == nullptr || data.empty()) return;
   std::uint64_t raw = 0;
   const std::size_t n = std::min<std::size_t>(data.size(), 8);
   for (std::size_t i = 0; i < n; ++i)
     raw |= static_cast<std::uint64_t>(data[i]) << (8 * i);
-  std::int64_t value = static_cast<std::int64_t>(raw);
-  if (is_signed && n < 8 && (raw >> (8 * n - 1)) != 0)
-    value = static_cast<std::int64_t>(raw | (~std::uint64_t{0} << (8 * n)));
-  result_.samples.push_back(Sample{context_.bus.now(), signal, value});
+  const std::int64_t value = signal_value(raw, static_cast<unsigned>(8 * n), signal->is_signed);
+  result_.samples.push_back(
+      Sample{context_.bus.now(), std::string(signal->name), value, SampleOrigin::sdo});
   if (index == 0x6041) last_statusword_ = static_cast<std::uint16_t>(raw);
 }
 

@@ -63,12 +63,22 @@ struct Timing {
   bool ok = true;
 };
 
+// Where a sample was taken: an SDO transfer the harness made (the value read or written, at
+// the time the transfer ended), a TPDO the DUT sent, an RPDO the harness sent (both at the
+// frame's bus time; conformance/pdo_tracker.hpp decodes them).
+enum class SampleOrigin : std::uint8_t { sdo, tpdo, rpdo };
+constexpr std::string_view to_string(SampleOrigin origin) {
+  constexpr std::array<std::string_view, 3> kNames{"sdo", "tpdo", "rpdo"};
+  return kNames[static_cast<std::size_t>(origin)];
+}
+
 // A sample of a drive signal for the timing diagram (HTML SVG): controlword, statusword,
-// position actual value, velocity actual value, as read or as seen in PDOs.
+// position actual value, velocity actual value, ... as read or as seen in PDOs.
 struct Sample {
   can::TimePoint at{};
   std::string signal;  // "controlword", "statusword", "position", "velocity", ...
   std::int64_t value = 0;
+  SampleOrigin origin = SampleOrigin::sdo;
 };
 
 struct VectorResult {
@@ -97,7 +107,10 @@ struct VectorResult {
   std::size_t frames_elided = 0;
   std::size_t frames_elided_at = 0;
   std::vector<Timing> timings;
+  // Samples in time order per signal; a long vector's samples are thinned by time
+  // (conformance/samples.hpp): samples_elided were left out, never a bit edge.
   std::vector<Sample> samples;
+  std::size_t samples_elided = 0;
   can::TimePoint started{};
   can::TimePoint finished{};
   double wall_seconds = 0.0;
@@ -123,6 +136,9 @@ struct RunInfo {
   std::string profile_name;  // e.g. "festo-cmmp"
   std::string profile_title;
   std::string profile_file;
+  // The profile's commissioning, one line each: first the vectors it applies to, then each
+  // write ("6094h sub 1 := 15 (4 bytes): why [source; source]"). Empty: none.
+  std::vector<std::string> commissioning;
   std::string eds_file;                 // "" when none
   std::string eds_sha256;               // "" when none
   std::string personality;              // embedded default: the personality the drive took

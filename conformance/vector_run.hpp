@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "conformance/engine.hpp"
+#include "conformance/pdo_tracker.hpp"
 #include "conformance/result.hpp"
 #include "conformance/vector.hpp"
 #include "protocol/can/bus.hpp"
@@ -36,6 +37,11 @@ struct EngineContext {
   const std::atomic<bool>& interrupted;
   const std::atomic<bool>& stalled;      // the simulation stopped making progress
   std::atomic<std::uint64_t>& progress;  // counts every return from the bus
+  PdoTracker& pdo;                       // the DUT's PDOs: decoded into samples in pump()
+  // When the engine last sent an NMT frame, and whether a `send:` step sent it, for
+  // $timing.nmt_spacing (VectorRun::send_nmt).
+  std::optional<can::TimePoint> last_nmt;
+  bool last_nmt_raw = false;
 };
 
 enum class StepStatus : std::uint8_t { ok, failed, harness_error };
@@ -60,6 +66,10 @@ class VectorRun {
   void drain();
   void wait_until(can::TimePoint deadline);
   std::error_code send(const can::Frame& frame);
+  // An NMT frame (COB-ID 000h): sent no sooner than $timing.nmt_spacing after the previous NMT
+  // frame, except a `send:` step's (`raw`) right after another `send:` step's: a vector may
+  // send a burst on purpose.
+  std::error_code send_nmt(const can::Frame& frame, bool raw = false);
   void sample(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data);
   void check(std::string action, std::string expected, std::string actual, bool ok);
   can::Duration resolve(const DurationSpec& spec) const;
@@ -87,6 +97,8 @@ class VectorRun {
 
   // ---- setup.cpp ----
   StepStatus setup();
+  // The profile's commissioning writes, when they apply to this vector (part of setup()).
+  StepStatus commission();
   void teardown();
 
   // Runs the whole vector: setup, steps, teardown; returns the outcome and message.

@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <iterator>
 #include <map>
+#include <span>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "protocol/cia402/controlword.hpp"
@@ -224,40 +226,117 @@ constexpr std::array<BitName, 14> kStatuswordBits{{
     {sw::kFollowingError, "bit 13 (error)"},
 }};
 
+// Colours and shapes of the sample marks by origin (SDO dot, TPDO square, RPDO bar); the
+// class names are hooks for tests and scripts. The marks of one row and origin are one <path>
+// of zero-length strokes ("M x y h0", the line cap draws the dot), so thousands of samples stay
+// a few bytes each.
+struct OriginStyle {
+  conformance::SampleOrigin origin;
+  std::string_view css_class;
+  std::string_view label;
+  std::string_view colour;
+};
+constexpr std::array<OriginStyle, 3> kOriginStyles{{
+    {conformance::SampleOrigin::sdo, "sample-sdo", "SDO", "#8250df"},
+    {conformance::SampleOrigin::tpdo, "sample-tpdo", "TPDO", "#1a7f37"},
+    {conformance::SampleOrigin::rpdo, "sample-rpdo", "RPDO", "#bf3989"},
+}};
+const OriginStyle& style_of(conformance::SampleOrigin origin) {
+  return kOriginStyles[static_cast<std::size_t>(origin)];
+}
+
+struct SignalSample {
+  std::int64_t t = 0;  // ns from the first sample
+  std::int64_t value = 0;
+  conformance::SampleOrigin origin = conformance::SampleOrigin::sdo;
+};
+
+// A row of the diagram: a bit of the controlword/statusword (digital), a value (analog, with
+// its sample marks on the line), or the sample marks of a controlword/statusword (one row for
+// all its bits).
+enum class RowKind : std::uint8_t { digital, analog, marks };
+
 struct Trace {
   std::string label;
-  bool digital = false;
+  RowKind kind = RowKind::digital;
   std::vector<std::pair<std::int64_t, std::int64_t>> points;  // (t ns from t0, value)
+  std::vector<SignalSample> marks;                            // where it was sampled
 
   // Sample-and-hold: a sample equal to the value held adds nothing to draw (this keeps a
   // 1000-vector page small: a bit that toggles twice is three points, not one per sample).
-  void add(std::int64_t t, std::int64_t value) {
-    if (points.empty() || points.back().second != value) points.emplace_back(t, value);
+  void add(const SignalSample& sample) {
+    if (points.empty() || points.back().second != sample.value)
+      points.emplace_back(sample.t, sample.value);
   }
 };
+
+// An analog trace with more points than the plot has pixels keeps, per column of `columns`,
+// its first, lowest, highest and last point (in time order): the line looks the same.
+void thin_to_columns(Trace& trace, std::int64_t span, int columns) {
+  if (trace.kind != RowKind::analog || trace.points.size() <= static_cast<std::size_t>(columns) * 2)
+    return;
+  std::vector<std::pair<std::int64_t, std::int64_t>> kept;
+  std::size_t i = 0;
+  const auto& points = trace.points;
+  const auto column_of = [&](std::int64_t t) {
+    return static_cast<long long>(static_cast<double>(t) * columns / static_cast<double>(span));
+  };
+  while (i < points.size()) {
+    const auto column = column_of(points[i].first);
+    std::size_t end = i;
+    std::size_t low = i;
+    std::size_t high = i;
+    while (end < points.size() && column_of(points[end].first) == column) {
+      if (points[end].second < points[low].second) low = end;
+      if (points[end].second > points[high].second) high = end;
+      ++end;
+    }
+    std::array<std::size_t, 4> picks{i, low, high, end - 1};
+    std::sort(picks.begin(), picks.end());
+    for (std::size_t k = 0; k < picks.size(); ++k)
+      if (k == 0 || picks[k] != picks[k - 1]) kept.push_back(points[picks[k]]);
+    i = end;
+  }
+  trace.points = std::move(kept);
+}
 
 void render_timing_svg(std::string& out, const VectorResult& vector) {
   // Signals in first-appearance order, samples sorted by time within each.
   std::vector<std::string> order;
-  std::map<std::string, std::vector<std::pair<std::int64_t, std::int64_t>>> signals;
+  std::map<std::string, std::vector<SignalSample>> signals;
+  std::array<std::size_t, 3> by_origin{};
   std::int64_t t_min = INT64_MAX;
   std::int64_t t_max = INT64_MIN;
   for (const auto& sample : vector.samples) {
-    auto& list = signals[sample.signal];
-    if (list.empty()) order.push_back(sample.signal);
     const std::int64_t t = sample.at.time_since_epoch().count();
-    list.emplace_back(t, sample.value);
     t_min = std::min(t_min, t);
     t_max = std::max(t_max, t);
   }
+  for (const auto& sample : vector.samples) {
+    auto& list = signals[sample.signal];
+    if (list.empty()) order.push_back(sample.signal);
+    // Unsigned difference: any two int64 times (a report read from JSON may hold extremes).
+    const auto offset = static_cast<std::uint64_t>(sample.at.time_since_epoch().count()) -
+                        static_cast<std::uint64_t>(t_min);
+    list.push_back({static_cast<std::int64_t>(std::min<std::uint64_t>(offset, INT64_MAX)),
+                    sample.value, sample.origin});
+    ++by_origin[static_cast<std::size_t>(sample.origin)];
+  }
   if (order.empty()) return;
-  const std::int64_t span = std::max<std::int64_t>(t_max - t_min, 1'000'000);  // ≥ 1 ms
+  const std::int64_t span = std::max<std::int64_t>(
+      static_cast<std::int64_t>(std::min<std::uint64_t>(
+          static_cast<std::uint64_t>(t_max) - static_cast<std::uint64_t>(t_min), INT64_MAX)),
+      1'000'000);  // ≥ 1 ms
+
+  constexpr int kLeft = 236;
+  constexpr int kWidth = 1000;
+  constexpr int kPlot = kWidth - kLeft - 20;
 
   std::vector<Trace> traces;
   for (const auto& name : order) {
     auto& list = signals[name];
     std::stable_sort(list.begin(), list.end(),
-                     [](const auto& a, const auto& b) { return a.first < b.first; });
+                     [](const auto& a, const auto& b) { return a.t < b.t; });
     const bool is_cw = name == "controlword";
     const bool is_sw = name == "statusword";
     if (is_cw || is_sw) {
@@ -265,31 +344,46 @@ void render_timing_svg(std::string& out, const VectorResult& vector) {
                               : std::span<const BitName>(kStatuswordBits);
       for (const BitName& bit : bits) {
         bool ever_set = false;
-        for (const auto& [t, value] : list)
-          if ((static_cast<std::uint64_t>(value) & bit.mask) != 0) ever_set = true;
+        for (const auto& sample : list)
+          if ((static_cast<std::uint64_t>(sample.value) & bit.mask) != 0) ever_set = true;
         if (!ever_set) continue;
-        Trace trace{fmt::format("{} {}", is_cw ? "CW" : "SW", bit.name), true, {}};
-        for (const auto& [t, value] : list)
-          trace.add(t - t_min, (static_cast<std::uint64_t>(value) & bit.mask) != 0 ? 1 : 0);
+        Trace trace{fmt::format("{} {}", is_cw ? "CW" : "SW", bit.name), RowKind::digital, {}, {}};
+        for (const auto& sample : list) {
+          trace.add({sample.t, (static_cast<std::uint64_t>(sample.value) & bit.mask) != 0 ? 1 : 0,
+                     sample.origin});
+        }
         traces.push_back(std::move(trace));
       }
+      traces.push_back(
+          Trace{fmt::format("{} sampled", is_cw ? "CW" : "SW"), RowKind::marks, {}, list});
     } else {
-      Trace trace{name, false, {}};
-      for (const auto& [t, value] : list)
-        trace.add(t - t_min, value);
+      Trace trace{name, RowKind::analog, {}, list};
+      for (const auto& sample : list)
+        trace.add(sample);
+      thin_to_columns(trace, span, kPlot);
       traces.push_back(std::move(trace));
     }
   }
   if (traces.empty()) return;
 
-  constexpr int kLeft = 236;
-  constexpr int kWidth = 1000;
-  constexpr int kPlot = kWidth - kLeft - 20;
+  constexpr int kLegendHeight = 16;
   constexpr int kDigitalHeight = 18;
   constexpr int kAnalogHeight = 64;
-  int height = 8;
+  constexpr int kMarksHeight = 10;
+  const auto row_height = [&](const Trace& trace) {
+    switch (trace.kind) {
+      case RowKind::digital:
+        return kDigitalHeight;
+      case RowKind::analog:
+        return kAnalogHeight;
+      case RowKind::marks:
+        return kMarksHeight;
+    }
+    return kDigitalHeight;
+  };
+  int height = 8 + kLegendHeight;
   for (const auto& trace : traces)
-    height += (trace.digital ? kDigitalHeight : kAnalogHeight) + 4;
+    height += row_height(trace) + 4;
   const int axis_y = height;
   height += 24;
 
@@ -300,12 +394,54 @@ void render_timing_svg(std::string& out, const VectorResult& vector) {
                  "<svg class=\"timing\" viewBox=\"0 0 {} {}\" role=\"img\" "
                  "xmlns=\"http://www.w3.org/2000/svg\"><title>Timing diagram of {}</title>\n",
                  kWidth, height, esc(vector.id));
-  int y = 8;
+  // Legend: where the samples came from, and how many a long vector left out.
+  // One zero-length stroke per mark; path_of() wraps the strokes of one origin.
+  const auto stroke = [](std::string& to, conformance::SampleOrigin origin, double x, double y) {
+    if (origin == conformance::SampleOrigin::rpdo)
+      fmt::format_to(std::back_inserter(to), "M{:.1f} {:.1f}v6", x, y - 3);
+    else
+      fmt::format_to(std::back_inserter(to), "M{:.1f} {:.1f}h0", x, y);
+  };
+  const auto path_of = [](std::string& to, conformance::SampleOrigin origin,
+                          std::string_view strokes) {
+    const OriginStyle& style = style_of(origin);
+    const bool bar = origin == conformance::SampleOrigin::rpdo;
+    fmt::format_to(std::back_inserter(to),
+                   "<path class=\"{}\" d=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" "
+                   "stroke-linecap=\"{}\"/>",
+                   style.css_class, strokes, style.colour, bar ? "1.5" : "4",
+                   origin == conformance::SampleOrigin::sdo    ? "round"
+                   : origin == conformance::SampleOrigin::tpdo ? "square"
+                                                               : "butt");
+  };
+  {
+    double x = kLeft;
+    const int y = 8 + 8;
+    fmt::format_to(std::back_inserter(out), "<text x=\"4\" y=\"{}\">samples</text>", y + 4);
+    for (const OriginStyle& style : kOriginStyles) {
+      const std::size_t count = by_origin[static_cast<std::size_t>(style.origin)];
+      if (count == 0) continue;
+      std::string strokes;
+      stroke(strokes, style.origin, x + 3, y);
+      path_of(out, style.origin, strokes);
+      const std::string text = fmt::format("{} ({})", style.label, count);
+      fmt::format_to(std::back_inserter(out), "<text x=\"{:.1f}\" y=\"{}\">{}</text>", x + 10,
+                     y + 4, text);
+      x += 24 + 7.0 * static_cast<double>(text.size());
+    }
+    if (vector.samples_elided != 0) {
+      fmt::format_to(std::back_inserter(out),
+                     "<text x=\"{:.1f}\" y=\"{}\" fill=\"#59636e\">{} more thinned out (every bit "
+                     "edge kept)</text>",
+                     x, y + 4, vector.samples_elided);
+    }
+  }
+  int y = 8 + kLegendHeight;
   for (const auto& trace : traces) {
-    const int row = trace.digital ? kDigitalHeight : kAnalogHeight;
+    const int row = row_height(trace);
     std::int64_t lo = 0;
     std::int64_t hi = 1;
-    if (!trace.digital) {
+    if (trace.kind == RowKind::analog) {
       lo = INT64_MAX;
       hi = INT64_MIN;
       for (const auto& [t, value] : trace.points) {
@@ -322,7 +458,10 @@ void render_timing_svg(std::string& out, const VectorResult& vector) {
     fmt::format_to(std::back_inserter(out),
                    "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#eaeef2\"/>", kLeft,
                    y + row, kLeft + kPlot, y + row);
-    if (trace.digital) {
+    if (trace.kind == RowKind::marks) {
+      fmt::format_to(std::back_inserter(out), "<text x=\"4\" y=\"{}\" fill=\"#59636e\">{}</text>",
+                     y + row - 1, esc(trace.label));
+    } else if (trace.kind == RowKind::digital) {
       fmt::format_to(std::back_inserter(out), "<text x=\"4\" y=\"{}\">{}</text>", y + row - 4,
                      esc(trace.label));
     } else {
@@ -331,20 +470,42 @@ void render_timing_svg(std::string& out, const VectorResult& vector) {
                      "fill=\"#59636e\">{} … {}</text>",
                      y + 14, esc(trace.label), y + 30, lo, hi);
     }
-    // Sample-and-hold: each value holds until the next sample, the last one to the end.
-    std::string points;
-    double last_y = 0;
-    for (std::size_t i = 0; i < trace.points.size(); ++i) {
-      const double x = x_of(trace.points[i].first);
-      const double value_y = y_of(trace.points[i].second);
-      if (i > 0) fmt::format_to(std::back_inserter(points), "{:.1f},{:.1f} ", x, last_y);
-      fmt::format_to(std::back_inserter(points), "{:.1f},{:.1f} ", x, value_y);
-      last_y = value_y;
+    // Sample-and-hold step line: each value holds until the next sample, the last one to the end.
+    if (trace.kind != RowKind::marks) {
+      std::string points;
+      double last_y = 0;
+      for (std::size_t i = 0; i < trace.points.size(); ++i) {
+        const double x = x_of(trace.points[i].first);
+        const double value_y = y_of(trace.points[i].second);
+        if (i > 0) fmt::format_to(std::back_inserter(points), "{:.1f},{:.1f} ", x, last_y);
+        fmt::format_to(std::back_inserter(points), "{:.1f},{:.1f} ", x, value_y);
+        last_y = value_y;
+      }
+      fmt::format_to(std::back_inserter(points), "{:.1f},{:.1f}", x_of(span), last_y);
+      fmt::format_to(std::back_inserter(out),
+                     "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\" points=\"{}\"/>\n",
+                     trace.kind == RowKind::digital ? "#0969da" : "#bc4c00", points);
     }
-    fmt::format_to(std::back_inserter(points), "{:.1f},{:.1f}", x_of(span), last_y);
-    fmt::format_to(std::back_inserter(out),
-                   "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\" points=\"{}\"/>\n",
-                   trace.digital ? "#0969da" : "#bc4c00", points);
+    // Where it was sampled: on an analog line at the value, in a marks row at its middle; one
+    // mark per origin, 3-pixel column and height (thousands of samples stay a few hundred).
+    std::map<std::tuple<int, int, int>, bool> drawn;
+    std::array<std::string, 3> strokes;
+    for (const auto& sample : trace.marks) {
+      const double x = x_of(sample.t);
+      const double value_y = trace.kind == RowKind::marks
+                                 ? y + row / 2.0
+                                 : std::clamp(y_of(sample.value), static_cast<double>(y + 2),
+                                              static_cast<double>(y + row - 2));
+      const auto key = std::make_tuple(static_cast<int>(x / 3), static_cast<int>(value_y / 3),
+                                       static_cast<int>(sample.origin));
+      if (!drawn.emplace(key, true).second) continue;
+      stroke(strokes[static_cast<std::size_t>(sample.origin)], sample.origin, x, value_y);
+    }
+    for (const OriginStyle& style : kOriginStyles) {
+      const auto& d = strokes[static_cast<std::size_t>(style.origin)];
+      if (!d.empty()) path_of(out, style.origin, d);
+    }
+    out += '\n';
     y += row + 4;
   }
   // Time axis: 5 ticks, labelled in ms from the first sample.
@@ -384,6 +545,14 @@ void render_run_info(std::string& out, const RunResult& result) {
   if (dut.software_version) row("Software version (100Ah)", *dut.software_version);
   row("Profile", info.profile_title.empty() ? info.profile_name
                                             : info.profile_name + " — " + info.profile_title);
+  if (!info.commissioning.empty()) {
+    // The SDO writes the engine made after each setup: the drive's units as the vectors assume.
+    fmt::format_to(std::back_inserter(out),
+                   "<dt>Commissioning</dt><dd><ul class=\"commissioning\">");
+    for (const auto& line : info.commissioning)
+      fmt::format_to(std::back_inserter(out), "<li>{}</li>", esc(line));
+    out += "</ul></dd>";
+  }
   if (!info.eds_file.empty()) row("EDS", info.eds_file + "  sha256 " + info.eds_sha256);
   row("Date", info.started_utc);
   row("Bus", fmt::format("{}, node {}", info.bus, info.node));

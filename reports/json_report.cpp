@@ -91,10 +91,13 @@ json vector_json(const VectorResult& vector) {
   out["timings"] = std::move(timings);
   json samples = json::array();
   for (const auto& sample : vector.samples) {
-    samples.push_back(
-        {{"t_ns", ns_of(sample.at)}, {"signal", sample.signal}, {"value", sample.value}});
+    samples.push_back({{"t_ns", ns_of(sample.at)},
+                       {"signal", sample.signal},
+                       {"value", sample.value},
+                       {"origin", std::string(to_string(sample.origin))}});
   }
   out["samples"] = std::move(samples);
+  out["samples_elided"] = vector.samples_elided;
   out["started_ns"] = ns_of(vector.started);
   out["finished_ns"] = ns_of(vector.finished);
   out["duration_s"] = seconds(vector.finished - vector.started);
@@ -310,8 +313,23 @@ VectorResult read_vector(Reader& reader, const json& in) {
     sample.at = time_at(reader.nanoseconds(item, "t_ns"));
     sample.signal = reader.string(item, "signal");
     sample.value = reader.integer(item, "value");
+    // Absent in reports written before PDO samples: every sample came from an SDO transfer.
+    if (item.contains("origin")) {
+      const std::string origin = reader.string(item, "origin");
+      bool known = false;
+      for (const auto candidate : {conformance::SampleOrigin::sdo, conformance::SampleOrigin::tpdo,
+                                   conformance::SampleOrigin::rpdo}) {
+        if (origin == to_string(candidate)) {
+          sample.origin = candidate;
+          known = true;
+        }
+      }
+      if (!known) throw ReadError{reader.where("origin") + ": unknown origin \"" + origin + "\""};
+    }
     vector.samples.push_back(std::move(sample));
   }
+  if (in.contains("samples_elided"))
+    vector.samples_elided = static_cast<std::size_t>(reader.unsigned_integer(in, "samples_elided"));
   vector.started = time_at(reader.nanoseconds(in, "started_ns"));
   vector.finished = time_at(reader.nanoseconds(in, "finished_ns"));
   vector.wall_seconds = reader.number(in, "wall_s");
@@ -345,6 +363,16 @@ RunResult read_run(Reader& reader, const json& document) {
       info.profile_name = reader.string(profile, "name");
       info.profile_title = reader.string(profile, "title");
       info.profile_file = reader.string(profile, "file");
+      if (profile.contains("commissioning")) {  // optional: profiles without commissioning
+        Scope list(reader, "commissioning");
+        std::size_t i = 0;
+        for (const json& item : reader.array(profile, "commissioning")) {
+          if (!item.is_string())
+            throw ReadError{reader.where(fmt::format("[{}]", i)) + ": expected a string"};
+          info.commissioning.push_back(item.get<std::string>());
+          ++i;
+        }
+      }
     }
     {
       Scope inner(reader, "eds");
@@ -413,6 +441,7 @@ std::string render_json(const RunResult& result) {
   run["node"] = info.node;
   run["profile"] = {
       {"name", info.profile_name}, {"title", info.profile_title}, {"file", info.profile_file}};
+  if (!info.commissioning.empty()) run["profile"]["commissioning"] = info.commissioning;
   run["eds"] = {{"file", info.eds_file}, {"sha256", info.eds_sha256}};
   run["personality"] = info.personality;
   run["deviations"] = info.deviations;

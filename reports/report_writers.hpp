@@ -45,7 +45,9 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 //                    checks: [{step, action, expected, actual, ok}],
 //                    frames: [{t_ns, t_s, frame: "605#..", from_harness, decoded}],
 //                    timings: [{name, measured_ns, measured_s, min_ns?, max_ns?, ok}],
-//                    samples: [{t_ns, signal, value}],
+//                    samples: [{t_ns, signal, value, origin: "sdo"|"tpdo"|"rpdo"}],
+//                    samples_elided (samples thinned out of a long vector, every bit edge
+//                    kept; origin and samples_elided are absent in older reports: sdo, 0),
 //                    started_ns, finished_ns, duration_s, wall_s } ] }
 //
 // Times on the bus clock are integers in ns ("*_ns") and, for people, seconds ("*_s").

@@ -2,6 +2,8 @@
 // timing diagram. (The page's script is exercised in a real browser by tests/browser.)
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <regex>
 #include <string>
 
@@ -40,6 +42,22 @@ TEST(HtmlReport, IsSelfContained) {
   EXPECT_EQ(count_of(html, "http"), count_of(html, "http://www.w3.org/2000/svg"));
   EXPECT_EQ(count_of(html, "<script>"), 1u);
   EXPECT_EQ(count_of(html, "</script>"), 1u);
+}
+
+TEST(HtmlReport, CommissioningIsShownUnderTheProfile) {
+  // Given a run whose profile commissions the drive, one line hostile
+  // When written as HTML / Then each line is an item after the profile row, escaped
+  auto run = synthetic_run();
+  run.info.commissioning = {"applies to cia402/*", "6094h sub 1 := 15 (4 bytes): <b>why</b>"};
+  const std::string html = render_html(run);
+  const auto profile = html.find("<dt>Profile</dt>");
+  const auto commissioning = html.find("<dt>Commissioning</dt>");
+  ASSERT_NE(profile, std::string::npos);
+  ASSERT_NE(commissioning, std::string::npos);
+  EXPECT_LT(profile, commissioning);
+  EXPECT_NE(html.find("<li>applies to cia402/*</li>"), std::string::npos);
+  EXPECT_NE(html.find("&lt;b&gt;why&lt;/b&gt;"), std::string::npos);
+  EXPECT_EQ(render_html(synthetic_run()).find("<dt>Commissioning</dt>"), std::string::npos);
 }
 
 TEST(HtmlReport, ShowsCountsMatrixAndEveryVector) {
@@ -118,6 +136,50 @@ TEST(HtmlReport, VectorsWithSamplesGetATimingDiagram) {
   EXPECT_NE(pp.find(">0 … 10000</text>"), std::string::npos);
   EXPECT_NE(pp.find(">velocity</text>"), std::string::npos);
   EXPECT_EQ(vector_html(html, "cia301/sdo/expedited-upload").find("<svg"), std::string::npos);
+}
+
+TEST(HtmlReport, SamplesAreMarkedByOriginAndThousandsStaySmall) {
+  // Given the pp vector with 2 SDO controlword samples and 20,000 TPDO samples over 20 s
+  //       (statusword toggling bit 10 every second, position a ramp), 500 said thinned out
+  auto run = synthetic_run();
+  auto& pp = run.vectors.front();
+  pp.id = "cia402/pp/tpdo";
+  pp.samples.clear();
+  const auto at_ms = [](int ms) { return can::TimePoint{} + std::chrono::milliseconds(ms); };
+  pp.samples.push_back({at_ms(0), "controlword", 0x000F, conformance::SampleOrigin::sdo});
+  pp.samples.push_back({at_ms(10), "controlword", 0x001F, conformance::SampleOrigin::rpdo});
+  for (int i = 0; i < 10'000; ++i) {
+    pp.samples.push_back({at_ms(2 * i), "statusword", (i / 500) % 2 == 0 ? 0x0237 : 0x0637,
+                          conformance::SampleOrigin::tpdo});
+    pp.samples.push_back({at_ms(2 * i), "position", i * 7, conformance::SampleOrigin::tpdo});
+  }
+  pp.samples_elided = 500;
+  // When written as HTML
+  const std::string html = render_html(run);
+  const std::string svg = vector_html(html, "cia402/pp/tpdo");
+  // Then the legend counts the samples by origin and says how many were thinned out
+  EXPECT_NE(svg.find(">SDO (1)</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">TPDO (20000)</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">RPDO (1)</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">500 more thinned out (every bit edge kept)</text>"), std::string::npos);
+  // And each origin has one path of marks per row it is sampled in (legend; "CW sampled";
+  // "SW sampled" and position for TPDO), with at most one mark per 3-pixel column and height
+  EXPECT_EQ(count_of(svg, "class=\"sample-sdo\""), 2U);
+  EXPECT_EQ(count_of(svg, "class=\"sample-rpdo\""), 2U);
+  EXPECT_EQ(count_of(svg, "class=\"sample-tpdo\""), 3U);
+  EXPECT_NE(svg.find(">CW sampled</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">SW sampled</text>"), std::string::npos);
+  EXPECT_GT(count_of(svg, "h0"), 300U);
+  EXPECT_LT(count_of(svg, "h0"), 2000U);
+  // And the statusword bit 10 trace keeps its 19 edges: 20 levels, 2 points per step + end
+  const auto label = svg.find(">SW target reached</text>");
+  ASSERT_NE(label, std::string::npos);
+  const auto line = svg.find("points=\"", label);
+  const auto line_end = svg.find('"', line + 8);
+  const std::string points = svg.substr(line + 8, line_end - line - 8);
+  EXPECT_EQ(static_cast<std::size_t>(std::count(points.begin(), points.end(), ' ')) + 1, 20U * 2);
+  // And the vector stays small
+  EXPECT_LT(svg.size(), 60'000U);
 }
 
 TEST(HtmlReport, ThousandVectorsStayOneFileOfReasonableSize) {

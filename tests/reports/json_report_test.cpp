@@ -85,6 +85,25 @@ TEST(JsonReport, WriteThenReadGivesTheSameRun) {
   }
 }
 
+TEST(JsonReport, CommissioningIsListedUnderTheProfileAndReadBack) {
+  // Given a run whose profile commissions the drive (festo-cmmp.yaml `commissioning:`)
+  // When written as JSON and read back
+  // Then run.profile.commissioning holds its lines in order, and a run without one has no key
+  TempDir dir;
+  auto run = valid_utf8_run();
+  run.info.commissioning = {"applies to cia402/* except cia402/factor/festo/*",
+                            "6094h sub 1 := 15 (4 bytes): numerator [000 §5.3 L2707-2755]"};
+  const json document = json::parse(render_json(run));
+  EXPECT_EQ(document["run"]["profile"]["commissioning"][1],
+            "6094h sub 1 := 15 (4 bytes): numerator [000 §5.3 L2707-2755]");
+  ASSERT_TRUE(write_json_report(dir / "run.json", run));
+  const auto read = read_json_report(dir / "run.json");
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(read->info.commissioning, run.info.commissioning);
+  EXPECT_FALSE(
+      json::parse(render_json(valid_utf8_run()))["run"]["profile"].contains("commissioning"));
+}
+
 TEST(JsonReport, InvalidUtf8IsWrittenAsReplacementCharacter) {
   // Given a device name with invalid UTF-8 bytes
   // When written as JSON
@@ -154,6 +173,40 @@ TEST(JsonReportRead, ExtremeTimesAreRejectedAndExtremeSamplesRender) {
   const auto read = parse_json_report(extreme.dump());
   ASSERT_TRUE(read) << read.error().to_string();
   EXPECT_NE(render_html(*read).find("<svg class=\"timing\""), std::string::npos);
+}
+
+TEST(JsonReportRead, SampleOriginsRoundTripAndDefaultToSdo) {
+  // Given a vector with SDO, TPDO and RPDO samples and 7 samples thinned out
+  auto run = valid_utf8_run();
+  auto& vector = run.vectors[6];
+  ASSERT_GE(vector.samples.size(), 3U);
+  vector.samples[0].origin = conformance::SampleOrigin::tpdo;
+  vector.samples[1].origin = conformance::SampleOrigin::rpdo;
+  vector.samples_elided = 7;
+  // When written and read back
+  json document = json::parse(render_json(run));
+  const auto read = parse_json_report(document.dump());
+  ASSERT_TRUE(read) << read.error().to_string();
+  // Then the origins and the count are kept
+  EXPECT_EQ(read->vectors[6].samples[0].origin, conformance::SampleOrigin::tpdo);
+  EXPECT_EQ(read->vectors[6].samples[1].origin, conformance::SampleOrigin::rpdo);
+  EXPECT_EQ(read->vectors[6].samples[2].origin, conformance::SampleOrigin::sdo);
+  EXPECT_EQ(read->vectors[6].samples_elided, 7U);
+  EXPECT_EQ(document["vectors"][6]["samples"][0]["origin"], "tpdo");
+  // And a report without them (older writers) reads as SDO samples, none thinned out
+  json old = document;
+  for (auto& sample : old["vectors"][6]["samples"])
+    sample.erase("origin");
+  old["vectors"][6].erase("samples_elided");
+  const auto read_old = parse_json_report(old.dump());
+  ASSERT_TRUE(read_old) << read_old.error().to_string();
+  EXPECT_EQ(read_old->vectors[6].samples[0].origin, conformance::SampleOrigin::sdo);
+  EXPECT_EQ(read_old->vectors[6].samples_elided, 0U);
+  // And an unknown origin is an error that names it
+  json wrong = document;
+  wrong["vectors"][6]["samples"][1]["origin"] = "mpdo";
+  EXPECT_EQ(parse_json_report(wrong.dump()).error().message,
+            "vectors[6].samples[1].origin: unknown origin \"mpdo\"");
 }
 
 TEST(JsonReportRead, MissingFileIsAnError) {
