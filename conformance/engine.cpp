@@ -6,6 +6,8 @@
 
 #include <chrono>
 
+#include "conformance/pdo_tracker.hpp"
+#include "conformance/samples.hpp"
 #include "conformance/vector_run.hpp"
 #include "conformance/verdict.hpp"
 #include "protocol/cia301/dissector.hpp"
@@ -26,17 +28,9 @@ constexpr std::size_t kTailFrames = 450;
 constexpr std::size_t kMaxSamples = 1500;
 
 void keep_head_and_tail(VectorResult& result) {
-  // Samples feed the timing diagram: a long vector keeps every k-th (the diagram's shape stays;
-  // the last sample is kept so the diagram ends where the vector did).
-  if (result.samples.size() > kMaxSamples) {
-    const std::size_t stride = (result.samples.size() + kMaxSamples - 1) / kMaxSamples;
-    std::vector<Sample> kept;
-    kept.reserve(kMaxSamples + 1);
-    for (std::size_t i = 0; i < result.samples.size(); i += stride)
-      kept.push_back(std::move(result.samples[i]));
-    if ((result.samples.size() - 1) % stride != 0) kept.push_back(std::move(result.samples.back()));
-    result.samples = std::move(kept);
-  }
+  // Samples feed the timing diagram: a long vector's are thinned by time, every bit edge kept
+  // (samples.hpp).
+  result.samples_elided += thin_samples(result.samples, kMaxSamples);
   auto& frames = result.frames;
   if (frames.size() <= kHeadFrames + kTailFrames) return;
   const std::size_t elided = frames.size() - kHeadFrames - kTailFrames;
@@ -57,7 +51,9 @@ class Engine::Impl {
         profile_(profile),
         options_(std::move(options)),
         dissector_(dissector_options(options_)),
-        context_{bus_, profile_, options_, dissector_, interrupted, stalled, progress} {
+        pdo_(profile_, options_.node),
+        context_{bus_,    profile_, options_, dissector_,   interrupted,
+                 stalled, progress, pdo_,     std::nullopt, false} {
     bus_.set_frame_handler({});
     bus_.set_loopback(true);
     if (options_.harness_node == options_.node)
@@ -93,8 +89,9 @@ class Engine::Impl {
     result.started = bus_.now();
     const auto wall_start = std::chrono::steady_clock::now();
 
-    const ApplicabilityContext applicability{options_.simulation != nullptr,
-                                             !options_.real_bus || options_.allow_motion};
+    const ApplicabilityContext applicability{
+        options_.simulation != nullptr, !options_.real_bus || options_.allow_motion,
+        !options_.real_bus && options_.simulation != nullptr && options_.simulation->can_bus_off()};
     if (auto reason = not_applicable_reason(vector, profile_, applicability); !reason.empty()) {
       result.verdict = Verdict::not_applicable;
       result.message = std::move(reason);
@@ -263,6 +260,7 @@ class Engine::Impl {
   const profile::DriveProfile& profile_;
   EngineOptions options_;
   cia301::Dissector dissector_;
+  PdoTracker pdo_;  // the DUT's PDO configuration over the whole run (it outlives vectors)
   EngineContext context_;
   bool motion_prepared_ = false;
   std::optional<std::vector<std::uint8_t>> original_consumer_;  // 1016h sub 1 before the run
@@ -347,6 +345,19 @@ VectorResult Engine::probe_undocumented_objects(
   return result;
 }
 
+std::vector<std::string> describe_commissioning(const profile::Commissioning& c) {
+  std::vector<std::string> lines;
+  if (c.writes.empty()) return lines;
+  lines.push_back(fmt::format(
+      "applies to {}{}", fmt::join(c.vectors, ", "),
+      c.except.empty() ? std::string() : fmt::format(" except {}", fmt::join(c.except, ", "))));
+  for (const auto& w : c.writes) {
+    lines.push_back(fmt::format("{:04X}h sub {} := {} ({} bytes): {} [{}]", w.index, w.sub, w.value,
+                                w.size, w.why, fmt::join(w.sources, "; ")));
+  }
+  return lines;
+}
+
 RunResult Engine::run(const std::vector<Vector>& vectors, RunInfo info) {
   RunResult result;
   const auto& options = impl_->options_;
@@ -357,6 +368,7 @@ RunResult Engine::run(const std::vector<Vector>& vectors, RunInfo info) {
   info.profile_name = impl_->profile_.name;
   info.profile_title = impl_->profile_.title;
   if (info.profile_file.empty()) info.profile_file = impl_->profile_.path.string();
+  info.commissioning = describe_commissioning(impl_->profile_.commissioning);
   result.info = std::move(info);
   const auto sim_start = impl_->bus_.now();
   const auto wall_start = std::chrono::steady_clock::now();

@@ -8,6 +8,7 @@
 //      is present; `motion`: the bus is simulated or --allow-motion was given). Else N/A.
 //   2. setup (setup.cpp): reset-node / reset-communication (boot-up awaited within
 //      $timing.bootup) / restore-defaults (1011h sub 1 "load", then reset node) / none; then
+//      the profile's commissioning writes (FORMAT.md "Commissioning"; not after setup none),
 //      the NMT state (`nmt:`), then the CiA 402 state (`drive_state:`) by the standard path.
 //   3. steps, in order, each with its own deadline (`within:` etc.) and the vector's `timeout:`
 //      over all; the first failed check ends the steps.
@@ -71,6 +72,9 @@ struct EngineOptions {
   std::function<void(const Vector&)> on_vector_started;
   std::function<void(const VectorResult&)> on_vector_finished;
 };
+
+// The profile's commissioning as RunInfo::commissioning lines (empty: none).
+std::vector<std::string> describe_commissioning(const profile::Commissioning& commissioning);
 
 class Engine {
  public:

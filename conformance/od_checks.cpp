@@ -43,6 +43,15 @@ std::optional<std::pair<std::int64_t, std::int64_t>> type_range(cia301::DataType
   return std::pair{std::int64_t{0}, (std::int64_t{1} << bits) - 1};
 }
 
+// Sub 00h of a PDO mapping record (1600h-17FFh, 1A00h-1BFFh): a count out of range may also
+// break the CiA 301 §7.5.2.36/38 mapping procedure: 06040042h (more entries than the record
+// has, or longer than 64 bits), or the answer to a write while the PDO is valid, for which CiA
+// 301 names no code (06010000h, 06040043h, 08000022h; protocol/cia301/pdo_service.hpp).
+bool is_mapping_count(const OdObject& object) {
+  return object.sub == 0 && ((object.index >= 0x1600 && object.index <= 0x17FF) ||
+                             (object.index >= 0x1A00 && object.index <= 0x1BFF));
+}
+
 Vector make(const OdObject& object, std::string check, std::string title, Step step) {
   Vector vector;
   vector.id = fmt::format("eds/od/{:04x}-{:02x}/{}", object.index, object.sub, check);
@@ -153,6 +162,10 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
         write.size = info.size;
         write.expect.kind = SdoExpect::Kind::abort;
         write.expect.aborts = {0x06090030, 0x06090031, 0x06090032};
+        if (is_mapping_count(object)) {  // the CiA 301 mapping procedure's answers, too
+          write.expect.aborts.insert(write.expect.aborts.end(),
+                                     {0x06040042, 0x06010000, 0x06040043, 0x08000022});
+        }
         vectors.push_back(
             make(object, check,
                  fmt::format("Writing {} ({}) to {} MUST abort 0609003xh", value, what, name),

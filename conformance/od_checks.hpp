@@ -6,7 +6,9 @@
 //   <idx>-<sub>/default        profile objects with `default:` and EDS const entries: the value
 //   <idx>-<sub>/below-min      rw with a lower limit: writing min-1 aborts 0609003xh
 //   <idx>-<sub>/above-max      rw with an upper limit: writing max+1 aborts 0609003xh
-// (0609003xh = 06090030h value range exceeded, 06090031h too high, 06090032h too low.)
+// (0609003xh = 06090030h value range exceeded, 06090031h too high, 06090032h too low; for sub
+// 00h of a PDO mapping record also the mapping procedure's 06040042h, 06010000h, 06040043h,
+// 08000022h: CiA 301 §7.5.2.36/38, see protocol/cia301/pdo_service.hpp.)
 // 1003h sub 1..254 (present only while errors are recorded) get no read check.
 // Only fixed-size integer types get the size/limit/default checks. The first vector resets
 // the node; the others run without setup (they change nothing when the DUT is right).

@@ -147,7 +147,8 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
   const std::string name(action_name(action));
   if (const auto* send_step = std::get_if<SendStep>(&action)) {
     const auto frame = send_step->frame.to_frame(node());
-    if (auto ec = send(frame))
+    const bool nmt = frame.id == 0 && !frame.is_extended() && !frame.is_remote();
+    if (auto ec = nmt ? send_nmt(frame, true) : send(frame))
       return harness_error(name, fmt::format("cannot send {}: {}", frame, ec.message()));
     return StepStatus::ok;
   }
@@ -168,7 +169,7 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     }
     cia301::NmtMaster master;
     const auto frame = master.command(nmt->command, target);
-    if (auto ec = send(frame))
+    if (auto ec = send_nmt(frame))
       return harness_error(name, fmt::format("cannot send {}: {}", frame, ec.message()));
     return StepStatus::ok;
   }
@@ -290,6 +291,20 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
           name, fmt::format("simulate {} = {}: {}", simulate->input, simulate->value, error));
     check(name, fmt::format("simulated input {} := {}", simulate->input, simulate->value), "set",
           true);
+    return StepStatus::ok;
+  }
+  if (const auto* bus_off = std::get_if<BusOffStep>(&action)) {
+    if (context_.options.simulation == nullptr)
+      return harness_error(name, "no simulation control (the vector should be not applicable)");
+    const auto duration = resolve(bus_off->duration);
+    if (auto error = context_.options.simulation->set_bus_off(true); !error.empty())
+      return harness_error(name, fmt::format("bus-off: {}", error));
+    wait_until(now() + duration);
+    if (auto error = context_.options.simulation->set_bus_off(false); !error.empty())
+      return harness_error(name, fmt::format("bus-off recovery: {}", error));
+    check(name,
+          fmt::format("DUT's CAN controller bus-off for {}", profile::format_duration(duration)),
+          "bus-off, then recovered", true);
     return StepStatus::ok;
   }
   if (const auto* mark = std::get_if<MarkStep>(&action)) {

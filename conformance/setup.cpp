@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <span>
 
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/nmt_master.hpp"
@@ -82,11 +83,30 @@ StepStatus VectorRun::reach_drive_state(cia402::State target) {
   return await(cia402::State::quick_stop_active);
 }
 
+StepStatus VectorRun::commission() {
+  const profile::Commissioning& commissioning = context_.profile.commissioning;
+  if (!commissioning.applies_to(vector_.id)) return StepStatus::ok;
+  for (const profile::CommissioningWrite& w : commissioning.writes) {
+    std::array<std::uint8_t, 4> bytes{};
+    const auto raw = static_cast<std::uint64_t>(w.value);
+    for (std::size_t i = 0; i < w.size; ++i)
+      bytes[i] = static_cast<std::uint8_t>(raw >> (8 * i));
+    const auto outcome = sdo_download({w.index, w.sub}, std::span(bytes.data(), w.size));
+    if (!outcome.ok) {
+      return fail("setup commissioning",
+                  fmt::format("{:04X}h sub {} := {} ({} bytes) accepted ({})", w.index, w.sub,
+                              w.value, w.size, w.why),
+                  outcome.describe());
+    }
+  }
+  return StepStatus::ok;
+}
+
 StepStatus VectorRun::setup() {
   cia301::NmtMaster master;
   const auto command = [&](cia301::NmtCommand cmd) -> StepStatus {
     const auto frame = master.command(cmd, node());
-    if (auto ec = send(frame))
+    if (auto ec = send_nmt(frame))
       return harness_error("setup", fmt::format("cannot send {}: {}", frame, ec.message()));
     return StepStatus::ok;
   };
@@ -119,6 +139,11 @@ StepStatus VectorRun::setup() {
       if (auto s = await_bootup("setup reset-communication"); s != StepStatus::ok) return s;
       booted = true;
       break;
+  }
+  // The profile's commissioning (FORMAT.md "Commissioning"): after a reset, before the NMT
+  // state (SDO is served in Pre-operational) and the CiA 402 state.
+  if (vector_.setup != Setup::none) {
+    if (auto s = commission(); s != StepStatus::ok) return s;
   }
   if (vector_.nmt) {
     switch (*vector_.nmt) {

@@ -125,6 +125,12 @@ struct SimulateStep {
   std::int64_t value = 0;
   friend bool operator==(const SimulateStep&, const SimulateStep&) = default;
 };
+// The DUT's CAN controller is bus-off for `duration` (it neither sends nor receives), then
+// recovers; the step ends at the recovery. Needs a DUT on the simulated bus (SimulationControl).
+struct BusOffStep {
+  DurationSpec duration;
+  friend bool operator==(const BusOffStep&, const BusOffStep&) = default;
+};
 struct MarkStep {
   std::string name;
   friend bool operator==(const MarkStep&, const MarkStep&) = default;
@@ -204,10 +210,11 @@ struct ExpectPeriodicStep {
   friend bool operator==(const ExpectPeriodicStep&, const ExpectPeriodicStep&) = default;
 };
 
-using Action = std::variant<SendStep, NmtStep, SdoWriteStep, SdoReadStep, WaitStep, ControlwordStep,
-                            SimulateStep, MarkStep, ExpectFrameStep, ExpectSilenceStep,
-                            ExpectBootupStep, ExpectHeartbeatStep, ExpectEmcyStep, ExpectStateStep,
-                            ExpectStatuswordStep, PollStep, MeasureStep, ExpectPeriodicStep>;
+using Action =
+    std::variant<SendStep, NmtStep, SdoWriteStep, SdoReadStep, WaitStep, ControlwordStep,
+                 SimulateStep, MarkStep, ExpectFrameStep, ExpectSilenceStep, ExpectBootupStep,
+                 ExpectHeartbeatStep, ExpectEmcyStep, ExpectStateStep, ExpectStatuswordStep,
+                 PollStep, MeasureStep, ExpectPeriodicStep, BusOffStep>;
 
 // The action key of each alternative, in variant order ("send", "nmt", ...).
 std::string_view action_name(const Action& action);
@@ -249,6 +256,8 @@ struct Vector {
 
   // First two id components: "cia301/sdo".
   std::string family() const;
+  // Whether a step puts the DUT's controller bus-off (`bus_off`).
+  bool has_bus_off_step() const;
 };
 
 }  // namespace drivecheck::conformance

@@ -27,8 +27,15 @@ std::string_view action_name(const Action& action) {
       "simulate",       "mark",          "expect_frame",
       "expect_silence", "expect_bootup", "expect_heartbeat",
       "expect_emcy",    "expect_state",  "expect_statusword",
-      "poll",           "measure",       "expect_periodic"};
+      "poll",           "measure",       "expect_periodic",
+      "bus_off"};
   return kNames[action.index()];
+}
+
+bool Vector::has_bus_off_step() const {
+  return std::any_of(steps.begin(), steps.end(), [](const Step& step) {
+    return std::holds_alternative<BusOffStep>(step.action);
+  });
 }
 
 std::string Vector::family() const {
@@ -307,6 +314,7 @@ const std::vector<StepSyntax>& step_syntax() {
       {"poll", {"within", "every"}},
       {"measure", {}},
       {"expect_periodic", {"period", "tolerance", "count", "mark"}},
+      {"bus_off", {}},
   };
   return kSyntax;
 }
@@ -738,6 +746,16 @@ class Parser {
       auto d = duration(value, "wait");
       if (!d) return std::nullopt;
       return WaitStep{*d};
+    }
+    if (action == "bus_off") {
+      auto d = duration(value, "bus_off");
+      if (!d) return std::nullopt;
+      if (!d->is_timing() &&
+          (d->value <= can::Duration::zero() || d->value > std::chrono::seconds(10))) {
+        error(value, "bus_off: the duration must be above 0 and at most 10s");
+        return std::nullopt;
+      }
+      return BusOffStep{*d};
     }
     if (action == "controlword") {
       auto cw = integer<std::uint16_t>(value, "controlword", 0, 0xFFFF);

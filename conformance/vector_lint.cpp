@@ -18,6 +18,20 @@ int line_of(const YAML::Node& node) {
   return node.Mark().line < 0 ? 0 : node.Mark().line + 1;
 }
 
+// A deviation glob that names an OD check generated at run time from the profile's objects
+// list (conformance/od_checks.hpp: eds/od/<index>-<sub>/<check>): it matches the id of a
+// check some listed entry can get.
+bool matches_od_check(const std::string& glob, const std::vector<profile::ObjectSpec>& objects) {
+  static constexpr const char* kChecks[] = {"read",    "default",   "write-ro",
+                                            "read-wo", "below-min", "above-max"};
+  return std::any_of(objects.begin(), objects.end(), [&](const profile::ObjectSpec& o) {
+    return std::any_of(std::begin(kChecks), std::end(kChecks), [&](const char* check) {
+      return profile::glob_match(glob,
+                                 fmt::format("eds/od/{:04x}-{:02x}/{}", o.index, o.sub, check));
+    });
+  });
+}
+
 }  // namespace
 
 Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
@@ -149,6 +163,15 @@ LintReport lint_vector_tree(const LintOptions& options) {
       if (auto message = check_citation(source, manuals); !message.empty() && loaded)
         report.errors.push_back({vector.file, static_cast<int>(source.line), message});
     }
+    // A bus_off step as long as the whole vector leaves no time to see the drive's reaction.
+    for (const auto& step : vector.steps) {
+      const auto* bus_off = std::get_if<BusOffStep>(&step.action);
+      if (bus_off != nullptr && !bus_off->duration.is_timing() && !vector.timeout.is_timing() &&
+          bus_off->duration.value >= vector.timeout.value) {
+        report.errors.push_back({vector.file, static_cast<int>(step.line),
+                                 "bus_off: the duration is not shorter than the vector's timeout"});
+      }
+    }
   }
 
   // Drive profiles.
@@ -180,11 +203,44 @@ LintReport lint_vector_tree(const LintOptions& options) {
         for (const auto& glob : deviation.vectors) {
           const bool used =
               std::any_of(set.vectors.begin(), set.vectors.end(),
-                          [&](const Vector& v) { return profile::glob_match(glob, v.id); });
+                          [&](const Vector& v) { return profile::glob_match(glob, v.id); }) ||
+              matches_od_check(glob, drive->objects);
           if (!used)
             report.warnings.push_back(
                 {where, 0,
                  fmt::format("deviation {}: glob '{}' matches no vector", deviation.id, glob)});
+        }
+      }
+      // Commissioning: sources cite listed manuals, globs match vectors, and a write to an
+      // object the profile lists read-only can never succeed.
+      const profile::Commissioning& commissioning = drive->commissioning;
+      for (const auto& w : commissioning.writes) {
+        const std::string what = fmt::format("commissioning {:04X}h sub {}", w.index, w.sub);
+        for (const auto& text : w.sources) {
+          auto source = parse_source(text);
+          if (!source) {
+            report.errors.push_back({where, 0, fmt::format("{}: {}", what, source.error())});
+          } else if (auto message = check_citation(*source, manuals); !message.empty() && loaded) {
+            report.errors.push_back({where, 0, fmt::format("{}: {}", what, message)});
+          }
+        }
+        const auto listed =
+            std::find_if(drive->objects.begin(), drive->objects.end(),
+                         [&](const auto& o) { return o.index == w.index && o.sub == w.sub; });
+        if (listed != drive->objects.end() && (listed->access == cia301::AccessType::ro ||
+                                               listed->access == cia301::AccessType::constant)) {
+          report.errors.push_back(
+              {where, 0, fmt::format("{}: the profile's objects list it read-only", what)});
+        }
+      }
+      for (const auto* globs : {&commissioning.vectors, &commissioning.except}) {
+        for (const auto& glob : *globs) {
+          const bool used =
+              std::any_of(set.vectors.begin(), set.vectors.end(),
+                          [&](const Vector& v) { return profile::glob_match(glob, v.id); });
+          if (!used)
+            report.warnings.push_back(
+                {where, 0, fmt::format("commissioning: glob '{}' matches no vector", glob)});
         }
       }
     }

@@ -8,7 +8,10 @@
 //  - every drive profile in <dir>/drives/ loads (protocol/profile), its deviation sources cite
 //    listed manuals within range, and each deviation glob matches at least one vector
 //    (a warning: a glob that matches nothing explains nothing);
-//  - every `profiles:` name of a vector is a profile in <dir>/drives/.
+//  - a profile's commissioning writes cite listed manuals within range, write no object its
+//    `objects:` list read-only, and its globs match vectors (a warning otherwise);
+//  - every `profiles:` name of a vector is a profile in <dir>/drives/;
+//  - a `bus_off` step is shorter than its vector's timeout.
 // Findings are file:line messages; errors make the lint fail (exit 2), warnings do not.
 #pragma once
 

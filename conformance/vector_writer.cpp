@@ -328,6 +328,7 @@ class Writer {
     name_key("save", s.save);
   }
   void action(const WaitStep& s) { duration_key("wait", s.duration); }
+  void action(const BusOffStep& s) { duration_key("bus_off", s.duration); }
   void action(const ControlwordStep& s) {
     key("controlword");
     plain(fmt::format("0x{:04X}", s.value));

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include "protocol/cia402/modes.hpp"
 #include "reference_drive/modes/cyclic_sync.hpp"
@@ -87,7 +88,9 @@ constexpr SimulatedFault kSimulatedFaults[] = {
 constexpr std::string_view kSimulateNames =
     "hardware-enable, limit-positive, limit-negative, home-switch, limit-positive-at, "
     "limit-negative-at, home-switch-from, home-switch-to, switch-layout-clear, index-period, "
-    "index-offset, axis-position, load-torque, fault:following-error, fault:limit-switch, "
+    "index-offset, stop-negative-at, stop-positive-at, axis-position, axis-coast-to-rest, "
+    "load-torque, "
+    "fault:following-error, fault:limit-switch, "
     "fault:overcurrent, fault:over-voltage, fault:over-temperature";
 
 // The config as the application uses it: manufacturer modes and deviations also in the PDS's
@@ -104,6 +107,23 @@ Cia402ApplicationConfig normalised(Cia402ApplicationConfig config) {
     }
   }
   return config;
+}
+
+// A factor of the dictionary times the drive's internal unit: user units -> axis units. Reduced;
+// a product that does not fit 32 bits loses low bits of both parts (the ratio stays).
+Fraction in_axis_units(Fraction factor, Fraction unit) {
+  if (unit == Fraction{}) return factor;
+  std::uint64_t n = std::uint64_t{factor.numerator} * unit.numerator;
+  std::uint64_t d = std::uint64_t{factor.divisor} * unit.divisor;
+  if (n == 0 || d == 0) return factor;
+  const std::uint64_t g = std::gcd(n, d);
+  n /= g;
+  d /= g;
+  while (n > 0xFFFFFFFFU || d > 0xFFFFFFFFU) {
+    n = std::max<std::uint64_t>(n >> 1, 1);
+    d = std::max<std::uint64_t>(d >> 1, 1);
+  }
+  return {static_cast<std::uint32_t>(n), static_cast<std::uint32_t>(d)};
 }
 
 }  // namespace
@@ -135,7 +155,7 @@ Cia402Application::Cia402Application(Cia402ApplicationConfig config)
     modes_.push_back(std::make_unique<ProfileTorqueMode>());
   }
   if (supports(cia402::Mode::interpolated_position)) {
-    modes_.push_back(std::make_unique<InterpolatedPositionMode>());
+    modes_.push_back(std::make_unique<InterpolatedPositionMode>(config_.ip_submode));
   }
   if (supports(cia402::Mode::cyclic_sync_position)) {
     modes_.push_back(std::make_unique<CyclicSyncMode>(CyclicKind::position));
@@ -300,6 +320,7 @@ void Cia402Application::bind(cia301::ObjectDictionary& od) {
   context_->acknowledge_latency_cycles =
       std::max<std::uint32_t>(1, config_.acknowledge_latency_cycles);
   context_->jerk_smoothing_cycles = config_.jerk_smoothing_cycles;
+  context_->change_on_set_point = config_.pp_change_on_set_point;
   binding_ = std::make_unique<PowerDriveObjects>(od, pds_);
 
   const auto refuse = [](bool bad) -> Expected<void, SdoAbort> {
@@ -432,6 +453,8 @@ void Cia402Application::on_cycle(ReferenceDrive& drive, can::TimePoint now) {
 void Cia402Application::read_parameters() {
   const cia301::ObjectDictionary& od = *od_;
   factors_ = read_factor_group(od);
+  factors_.velocity = in_axis_units(factors_.velocity, config_.internal_velocity_unit);
+  factors_.acceleration = in_axis_units(factors_.acceleration, config_.internal_acceleration_unit);
   if (config_.deviations.has(Deviation::factor_polarity_ignored)) factors_.polarity = 0;
   axis_.set_acceleration_factor(factors_.acceleration_to_internal(1.0));
   axis_.set_torque_limit(static_cast<double>(context_->read_unsigned(cia402::kMaxTorque)));
@@ -596,6 +619,10 @@ Expected<void, std::string> Cia402Application::simulate(std::string_view name, s
     layout.home_from = at;
   } else if (name == "home-switch-to") {
     layout.home_to = at;
+  } else if (name == "stop-negative-at") {
+    layout.stop_negative = at;  // mechanical end stop (axis_model.hpp)
+  } else if (name == "stop-positive-at") {
+    layout.stop_positive = at;
   } else if (name == "switch-layout-clear") {
     layout = SwitchLayout{};
   } else if (name == "index-period") {
@@ -618,6 +645,13 @@ Expected<void, std::string> Cia402Application::simulate(std::string_view name, s
       active_->enter(*context_, cycle);
     }
     publish();
+    return {};
+  } else if (name == "axis-coast-to-rest") {
+    if (value != 1) return bad_value("1");
+    if (!axis_.powered()) {
+      axis_.place(axis_.physical_position());
+      publish();
+    }
     return {};
   } else if (name == "load-torque") {
     if (value < -100000 || value > 100000) return bad_value("-100000..100000 per mille");

@@ -55,7 +55,12 @@
 //                                                                             -1 by the layout
 //   limit-positive-at P          limit-negative-at P     home-switch-from P   home-switch-to P
 //   switch-layout-clear (any)    index-period N (increments)   index-offset P
+//   stop-negative-at P           stop-positive-at P      mechanical end stops (cleared by
+//                                                         switch-layout-clear too)
 //   axis-position P              load-torque T (‰)
+//   axis-coast-to-rest 1         an axis coasting with the power stage off stands still where
+//                                it is (what an operator waits for between tests); a powered
+//                                axis is left alone
 //   fault:following-error | fault:limit-switch | fault:overcurrent | fault:over-voltage |
 //   fault:over-temperature   1 the fault occurs (cause present), 0 the cause is gone
 //   ("fault NAME" with a space is taken too, as FORMAT.md writes it)
@@ -110,6 +115,17 @@ struct Cia402ApplicationConfig {
   DeviationSet deviations;
   // Moving-average length (cycles) of the S-curve when 6086h ≠ 0.
   std::size_t jerk_smoothing_cycles = 20;
+  // The drive's internal velocity and acceleration units, in increments/s and increments/s²
+  // of the axis: what one unit of 6094h × user velocity (6097h × user acceleration) is. 1/1:
+  // the factor group converts into increments/s directly (the standard drive). Festo: 4/15
+  // (1/4096 min^-1 at 65536 increments per revolution) and 64/15 (1/256 min^-1/s).
+  Fraction internal_velocity_unit{};
+  Fraction internal_acceleration_unit{};
+  // pp controlword bit 9 (change on set-point) evaluated; false: reserved and ignored (Festo
+  // 000 §6.1.3 L5326-5424: bits 9..15 reserved).
+  bool pp_change_on_set_point = true;
+  // 60C0h: the one interpolation sub-mode accepted, also its default (InterpolatedPositionMode).
+  std::int16_t ip_submode = 0;
 };
 
 // The factor group as the dictionary holds it: 6093h/6094h/6097h (a fraction with a zero part

@@ -416,6 +416,31 @@ void InternalUnitParameters::attach(cia301::ObjectDictionary& od) {
       if (inner) inner(dict, entry);
     });
   }
+  // Festo: "The position_factor must not be larger than 2^24" (000_33c1d912b8b6010a.txt §5.3
+  // L2662); the manual names no reaction, so a write that would make 6093h sub 1 / sub 2 larger
+  // is refused with 06090031h (value too high) and the factor keeps its value.
+  for (std::uint8_t sub : {std::uint8_t{1}, std::uint8_t{2}}) {
+    cia301::Entry* e = od.find(0x6093, sub);
+    if (e == nullptr || !cia301::is_integer(e->type())) continue;
+    cia301::WriteValidator inner = e->write_validator();
+    e->set_write_validator(
+        [sub, inner](const cia301::ObjectDictionary& dict, const cia301::Entry& entry,
+                     std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+          if (inner) {
+            if (auto ok = inner(dict, entry, data); !ok) return ok;
+          }
+          const cia301::Entry* other = dict.find(0x6093, sub == 1 ? 2 : 1);
+          if (other == nullptr) return {};
+          const std::uint64_t written = cia301::load_unsigned(data);
+          const std::uint64_t numerator = sub == 1 ? written : other->as_unsigned();
+          const std::uint64_t divisor = sub == 1 ? other->as_unsigned() : written;
+          constexpr std::uint64_t kMaxPositionFactor = std::uint64_t{1} << 24;
+          if (divisor != 0 && numerator > kMaxPositionFactor * divisor) {
+            return Unexpected(cia301::SdoAbort::value_too_high);
+          }
+          return {};
+        });
+  }
   for (std::uint16_t index :
        {std::uint16_t{0x6091}, std::uint16_t{0x6092}, std::uint16_t{0x6093}, std::uint16_t{0x6094},
         std::uint16_t{0x6097}, std::uint16_t{0x607E}}) {
@@ -468,6 +493,7 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
       break;
   }
   plan.emcy_follow_up = p.emcy_follow_up;
+  plan.manufacturer_objects = p.manufacturer_objects;
   plan.application.error_code_format = p.error_code_format == profile::ErrorCodeFormat::error_number
                                            ? ErrorCodeFormat::error_number
                                            : ErrorCodeFormat::standard;
@@ -521,6 +547,14 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
   plan.drive.dictionary.pdo.mapping_while_valid = p.pdo_mapping_while_valid;
   plan.drive.dictionary.pdo.change_mask_index = p.tpdo_transmit_masks;
   plan.parameters_internal = p.parameters_internal;
+  plan.application.internal_velocity_unit = {p.internal_units.velocity.numerator,
+                                             p.internal_units.velocity.divisor};
+  plan.application.internal_acceleration_unit = {p.internal_units.acceleration.numerator,
+                                                 p.internal_units.acceleration.divisor};
+  plan.application.pp_change_on_set_point = p.pp_change_on_set_point;
+  plan.application.ip_submode = p.ip_submode;
+  plan.application.pds.power_stage_in_switched_on = p.power_stage_in_switched_on;
+  plan.nmt_min_spacing = p.nmt_min_spacing;
   plan.drive.sdo_short_frames = p.sdo_short_requests == profile::SdoShortRequests::pad
                                     ? cia301::ShortFramePolicy::pad
                                     : cia301::ShortFramePolicy::ignore;
@@ -533,6 +567,10 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
     plan.overrides.push_back(
         {kLifeTimeFactorIndex, 0, *p.life_time_factor, cia301::ResetKind::communication});
   }
+  // Further SDO servers and the bus-off reaction (device.hpp).
+  plan.drive.dictionary.extra_sdo_servers = p.extra_sdo_servers;
+  plan.drive.dictionary.sdo_node_id_sub = p.sdo_server_node_id;
+  plan.bus_off = p.bus_off;
   if (profile != nullptr) {
     if (auto r = apply_pdo_defaults(profile->pdo_defaults, plan); !r) return Unexpected(r.error());
   }

@@ -98,6 +98,43 @@
 //       re-expresses 607Ah, 607Ch, 607Dh, 6065h, 6067h, 606Dh, 606Fh, 607Fh, 6081h, 60FFh,
 //       6083h-6085h, 6099h, 609Ah in the new units (rounded half away from zero, so the
 //       rounding shows), where the standard drive keeps the numbers. Standard: false.
+//   extra_sdo_servers: 0..127, sdo_server_node_id: none | client | server
+//       DictionaryOptions::extra_sdo_servers / sdo_node_id_sub: further SDO server channels
+//       1201h.. (protocol/cia301/sdo_server_parameter.hpp), not valid until configured; sub 03h
+//       is the client's node-ID (CiA 301), the server's own node-ID (ESR: writing it moves the
+//       channel to 600h/580h + it at once, 0 disables it), or absent. Standard: 0, client.
+//   bus_off: cia301 | kollmorgen-f23 | esr-8180
+//       What the drive does when its CAN controller goes bus-off (device.hpp): cia301 = 1029h:01
+//       reaction and EMCY 8140h at recovery; kollmorgen-f23 (002 §2.9 L206-212) = fault 8182h
+//       (F23; the PDS's fault reaction stops and disables the drive) when a frame of the drive
+//       reached the wire before, the cause gone at recovery, no 8140h; esr-8180 (004 §11.4
+//       L789-795) = fault 8180h at once, no 8140h. Standard: cia301.
+//   manufacturer_objects: none | kollmorgen
+//       kollmorgen: KollmorgenObjects (kollmorgen_objects.hpp) adds 1002h (manufacturer status,
+//       the bits the reference drive can show), the OS prompt 1026h (ASCII commands over SDO)
+//       and the manufacturer object channel from 3500h (a few ASCII parameters, none
+//       PDO-mappable). Standard: none.
+//   internal_units: {velocity: [n, d], acceleration: [n, d]}
+//       The drive's internal units into which 6094h and 6097h convert, in increments/s and
+//       increments/s² of the axis (Cia402ApplicationConfig::internal_velocity_unit): the axis
+//       runs at user value x 6094h x n/d. Festo: 1/4096 min^-1 and 1/256 min^-1/s at 65536
+//       increments per revolution = [4, 15] and [64, 15], so that its defaults 4096/1 and
+//       256/1 mean min^-1 and min^-1/s and its commissioning 15/4, 15/64 increments/s (/s²).
+//       Standard: [1, 1] both.
+//   pp_change_on_set_point: true | false
+//       false: controlword bit 9 is reserved and ignored in profile position, each set-point
+//       ends at its target (ModeContext::change_on_set_point; Festo L5326-5424). Standard: true.
+//   ip_submode: -32768..0
+//       The one 60C0h value accepted, also its default (InterpolatedPositionMode); the
+//       reference drive runs it as its linear interpolation. Festo: -2. Standard: 0.
+//   power_stage_in_switched_on: true | false
+//       PowerDriveConfig::power_stage_in_switched_on: in SWITCHED ON (after transition 3 or 5)
+//       the axis holds its position with the power stage on; the mode's set-points stay
+//       disabled (Kollmorgen L3057-3061, L3099-3107). Standard: false.
+//   nmt_min_spacing: duration (0..1s)
+//       An NMT frame (000h, any node) received less than this after the previous NMT frame is
+//       not processed (servo_drive.hpp, the personality port; Festo L1403-1405: 2 x 500 us).
+//       Standard: 0 (every NMT frame is processed).
 //   note: text
 //       Why the values are what they are; not used.
 //
@@ -140,7 +177,12 @@ struct PersonalityPlan {
   std::vector<profile::ObjectRule> objects;  // apply_object_rules
   bool parameters_internal = false;          // InternalUnitParameters
   bool emcy_follow_up = false;
+  profile::BusOffReaction bus_off = profile::BusOffReaction::cia301;  // ServoDrive applies it
+  profile::ManufacturerObjects manufacturer_objects = profile::ManufacturerObjects::none;
   bool hardware_enable_present = true;  // the input's state at power on
+  // An NMT frame (COB-ID 000h) received less than this after the previous one is lost (Festo
+  // nmt_min_spacing); zero: every NMT frame is processed.
+  can::Duration nmt_min_spacing{};
   // What the personality asks for that the reference drive cannot show (one line each).
   std::vector<std::string> not_applied;
 };

@@ -248,8 +248,23 @@ void PowerDriveSystem::execute(const Transition& row, can::TimePoint now) {
         if (axis_.is_stopped()) complete_pending(now);
         return;
       }
+      if (row.number == 5 && config_.power_stage_in_switched_on && torque_on_) {
+        // The power stage stays on in SWITCHED ON: stop (quick stop ramp) and hold.
+        axis_.ramp_to_stop(quick_stop_);
+        enter(row.number, row.to, now);
+        return;
+      }
       break;  // 0: disable the drive function now
     }
+    case 3:
+      if (config_.power_stage_in_switched_on) {
+        // The power stage on, the drive function off: the axis holds where it is.
+        axis_.ramp_to_stop(quick_stop_);
+        torque_on_ = true;
+        enter(row.number, row.to, now);
+        return;
+      }
+      break;
     case 11:
       start_quick_stop();
       enter(row.number, row.to, now);
@@ -272,8 +287,12 @@ void PowerDriveSystem::execute(const Transition& row, can::TimePoint now) {
 void PowerDriveSystem::complete_pending(can::TimePoint now) {
   const std::uint8_t number = *pending_;
   pending_.reset();
-  if (torque_on_) axis_.disable_power();
-  torque_on_ = false;
+  if (number == 5 && config_.power_stage_in_switched_on && torque_on_) {
+    // Stopped on the ramp: the axis holds the position (the stop ends in position control).
+  } else {
+    if (torque_on_) axis_.disable_power();
+    torque_on_ = false;
+  }
   for (const Transition& row : cia402::transitions_numbered(number)) {
     if (row.trigger == Trigger::command) {
       enter(number, row.to, now);

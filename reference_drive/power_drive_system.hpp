@@ -253,6 +253,12 @@ struct PowerDriveConfig {
   // deceleration, user units/s² (CiA 402 leaves both to the manufacturer).
   std::uint32_t slow_down_deceleration = 10000;
   std::uint32_t quick_stop_deceleration = 100000;
+  // A personality's: SWITCHED ON has the power stage enabled (Kollmorgen, 002 §5.4.1.1
+  // L3057-3061, L3099-3101: transition 3 "drive has torque"; transition 5 "current position is
+  // held"): entering SWITCHED ON by 3 or 5 the axis holds its position (a stop that ends in
+  // position control) instead of running free; the drive function (the mode's set-points)
+  // stays disabled. false (CiA 402): SWITCHED ON has the drive function and the power off.
+  bool power_stage_in_switched_on = false;
   // Named deviations (deviations.inc). The PDS applies those of cia402/fsa, cia402/option-codes
   // and cia402/modes: transition-16-when-forbidden, statusword-bit5-wrong-switched-on,
   // fault-reset-on-level, quick-stop-ignored, enable-operation-from-switch-on-disabled,

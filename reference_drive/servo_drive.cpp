@@ -5,15 +5,22 @@
 #include <algorithm>
 #include <utility>
 
+#include "reference_drive/kollmorgen_objects.hpp"
 #include "reference_drive/modes/homing.hpp"
+#include "reference_drive/profile_objects.hpp"
 
 namespace drivecheck::reference_drive {
 
-// The port between the drive and the bus that adds Kollmorgen's second EMCY (see the header).
-// Everything else passes unchanged.
-class EmcyFollowUpPort final : public can::Bus {
+// The port between the drive and the bus that adds Kollmorgen's second EMCY and drops Festo's
+// NMT frames that come too close together (see the header). Everything else passes unchanged.
+class PersonalityPort final : public can::Bus {
  public:
-  EmcyFollowUpPort(can::Bus& port, std::uint8_t node) : port_(port), node_(node) {}
+  PersonalityPort(can::Bus& port, std::uint8_t node, bool emcy_follow_up,
+                  can::Duration nmt_min_spacing)
+      : port_(port),
+        node_(node),
+        emcy_follow_up_(emcy_follow_up),
+        nmt_min_spacing_(nmt_min_spacing) {}
 
   void set_dictionary(const cia301::ObjectDictionary* od) { od_ = od; }
 
@@ -21,7 +28,8 @@ class EmcyFollowUpPort final : public can::Bus {
   can::Duration unix_offset() const override { return port_.unix_offset(); }
   std::error_code send(const can::Frame& frame) override {
     const std::error_code error = port_.send(frame);
-    if (!error && is_emcy(frame) && frame.length() >= 3 && (frame.data[0] | frame.data[1]) != 0) {
+    if (!error && emcy_follow_up_ && is_emcy(frame) && frame.length() >= 3 &&
+        (frame.data[0] | frame.data[1]) != 0) {
       // 80h+N [00 00 | error register | 00 00 00 00 00]: the error state after the EMCY.
       const std::uint8_t bytes[8] = {0x00, 0x00, frame.data[2], 0x00, 0x00, 0x00, 0x00, 0x00};
       return port_.send(can::Frame::standard(frame.id, bytes));
@@ -29,10 +37,19 @@ class EmcyFollowUpPort final : public can::Bus {
     return error;
   }
   std::optional<can::TimedFrame> receive(can::TimePoint deadline) override {
-    return port_.receive(deadline);
+    while (true) {
+      auto frame = port_.receive(deadline);
+      if (!frame || !lost(*frame)) return frame;
+    }
   }
   void set_frame_handler(FrameHandler handler) override {
-    port_.set_frame_handler(std::move(handler));
+    if (!handler || nmt_min_spacing_ == can::Duration{}) {
+      port_.set_frame_handler(std::move(handler));
+      return;
+    }
+    port_.set_frame_handler([this, handler = std::move(handler)](const can::TimedFrame& frame) {
+      if (!lost(frame)) handler(frame);
+    });
   }
   void set_filters(std::span<const can::Filter> filters) override { port_.set_filters(filters); }
   void set_loopback(bool enabled) override { port_.set_loopback(enabled); }
@@ -60,8 +77,24 @@ class EmcyFollowUpPort final : public can::Bus {
     return frame.id == cob_id;
   }
 
+  // Festo (000 §3.6 L1403-1405): an NMT frame (any node) less than nmt_min_spacing after the
+  // previous NMT frame on the bus is not processed. Every NMT frame counts as the previous one.
+  bool lost(const can::TimedFrame& timed) {
+    const can::Frame& frame = timed.frame;
+    if (nmt_min_spacing_ == can::Duration{} || timed.own || frame.id != 0 || frame.is_extended() ||
+        frame.is_remote() || frame.is_error()) {
+      return false;
+    }
+    const bool too_close = last_nmt_ && timed.timestamp - *last_nmt_ < nmt_min_spacing_;
+    last_nmt_ = timed.timestamp;
+    return too_close;
+  }
+
   can::Bus& port_;
   std::uint8_t node_;
+  bool emcy_follow_up_;
+  can::Duration nmt_min_spacing_;
+  std::optional<can::TimePoint> last_nmt_;
   const cia301::ObjectDictionary* od_ = nullptr;
 };
 
@@ -77,6 +110,14 @@ class PersonalityApplication final : public DriveApplication {
     if (auto r = inner_.add_objects(od); !r) return r;
     if (auto r = apply_object_rules(od, objects_, inner_); !r) return r;
     if (internal_units_) internal_units_->attach(od);
+    if (kollmorgen_) {
+      if (auto r = kollmorgen_->add_objects(od); !r) return r;
+    }
+    if (profile_objects_ != nullptr) {  // last: every object the drive has is in `od`
+      for (std::string& line : add_profile_objects(od, *profile_objects_)) {
+        not_applied_->push_back(std::move(line));
+      }
+    }
     return {};
   }
   void on_reset(ReferenceDrive& drive, cia301::ResetKind kind) override {
@@ -98,11 +139,15 @@ class PersonalityApplication final : public DriveApplication {
     }
     inner_.on_reset(drive, kind);
     if (internal_units_) internal_units_->resync(od);
+    if (kollmorgen_) kollmorgen_->on_reset();
   }
   void on_nmt_state(ReferenceDrive& drive, cia301::NmtState from, cia301::NmtState to) override {
     inner_.on_nmt_state(drive, from, to);
   }
-  void on_cycle(ReferenceDrive& drive, can::TimePoint now) override { inner_.on_cycle(drive, now); }
+  void on_cycle(ReferenceDrive& drive, can::TimePoint now) override {
+    inner_.on_cycle(drive, now);
+    if (kollmorgen_) kollmorgen_->refresh(drive.dictionary());  // 1002h for the TPDOs
+  }
   void on_sync(ReferenceDrive& drive, can::TimePoint at) override { inner_.on_sync(drive, at); }
   void on_communication_loss(ReferenceDrive& drive) override {
     inner_.on_communication_loss(drive);
@@ -116,7 +161,52 @@ class PersonalityApplication final : public DriveApplication {
 
  public:
   std::unique_ptr<InternalUnitParameters> internal_units_;  // null: user units kept (standard)
+  std::unique_ptr<KollmorgenObjects> kollmorgen_;           // manufacturer_objects: kollmorgen
+  // The profile's objects file (profile_objects.hpp): the objects the drive lacks are added;
+  // what cannot be added goes to not_applied_ (the plan's). Null: the standard drive.
+  const std::vector<profile::ObjectSpec>* profile_objects_ = nullptr;
+  std::vector<std::string>* not_applied_ = nullptr;
 };
+
+// Bus-off as a fault of the drive (personality key bus_off): the PDS's fault reaction stops an
+// enabled drive and disables it; recovery removes the cause (a fault reset then clears it).
+//   Kollmorgen 002 §2.9 L206-212: error F23 (EMCY code 8182h, §5.1 L1193), reported only when
+//   a frame got onto the wire before.
+//   ESR 004 §11.4 L789-795: fault 8180h (the NMT reaction is 1029h's, as guarding_loss sets it).
+namespace {
+constexpr FaultDefinition kBusOffF23{0x8182, 0x10, "CAN bus-off (F23)"};
+constexpr FaultDefinition kBusOff8180{0x8180, 0x10, "CAN bus off"};
+
+std::function<void(ReferenceDrive&, bool, bool)> bus_off_fault(Cia402Application& app,
+                                                               const FaultDefinition& fault,
+                                                               bool after_transmission) {
+  return [&app, &fault, after_transmission](ReferenceDrive&, bool bus_off, bool transmitted) {
+    if (bus_off && (transmitted || !after_transmission)) {
+      app.pds().raise_fault(fault);
+    } else if (!bus_off) {
+      app.pds().clear_fault_cause(fault.code);
+    }
+  };
+}
+}  // namespace
+
+// The profile's objects file in the plan (profile_objects.hpp): the manual's defaults of the
+// parameters the drive has (after the personality's own overrides, which win) and the size of
+// the PDO mapping records (when the default mappings fit). The objects the drive lacks are
+// added by PersonalityApplication::add_objects.
+void apply_profile_objects(const profile::DriveProfile& profile, PersonalityPlan& plan) {
+  for (const DefaultOverride& o : profile_default_overrides(profile.objects)) {
+    plan.overrides.push_back(o);
+  }
+  cia301::PdoObjectOptions& pdo = plan.drive.dictionary.pdo;
+  std::size_t longest = 0;
+  for (const auto* list : {&pdo.rpdo_defaults, &pdo.tpdo_defaults}) {
+    for (const cia301::PdoDefaults& d : *list)
+      longest = std::max(longest, d.mapping.size());
+  }
+  const std::uint8_t entries = listed_mapping_entries(profile.objects);
+  if (entries >= 1 && entries <= 64 && entries >= longest) pdo.mapping_entries = entries;
+}
 
 ServoDrive::ServoDrive(PersonalityPlan plan) : plan_(std::move(plan)) {}
 ServoDrive::~ServoDrive() = default;
@@ -139,16 +229,25 @@ Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& 
   if (p.host_homing) {
     servo->application_->add_mode(std::make_unique<HomingOperationMode>(p.homing));
   }
+  if (options.profile != nullptr) apply_profile_objects(*options.profile, p);
   servo->personality_ =
       std::make_unique<PersonalityApplication>(*servo->application_, p.overrides, p.objects);
 
   if (p.parameters_internal) {
     servo->personality_->internal_units_ = std::make_unique<InternalUnitParameters>();
   }
+  if (p.manufacturer_objects == profile::ManufacturerObjects::kollmorgen) {
+    servo->personality_->kollmorgen_ = std::make_unique<KollmorgenObjects>(*servo->application_);
+  }
+  if (options.profile != nullptr) {  // read during create() only (ReferenceDrive::create)
+    servo->personality_->profile_objects_ = &options.profile->objects;
+    servo->personality_->not_applied_ = &p.not_applied;
+  }
 
   can::Bus* port = &bus;
-  if (p.emcy_follow_up) {
-    servo->port_ = std::make_unique<EmcyFollowUpPort>(bus, options.node);
+  if (p.emcy_follow_up || p.nmt_min_spacing != can::Duration{}) {
+    servo->port_ =
+        std::make_unique<PersonalityPort>(bus, options.node, p.emcy_follow_up, p.nmt_min_spacing);
     port = servo->port_.get();
   }
 
@@ -159,9 +258,15 @@ Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& 
   config.storage = options.storage;
   config.application = servo->personality_.get();
   config.deviations = options.deviations;
+  if (p.bus_off == profile::BusOffReaction::kollmorgen_f23) {
+    config.on_bus_off = bus_off_fault(*servo->application_, kBusOffF23, true);
+  } else if (p.bus_off == profile::BusOffReaction::esr_8180) {
+    config.on_bus_off = bus_off_fault(*servo->application_, kBusOff8180, false);
+  }
   auto drive = ReferenceDrive::create(*port, std::move(config));
   if (!drive) return Unexpected(drive.error());
   servo->drive_ = std::move(*drive);
+  servo->personality_->profile_objects_ = nullptr;  // the profile may go now
   if (servo->port_) servo->port_->set_dictionary(&servo->drive_->dictionary());
   if (auto r = servo->application_->simulate("hardware-enable", p.hardware_enable_present ? 1 : 0);
       !r) {

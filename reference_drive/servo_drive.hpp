@@ -17,7 +17,13 @@
 //   4. with emcy_follow_up, a port between the drive and `bus` that sends Kollmorgen's second
 //      EMCY after each EMCY frame (byte 0-1 code != 0000h) the drive sends:
 //        80h+N  [00 00 | ER | 00 00 00 00 00]   code 0000h, ER = byte 2 of the first EMCY
+//      with nmt_min_spacing, the same port drops each NMT frame (000h) received less than that
+//      after the previous one (Festo: such a burst is not processed);
 //   5. ReferenceDrive::create on that port (or `bus`); the hardware enable input is present.
+//      With a profile, its objects list (profile_objects.hpp) shapes the dictionary: the
+//      objects the drive lacks are added last (after KollmorgenObjects), the listed defaults
+//      of 6000h-9FFFh parameters join the default overrides, mapping records get the listed
+//      number of entries.
 // The drive is powered off after create(): power_on() starts it (boot-up message).
 #pragma once
 
@@ -50,7 +56,7 @@ struct ServoDriveOptions {
   std::uint32_t serial_number = 0;
 };
 
-class EmcyFollowUpPort;
+class PersonalityPort;
 class PersonalityApplication;
 
 class ServoDrive {
@@ -83,7 +89,7 @@ class ServoDrive {
   explicit ServoDrive(PersonalityPlan plan);
 
   PersonalityPlan plan_;
-  std::unique_ptr<EmcyFollowUpPort> port_;
+  std::unique_ptr<PersonalityPort> port_;
   std::unique_ptr<Cia402Application> application_;
   std::unique_ptr<PersonalityApplication> personality_;
   std::unique_ptr<ReferenceDrive> drive_;  // last: destroyed first

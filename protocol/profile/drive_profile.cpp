@@ -374,6 +374,67 @@ Deviation read_deviation(const Reader& r, const YAML::Node& node) {
   return d;
 }
 
+std::vector<std::string> glob_list(const Reader& r, const YAML::Node& node, std::string_view what) {
+  require_sequence(r, node, what);
+  std::vector<std::string> globs;
+  for (const auto& item : node) {
+    std::string glob = scalar(r, item, what);
+    if (!is_valid_glob(glob)) {
+      r.fail(item, fmt::format("{}: '{}' is not a glob of vector ids ([a-z0-9/._-], * and ?)", what,
+                               glob));
+    }
+    globs.push_back(std::move(glob));
+  }
+  return globs;
+}
+
+CommissioningWrite read_commissioning_write(const Reader& r, const YAML::Node& node) {
+  const MapView map(r, node, "commissioning.writes entry",
+                    {"index", "sub", "value", "size", "source", "why"});
+  CommissioningWrite w;
+  w.index =
+      static_cast<std::uint16_t>(integer(r, map.require("index", "commissioning.writes entry"),
+                                         "commissioning.writes.index", 0x0001, 0xFFFF));
+  if (auto v = map.get("sub")) {
+    w.sub = static_cast<std::uint8_t>(integer(r, *v, "commissioning.writes.sub", 0, 255));
+  }
+  const YAML::Node size = map.require("size", "commissioning.writes entry");
+  w.size = static_cast<std::uint8_t>(integer(r, size, "commissioning.writes.size", 1, 4));
+  const YAML::Node value = map.require("value", "commissioning.writes entry");
+  // Signed or unsigned: from -2^(8n-1) to 2^(8n)-1.
+  const std::int64_t bits = 8 * static_cast<std::int64_t>(w.size);
+  w.value = integer(r, value, fmt::format("commissioning.writes.value ({} bytes)", w.size),
+                    -(std::int64_t{1} << (bits - 1)), (std::int64_t{1} << bits) - 1);
+  w.sources = sources(r, map.require("source", "commissioning.writes entry"),
+                      "commissioning.writes.source");
+  w.why = nonempty_scalar(r, map.require("why", "commissioning.writes entry"),
+                          "commissioning.writes.why");
+  return w;
+}
+
+Commissioning read_commissioning(const Reader& r, const YAML::Node& node) {
+  const MapView map(r, node, "commissioning", {"vectors", "except", "writes"});
+  Commissioning c;
+  const YAML::Node vectors = map.require("vectors", "commissioning");
+  c.vectors = glob_list(r, vectors, "commissioning.vectors");
+  if (c.vectors.empty()) r.fail(vectors, "commissioning.vectors must name at least one glob");
+  if (auto v = map.get("except")) c.except = glob_list(r, *v, "commissioning.except");
+  const YAML::Node writes = map.require("writes", "commissioning");
+  require_sequence(r, writes, "commissioning.writes");
+  for (const auto& item : writes) {
+    CommissioningWrite w = read_commissioning_write(r, item);
+    for (const auto& seen : c.writes) {
+      if (seen.index == w.index && seen.sub == w.sub) {
+        r.fail(item, fmt::format("commissioning.writes: {:04X}h sub {} is written twice", w.index,
+                                 w.sub));
+      }
+    }
+    c.writes.push_back(std::move(w));
+  }
+  if (c.writes.empty()) r.fail(writes, "commissioning.writes must hold at least one write");
+  return c;
+}
+
 ObjectRule read_object_rule(const Reader& r, const YAML::Node& node) {
   const MapView map(
       r, node, "personality.objects entry",
@@ -451,6 +512,11 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "pdo_mapping_while_valid",
                      "tpdo_transmit_masks",
                      "parameters_internal",
+                     "internal_units",
+                     "pp_change_on_set_point",
+                     "ip_submode",
+                     "power_stage_in_switched_on",
+                     "nmt_min_spacing",
                      "guarding_loss",
                      "ack_latency_cycles",
                      "control_cycle",
@@ -459,6 +525,10 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "heartbeat_time_ms",
                      "guard_time_ms",
                      "life_time_factor",
+                     "extra_sdo_servers",
+                     "sdo_server_node_id",
+                     "bus_off",
+                     "manufacturer_objects",
                      "note"});
   Personality p;
   if (auto v = map.get("identity")) p.identity = read_identity(r, *v, "personality.identity");
@@ -539,9 +609,19 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
   }
   choice("guarding_loss", p.guarding_loss, GuardingLoss::error_behaviour,
          GuardingLoss::pre_operational, GuardingLoss::no_nmt_change);
+  choice("manufacturer_objects", p.manufacturer_objects, ManufacturerObjects::none,
+         ManufacturerObjects::kollmorgen);
   choice("sdo_dlc", p.sdo_dlc, SdoDlc::always_8, SdoDlc::minimal);
   choice("sdo_short_requests", p.sdo_short_requests, SdoShortRequests::ignore,
          SdoShortRequests::pad);
+  if (auto v = map.get("extra_sdo_servers")) {
+    p.extra_sdo_servers =
+        static_cast<std::uint8_t>(integer(r, *v, "personality.extra_sdo_servers", 0, 127));
+  }
+  choice("sdo_server_node_id", p.sdo_server_node_id, cia301::SdoNodeIdSub::none,
+         cia301::SdoNodeIdSub::client, cia301::SdoNodeIdSub::server);
+  choice("bus_off", p.bus_off, BusOffReaction::cia301, BusOffReaction::kollmorgen_f23,
+         BusOffReaction::esr_8180);
   if (auto v = map.get("object_types")) {
     require_sequence(r, *v, "personality.object_types");
     for (const auto& item : *v) {
@@ -581,6 +661,36 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
   }
   if (auto v = map.get("parameters_internal")) {
     p.parameters_internal = boolean(r, *v, "personality.parameters_internal");
+  }
+  if (auto v = map.get("pp_change_on_set_point")) {
+    p.pp_change_on_set_point = boolean(r, *v, "personality.pp_change_on_set_point");
+  }
+  if (auto v = map.get("ip_submode")) {
+    p.ip_submode = static_cast<std::int16_t>(integer(r, *v, "personality.ip_submode", -32768, 0));
+  }
+  if (auto v = map.get("power_stage_in_switched_on")) {
+    p.power_stage_in_switched_on = boolean(r, *v, "personality.power_stage_in_switched_on");
+  }
+  if (auto v = map.get("nmt_min_spacing")) {
+    p.nmt_min_spacing = duration(r, *v, "personality.nmt_min_spacing");
+    if (p.nmt_min_spacing > std::chrono::seconds(1)) {
+      r.fail(*v, "personality.nmt_min_spacing must be within 0..1s");
+    }
+  }
+  if (auto v = map.get("internal_units")) {
+    const MapView m(r, *v, "personality.internal_units", {"velocity", "acceleration"});
+    const auto fraction = [&](std::string_view key, UnitFraction& out) {
+      auto f = m.get(key);
+      if (!f) return;
+      const std::string what = fmt::format("personality.internal_units.{}", key);
+      if (!f->IsSequence() || f->size() != 2) {
+        r.fail(*f, fmt::format("{} must be [numerator, divisor]", what));
+      }
+      out.numerator = static_cast<std::uint32_t>(integer(r, (*f)[0], what, 1, 0xFFFFFFFF));
+      out.divisor = static_cast<std::uint32_t>(integer(r, (*f)[1], what, 1, 0xFFFFFFFF));
+    };
+    fraction("velocity", p.internal_units.velocity);
+    fraction("acceleration", p.internal_units.acceleration);
   }
   if (auto v = map.get("tpdo_transmit_masks")) {
     p.tpdo_transmit_masks = static_cast<std::uint16_t>(
@@ -687,10 +797,10 @@ std::vector<Item> unique_items(std::vector<Located<Item>> located, std::string_v
 
 DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOptions& options) {
   if (!root.IsDefined() || root.IsNull()) r.fail_at(0, "the profile is empty");
-  const MapView map(
-      r, root, "profile",
-      {"name", "title", "manual", "identity", "features", "modes", "homing_methods", "option_codes",
-       "timing", "objects", "emcy_codes", "pdo_defaults", "deviations", "personality"});
+  const MapView map(r, root, "profile",
+                    {"name", "title", "manual", "identity", "features", "modes", "homing_methods",
+                     "option_codes", "timing", "objects", "emcy_codes", "pdo_defaults",
+                     "deviations", "commissioning", "personality"});
   DriveProfile p;
   const YAML::Node name_node = map.require("name", "profile");
   p.name = scalar(r, name_node, "name");
@@ -793,6 +903,7 @@ DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOp
       p.deviations.push_back(std::move(d));
     }
   }
+  if (auto v = map.get("commissioning")) p.commissioning = read_commissioning(r, *v);
   if (auto v = map.get("personality")) {
     p.personality = read_personality(r, *v);
     // The personality must be able to do what it says with the profile's lists.
@@ -956,10 +1067,33 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
   if (p.parameters_internal) {
     out << YAML::Key << "parameters_internal" << YAML::Value << "true";
   }
+  if (!p.pp_change_on_set_point) {
+    out << YAML::Key << "pp_change_on_set_point" << YAML::Value << "false";
+  }
+  if (p.ip_submode != 0) out << YAML::Key << "ip_submode" << YAML::Value << p.ip_submode;
+  if (p.power_stage_in_switched_on) {
+    out << YAML::Key << "power_stage_in_switched_on" << YAML::Value << "true";
+  }
+  if (p.nmt_min_spacing != can::Duration{}) {
+    out << YAML::Key << "nmt_min_spacing" << YAML::Value << format_duration(p.nmt_min_spacing);
+  }
+  if (p.internal_units != InternalUnits{}) {
+    out << YAML::Key << "internal_units" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "velocity" << YAML::Value << YAML::Flow << YAML::BeginSeq
+        << p.internal_units.velocity.numerator << p.internal_units.velocity.divisor << YAML::EndSeq;
+    out << YAML::Key << "acceleration" << YAML::Value << YAML::Flow << YAML::BeginSeq
+        << p.internal_units.acceleration.numerator << p.internal_units.acceleration.divisor
+        << YAML::EndSeq;
+    out << YAML::EndMap;
+  }
   if (p.tpdo_transmit_masks != 0) {
     out << YAML::Key << "tpdo_transmit_masks" << YAML::Value << hex(p.tpdo_transmit_masks, 4);
   }
   out << YAML::Key << "guarding_loss" << YAML::Value << std::string(to_string(p.guarding_loss));
+  if (p.manufacturer_objects != ManufacturerObjects::none) {
+    out << YAML::Key << "manufacturer_objects" << YAML::Value
+        << std::string(to_string(p.manufacturer_objects));
+  }
   out << YAML::Key << "ack_latency_cycles" << YAML::Value << p.ack_latency_cycles;
   if (p.control_cycle) {
     out << YAML::Key << "control_cycle" << YAML::Value << format_duration(*p.control_cycle);
@@ -967,6 +1101,14 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
   out << YAML::Key << "sdo_dlc" << YAML::Value << std::string(to_string(p.sdo_dlc));
   out << YAML::Key << "sdo_short_requests" << YAML::Value
       << std::string(to_string(p.sdo_short_requests));
+  if (p.extra_sdo_servers != 0) {
+    out << YAML::Key << "extra_sdo_servers" << YAML::Value << static_cast<int>(p.extra_sdo_servers);
+    out << YAML::Key << "sdo_server_node_id" << YAML::Value
+        << std::string(to_string(p.sdo_server_node_id));
+  }
+  if (p.bus_off != BusOffReaction::cia301) {
+    out << YAML::Key << "bus_off" << YAML::Value << std::string(to_string(p.bus_off));
+  }
   if (p.heartbeat_time_ms) {
     out << YAML::Key << "heartbeat_time_ms" << YAML::Value << *p.heartbeat_time_ms;
   }
@@ -1012,6 +1154,13 @@ std::optional<can::Duration> DriveProfile::timing_value(std::string_view key) co
   if (auto it = timing.find(std::string(key)); it != timing.end()) return it->second;
   if (const TimingName* row = find_timing(key)) return row->default_value;
   return std::nullopt;
+}
+
+bool Commissioning::applies_to(std::string_view vector_id) const {
+  if (writes.empty()) return false;
+  const auto match = [&](const std::string& glob) { return glob_match(glob, vector_id); };
+  return std::any_of(vectors.begin(), vectors.end(), match) &&
+         std::none_of(except.begin(), except.end(), match);
 }
 
 const Deviation* DriveProfile::deviation_for(std::string_view vector_id) const {
@@ -1061,12 +1210,44 @@ std::string_view to_string(HomingStyle style) {
 std::string_view to_string(SdoShortRequests policy) {
   return policy == SdoShortRequests::ignore ? "ignore" : "pad";
 }
+std::string_view to_string(BusOffReaction reaction) {
+  switch (reaction) {
+    case BusOffReaction::cia301:
+      return "cia301";
+    case BusOffReaction::kollmorgen_f23:
+      return "kollmorgen-f23";
+    case BusOffReaction::esr_8180:
+      return "esr-8180";
+  }
+  return "?";
+}
+std::string_view to_string(cia301::SdoNodeIdSub sub) {
+  switch (sub) {
+    case cia301::SdoNodeIdSub::none:
+      return "none";
+    case cia301::SdoNodeIdSub::client:
+      return "client";
+    case cia301::SdoNodeIdSub::server:
+      return "server";
+  }
+  return "?";
+}
 std::string_view to_string(ObjectAction action) {
   return action == ObjectAction::none ? "none" : "set-actual-position";
 }
 std::string_view to_string(SdoDlc dlc) {
   return dlc == SdoDlc::always_8 ? "always-8" : "minimal";
 }
+std::string_view to_string(ManufacturerObjects objects) {
+  switch (objects) {
+    case ManufacturerObjects::none:
+      return "none";
+    case ManufacturerObjects::kollmorgen:
+      return "kollmorgen";
+  }
+  return "none";
+}
+
 std::string_view to_string(GuardingLoss loss) {
   switch (loss) {
     case GuardingLoss::error_behaviour:
@@ -1248,6 +1429,34 @@ std::string to_yaml(const DriveProfile& p) {
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+
+  if (!p.commissioning.writes.empty()) {
+    const Commissioning& c = p.commissioning;
+    out << YAML::Key << "commissioning" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "vectors" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const auto& g : c.vectors)
+      out << YAML::DoubleQuoted << g;
+    out << YAML::EndSeq;
+    if (!c.except.empty()) {
+      out << YAML::Key << "except" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+      for (const auto& g : c.except)
+        out << YAML::DoubleQuoted << g;
+      out << YAML::EndSeq;
+    }
+    out << YAML::Key << "writes" << YAML::Value << YAML::BeginSeq;
+    for (const auto& w : c.writes) {
+      out << YAML::BeginMap;
+      out << YAML::Key << "index" << YAML::Value << hex(w.index, 4);
+      out << YAML::Key << "sub" << YAML::Value << static_cast<int>(w.sub);
+      out << YAML::Key << "value" << YAML::Value << w.value;
+      out << YAML::Key << "size" << YAML::Value << static_cast<int>(w.size);
+      emit_sources(out, w.sources);
+      out << YAML::Key << "why" << YAML::Value << YAML::DoubleQuoted << w.why;
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+    out << YAML::EndMap;
+  }
 
   out << YAML::Key << "personality" << YAML::Value;
   emit_personality(out, p.personality);

@@ -20,6 +20,7 @@
 //   emcy_codes: [...] or "file.yaml"       the manual's EMCY table (below)
 //   pdo_defaults: [...] or "file.yaml"     the default PDO configuration (below)
 //   deviations: [...]                      (below); ids unique
+//   commissioning: {...}                   SDO writes the engine makes after setup (below)
 //   personality: {...}                     personality.hpp / reference_drive/personality.hpp
 //
 // objects[i]: {index, sub (default 0), type (CiA 301 name, e.g. UNSIGNED16), access (ro wo rw
@@ -32,6 +33,11 @@
 //   mapping: [0x60410010, ...] (index << 16 | sub << 8 | bits), source}; pdo unique.
 // deviations[i]: {id ([a-z0-9._-]+), vectors: [globs], source (text or list), description,
 //   contradiction}; id, vectors, source and description required.
+// commissioning: {vectors: [globs] (required, at least one), except: [globs], writes: [{index
+//   (1..FFFFh), sub (default 0), value (integer, must fit `size`), size (bytes 1..4, required),
+//   source (text or list, required), why (text, required)}] (required, at least one)};
+//   index+sub unique. What an integrator writes to make the drive use the units the vectors
+//   are written in (e.g. Festo's velocity factor for increments/s).
 //
 // A string for objects/emcy_codes/pdo_defaults names a YAML file relative to the profile (no
 // "..") that holds the list; its errors carry its own file:line. Keep such files in
@@ -117,6 +123,27 @@ struct Deviation {
   friend bool operator==(const Deviation&, const Deviation&) = default;
 };
 
+// One SDO write of the commissioning (vectors/FORMAT.md "Commissioning").
+struct CommissioningWrite {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::int64_t value = 0;  // fits `size` bytes (signed or unsigned)
+  std::uint8_t size = 4;   // bytes, 1..4 (expedited)
+  std::vector<std::string> sources;
+  std::string why;
+  friend bool operator==(const CommissioningWrite&, const CommissioningWrite&) = default;
+};
+
+// What the engine writes after each vector's setup (reset and boot-up), before the NMT state
+// and the CiA 402 state, for the vectors it applies to. Empty `writes`: no commissioning.
+struct Commissioning {
+  std::vector<std::string> vectors;  // globs of the vector ids it applies to
+  std::vector<std::string> except;   // globs of vector ids excluded from them
+  std::vector<CommissioningWrite> writes;
+  bool applies_to(std::string_view vector_id) const;
+  friend bool operator==(const Commissioning&, const Commissioning&) = default;
+};
+
 struct DriveProfile {
   std::string name;
   std::string title;
@@ -131,6 +158,7 @@ struct DriveProfile {
   std::vector<EmcyCodeSpec> emcy_codes;
   std::vector<PdoDefault> pdo_defaults;
   std::vector<Deviation> deviations;
+  Commissioning commissioning;
   Personality personality;
 
   // The file it was loaded from (empty for parsed text; not serialised, not compared).
@@ -150,7 +178,7 @@ struct DriveProfile {
            a.homing_methods == b.homing_methods && a.option_codes == b.option_codes &&
            a.timing == b.timing && a.objects == b.objects && a.emcy_codes == b.emcy_codes &&
            a.pdo_defaults == b.pdo_defaults && a.deviations == b.deviations &&
-           a.personality == b.personality;
+           a.commissioning == b.commissioning && a.personality == b.personality;
   }
 };
 

@@ -15,6 +15,7 @@
 
 #include "protocol/can/bus.hpp"
 #include "protocol/cia301/data_type.hpp"
+#include "protocol/cia301/sdo_server_parameter.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::profile {
@@ -59,6 +60,18 @@ enum class SdoDlc : std::uint8_t { always_8, minimal };
 // SDO requests with fewer than 8 data bytes. ignore: no SDO frame (CiA 301). pad: the missing
 // bytes read as 00h (Festo's examples print only the significant bytes, L744-756).
 enum class SdoShortRequests : std::uint8_t { ignore, pad };
+// What the drive does when its CAN controller goes bus-off (ReferenceDrive::set_bus_off).
+// cia301: 1029h:01's communication error reaction, and EMCY 8140h (recovered from bus off) at
+// recovery. kollmorgen-f23 (002 §2.9 L206-212): error F23 (EMCY code 8182h, a fault: with the
+// power stage enabled the drive stops on the emergency ramp and disables), only when a frame of
+// the drive reached the wire before; no 8140h at recovery. esr-8180 (004 §11.4 L789-795,
+// App. D L1812-1814): fault 8180h (quick stop, then the fault), pre-operational (1029h:01 as
+// guarding_loss sets it), no 8140h at recovery ("processed in the CAN system only").
+enum class BusOffReaction : std::uint8_t { cia301, kollmorgen_f23, esr_8180 };
+// Manufacturer objects with behaviour of their own (reference_drive/kollmorgen_objects.hpp).
+// none: none. kollmorgen (002): 1002h manufacturer status, the OS prompt 1026h (ASCII commands)
+// and the object channel from 3500h.
+enum class ManufacturerObjects : std::uint8_t { none, kollmorgen };
 // What a node guarding (life guarding) or heartbeat consumer event does to the NMT state.
 // error-behaviour: what 1029h:01 says (CiA 301 default: Operational -> Pre-operational).
 // pre-operational: always Pre-operational (ESR), also from Stopped. no-nmt-change: the NMT state
@@ -97,6 +110,22 @@ struct ObjectRule {
   friend bool operator==(const ObjectRule&, const ObjectRule&) = default;
 };
 
+// A unit of the drive as a fraction of the reference drive's axis unit (increments/s for
+// velocities, increments/s² for accelerations): numerator / divisor, both 1..2^32-1.
+struct UnitFraction {
+  std::uint32_t numerator = 1;
+  std::uint32_t divisor = 1;
+  friend bool operator==(const UnitFraction&, const UnitFraction&) = default;
+};
+
+// The drive's internal units, into which 6094h and 6097h convert (Festo: 1/4096 min^-1 and
+// 1/256 min^-1/s, 000 §5.3 L2709, L2789). Standard: 1/1 (increments/s, increments/s²).
+struct InternalUnits {
+  UnitFraction velocity;
+  UnitFraction acceleration;
+  friend bool operator==(const InternalUnits&, const InternalUnits&) = default;
+};
+
 struct Personality {
   std::optional<Identity> identity;       // none: the profile's identity
   std::optional<std::vector<int>> modes;  // none: the profile's modes
@@ -115,6 +144,11 @@ struct Personality {
   bool pdo_mapping_while_valid = false;   // Kollmorgen: mapping written while the PDO is valid
   std::uint16_t tpdo_transmit_masks = 0;  // Festo: index of TPDO1's transmit mask (2014h); 0 none
   bool parameters_internal = false;       // Festo: parameters kept in internal units (L2594)
+  InternalUnits internal_units;           // Festo: 6094h/6097h convert into its units
+  bool pp_change_on_set_point = true;     // pp controlword bit 9; false: reserved, ignored (Festo)
+  std::int16_t ip_submode = 0;  // 60C0h: the one value accepted and its default (Festo -2)
+  bool power_stage_in_switched_on = false;  // SWITCHED ON holds the motor (Kollmorgen)
+  can::Duration nmt_min_spacing{};  // an NMT frame closer to the previous one is lost (Festo)
   GuardingLoss guarding_loss = GuardingLoss::error_behaviour;
   unsigned ack_latency_cycles = 1;  // pp: control cycles from new set-point to acknowledge
   std::optional<can::Duration> control_cycle;  // none: the drive's default (1 ms)
@@ -123,18 +157,25 @@ struct Personality {
   std::optional<std::uint16_t> heartbeat_time_ms;  // 1017h default
   std::optional<std::uint16_t> guard_time_ms;      // 100Ch default
   std::optional<std::uint8_t> life_time_factor;    // 100Dh default
-  std::string note;                                // free text (why these values)
+  std::uint8_t extra_sdo_servers = 0;              // further SDO server channels 1201h.. (0..127)
+  cia301::SdoNodeIdSub sdo_server_node_id = cia301::SdoNodeIdSub::client;  // their sub 03h
+  BusOffReaction bus_off = BusOffReaction::cia301;
+  ManufacturerObjects manufacturer_objects = ManufacturerObjects::none;
+  std::string note;  // free text (why these values)
 
   friend bool operator==(const Personality&, const Personality&) = default;
 };
 
-std::string_view to_string(HardwareEnable enable);    // "none", "transition-2", "transition-3"
-std::string_view to_string(HomingTable table);        // "none", "festo", "kollmorgen", "irtsa"
-std::string_view to_string(ErrorCodeFormat format);   // "standard", "error-number"
-std::string_view to_string(HomingStyle style);        // "standard", "set-position"
-std::string_view to_string(ObjectAction action);      // "none", "set-actual-position"
-std::string_view to_string(SdoDlc dlc);               // "always-8", "minimal"
-std::string_view to_string(SdoShortRequests policy);  // "ignore", "pad"
+std::string_view to_string(HardwareEnable enable);        // "none", "transition-2", "transition-3"
+std::string_view to_string(HomingTable table);            // "none", "festo", "kollmorgen", "irtsa"
+std::string_view to_string(ErrorCodeFormat format);       // "standard", "error-number"
+std::string_view to_string(HomingStyle style);            // "standard", "set-position"
+std::string_view to_string(ObjectAction action);          // "none", "set-actual-position"
+std::string_view to_string(SdoDlc dlc);                   // "always-8", "minimal"
+std::string_view to_string(SdoShortRequests policy);      // "ignore", "pad"
+std::string_view to_string(BusOffReaction reaction);      // "cia301", "kollmorgen-f23", "esr-8180"
+std::string_view to_string(cia301::SdoNodeIdSub sub);     // "none", "client", "server"
+std::string_view to_string(ManufacturerObjects objects);  // "none", "kollmorgen"
 std::string_view to_string(
     GuardingLoss loss);  // "error-behaviour", "pre-operational", "no-nmt-change"
 

@@ -62,7 +62,7 @@ constexpr std::array<std::string_view, 35> kFixedFeatures{
 };
 
 // FORMAT.md "Timing names".
-const std::array<TimingName, 9> kTimings{{
+const std::array<TimingName, 10> kTimings{{
     {"response", 100ms, "SDO/NMT reaction of any frame the vector waits for"},
     {"sdo_response", 100ms, "SDO response after the request"},
     {"bootup", 2s, "reset command to boot-up message"},
@@ -72,6 +72,7 @@ const std::array<TimingName, 9> kTimings{{
     {"heartbeat_tolerance", 10ms, "heartbeat period accuracy"},
     {"sync_response", 5ms, "SYNC to synchronous TPDO"},
     {"homing", 30s, "homing start to attained/error"},
+    {"nmt_spacing", 0s, "least time between two NMT frames (not two send: steps in a row)"},
 }};
 
 template <class T>

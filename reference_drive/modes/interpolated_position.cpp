@@ -36,14 +36,16 @@ std::optional<double> interpolation_period_seconds(const cia301::ObjectDictionar
 
 Expected<void, std::string> InterpolatedPositionMode::add_objects(cia301::ObjectDictionary& od) {
   if (auto r = od.add_var(0x60C0, "interpolation sub mode select", DataType::integer16,
-                          AccessType::rw, Value::of_signed(0), true);
+                          AccessType::rw, Value::of_signed(submode_), true);
       !r) {
     return Unexpected(r.error());
   }
   od.find(0x60C0, 0)->set_write_validator(
-      [](const cia301::ObjectDictionary&, const cia301::Entry&,
-         std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
-        if (cia301::load_signed(data) != 0) return Unexpected(cia301::SdoAbort::invalid_value);
+      [submode = submode_](const cia301::ObjectDictionary&, const cia301::Entry&,
+                           std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+        if (cia301::load_signed(data) != submode) {
+          return Unexpected(cia301::SdoAbort::invalid_value);
+        }
         return {};
       });
   ObjectDefinition record{0x60C1,

@@ -40,6 +40,10 @@ class InterpolatedPositionMode final : public OperationMode {
  public:
   static constexpr std::uint32_t kMaxBuffer = 16;
 
+  // `submode`: the one 60C0h value accepted, also its default (CiA 402: 0, linear
+  // interpolation; a personality's manufacturer value, Festo -2, runs the same interpolation).
+  explicit InterpolatedPositionMode(std::int16_t submode = 0) : submode_(submode) {}
+
   std::int8_t mode() const override { return 7; }
   Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override;
   void on_reset(ModeContext& ctx) override;
@@ -60,6 +64,7 @@ class InterpolatedPositionMode final : public OperationMode {
   double end_ = 0.0;
   std::optional<can::TimePoint> segment_at_;
   std::uint16_t bits_ = 0;
+  std::int16_t submode_ = 0;
 };
 
 }  // namespace drivecheck::reference_drive

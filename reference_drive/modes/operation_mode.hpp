@@ -52,6 +52,9 @@ struct ModeContext {
   std::uint32_t acknowledge_latency_cycles = 1;
   // Moving-average length of the S-curve (6086h ≠ 0), cycles.
   std::size_t jerk_smoothing_cycles = 20;
+  // pp: controlword bit 9 (change on set-point) is evaluated. false: bit 9 is reserved and
+  // ignored, every set-point stops at its target (a personality's: Festo).
+  bool change_on_set_point = true;
 
   // Set by the application every cycle before the mode runs:
   // software position limits 607Dh (actual frame, internal units; min > max: none),

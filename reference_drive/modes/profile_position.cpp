@@ -84,7 +84,7 @@ ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& c
       static_cast<double>(ctx.read_unsigned(cia402::kProfileDeceleration)));
   sp.limits.end_velocity =
       f.speed_to_internal(static_cast<double>(ctx.read_unsigned(cia402::kEndVelocity)));
-  sp.change_on_set_point = (controlword & kChangeOnSetPoint) != 0;
+  sp.change_on_set_point = ctx.change_on_set_point && (controlword & kChangeOnSetPoint) != 0;
   return sp;
 }
 

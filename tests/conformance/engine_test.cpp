@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
 #include <string>
 
@@ -360,6 +361,62 @@ class EngineDriveTest : public EngineTest {
   std::unique_ptr<reference_drive::ReferenceDrive> drive_;
 };
 
+// The embedded drive's bus-off control, reduced to the reference drive on the peer port.
+class DriveBusOff final : public SimulationControl {
+ public:
+  DriveBusOff(can::SimPort& port, reference_drive::ReferenceDrive& drive)
+      : port_(port), drive_(drive) {}
+  std::string set_input(std::string_view, std::int64_t) override { return "no inputs"; }
+  std::string reset_inputs() override { return {}; }
+  bool can_bus_off() const override { return true; }
+  std::string set_bus_off(bool bus_off) override {
+    port_.set_bus_off(bus_off);
+    drive_.set_bus_off(bus_off);
+    ++calls;
+    return {};
+  }
+  int calls = 0;
+
+ private:
+  can::SimPort& port_;
+  reference_drive::ReferenceDrive& drive_;
+};
+
+TEST_F(EngineDriveTest, BusOffStepThenRecoveryEmcy) {
+  // Given the reference drive and a control that can put its controller bus-off
+  DriveBusOff control(*peer_port_, *drive_);
+  EngineOptions options;
+  options.simulation = &control;
+  const auto set = parse_vectors(
+      "- id: t/bus-off\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n    - bus_off: 50ms\n"
+      "    - expect_emcy: {code: 0x8140, register: {mask: 0x10, value: 0x10}}\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok());
+  // When the vector runs
+  const auto start = bus_.now();
+  const auto result = run(set.vectors.front(), options);
+  // Then the step went bus-off and back (two calls, at least 50 ms), and the drive's EMCY
+  // 8140h after the recovery passes the expectation
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+  EXPECT_EQ(control.calls, 2);
+  EXPECT_GE(bus_.now() - start, 50ms);
+  EXPECT_FALSE(peer_port_->bus_off());
+}
+
+TEST_F(EngineDriveTest, BusOffStepOnARealBusIsNotApplicable) {
+  // Given the same vector, run as on a real bus (no simulation control)
+  const auto set = parse_vectors(
+      "- id: t/bus-off\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n    - bus_off: 50ms\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok());
+  EngineOptions options;
+  options.real_bus = true;
+  // When it runs; Then it is not applicable, and the reason names the bus_off step
+  const auto result = run(set.vectors.front(), options);
+  EXPECT_EQ(result.verdict, Verdict::not_applicable);
+  EXPECT_NE(result.message.find("bus_off step"), std::string::npos) << result.message;
+}
+
 TEST_F(EngineDriveTest, ResetNodeSetupAndBootup) {
   // Given the reference drive; When a vector with the default setup resets it and resets it
   // again by an nmt step
@@ -371,6 +428,54 @@ TEST_F(EngineDriveTest, ResetNodeSetupAndBootup) {
   const auto result = run(set.vectors.front());
   // Then both boot-ups are seen
   EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+}
+
+TEST_F(EngineDriveTest, CommissioningWritesAfterTheResetOfTheVectorsItAppliesTo) {
+  // Given a profile commissioning 1017h := 50 (heartbeat) for t/* except t/skip/*
+  auto parsed = profile::parse_profile(
+      "name: t\ntitle: T\nfeatures: [sdo.segmented, heartbeat.producer]\n"
+      "commissioning:\n  vectors: [\"t/*\"]\n  except: [\"t/skip/*\"]\n  writes:\n"
+      "    - {index: 0x1017, value: 50, size: 2, source: \"CiA 301 §7.5.2.28\", why: hb}\n",
+      {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  profile_ = *parsed;
+  const auto set = parse_vectors(
+      "- id: t/commissioned\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1017, sub: 0}\n      expect: {value: 50}\n"
+      "- id: t/skip/delivered\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1017, sub: 0}\n      expect: {value: 0}\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok());
+  // When both run (each resets the node first)
+  Engine engine(*harness_, profile_, {});
+  const RunResult result = engine.run(set.vectors);
+  // Then the first sees the written value after its reset, the excepted one the default
+  ASSERT_EQ(result.vectors.size(), 2U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::pass) << result.vectors[0].message;
+  EXPECT_EQ(result.vectors[1].verdict, Verdict::pass) << result.vectors[1].message;
+  // And the report info lists the globs and the write
+  ASSERT_EQ(result.info.commissioning.size(), 2U);
+  EXPECT_EQ(result.info.commissioning[0], "applies to t/* except t/skip/*");
+  EXPECT_NE(result.info.commissioning[1].find("1017h sub 0 := 50 (2 bytes): hb"),
+            std::string::npos);
+}
+
+TEST_F(EngineDriveTest, RefusedCommissioningWriteFailsTheVector) {
+  // Given a profile commissioning 1000h (read-only device type)
+  auto parsed = profile::parse_profile(
+      "name: t\ntitle: T\nfeatures: [sdo.segmented]\ncommissioning:\n  vectors: [\"t/*\"]\n"
+      "  writes:\n    - {index: 0x1000, value: 1, size: 4, source: \"CiA 301 §1\", why: w}\n",
+      {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  profile_ = *parsed;
+  const auto set = parse_vectors(
+      "- id: t/x\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n    - wait: 1ms\n", "t.yaml");
+  ASSERT_TRUE(set.ok());
+  // When the vector runs / Then it fails in setup with the abort as Actual
+  const auto result = run(set.vectors.front());
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(result.message.find("setup commissioning"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("06010002"), std::string::npos) << result.message;
 }
 
 TEST_F(EngineDriveTest, HeartbeatAndPeriodic) {
@@ -519,6 +624,32 @@ TEST_F(EngineTest, OdChecksCatchAWrongAccessType) {
   EXPECT_NE(result.message.find("abort with one of {06010002h}"), std::string::npos)
       << result.message;
   EXPECT_NE(result.message.find("Actual:   ok"), std::string::npos) << result.message;
+}
+
+TEST_F(EngineTest, OdChecksAcceptMappingProcedureAbortsForMappingCount) {
+  // Given a profile listing 1A00h sub 0 (rw, max 8) and 6065h (rw, max 100)
+  auto parsed = profile::parse_profile(
+      "name: t\ntitle: T\nfeatures: [pdo]\nobjects:\n  - {index: 0x1A00, sub: 0, type: "
+      "UNSIGNED8, access: rw, max: 8, source: \"CiA 301 §1\"}\n  - {index: 0x6065, sub: 0, "
+      "type: UNSIGNED32, access: rw, max: 100, source: \"CiA 402-2 §1\"}\n",
+      {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  // When the checks are generated
+  const auto vectors = generate_od_vectors(nullptr, "", *parsed);
+  // Then the mapping count's above-max also accepts 06040042h and 06010000h, 6065h's does not
+  const auto aborts_of = [&](const std::string& id) {
+    for (const auto& v : vectors) {
+      if (v.id == id) return std::get<SdoWriteStep>(v.steps.at(0).action).expect.aborts;
+    }
+    ADD_FAILURE() << id << " not generated";
+    return std::vector<std::uint32_t>{};
+  };
+  const auto mapping = aborts_of("eds/od/1a00-00/above-max");
+  const auto window = aborts_of("eds/od/6065-00/above-max");
+  EXPECT_NE(std::find(mapping.begin(), mapping.end(), 0x06040042U), mapping.end());
+  EXPECT_NE(std::find(mapping.begin(), mapping.end(), 0x06010000U), mapping.end());
+  EXPECT_NE(std::find(mapping.begin(), mapping.end(), 0x06090031U), mapping.end());
+  EXPECT_EQ(std::find(window.begin(), window.end(), 0x06040042U), window.end());
 }
 
 }  // namespace

@@ -114,6 +114,21 @@ TEST(VectorFile, BadDurationAndUnknownTiming) {
   EXPECT_NE(error.find("unknown timing name 'nope'"), std::string::npos) << error;
 }
 
+TEST(VectorFile, BusOffStepTakesAPositiveDuration) {
+  // Given a bus_off step of 50 ms, and one of 0 ms
+  const auto set = parse_vectors(std::string(kHead) + "  steps:\n    - bus_off: 50ms\n", "v.yaml");
+  // When parsed; Then the first is a BusOffStep, the second an error at its line
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& step = set.vectors.front().steps.front();
+  ASSERT_TRUE(std::holds_alternative<BusOffStep>(step.action));
+  EXPECT_EQ(std::get<BusOffStep>(step.action).duration.value, std::chrono::milliseconds(50));
+  EXPECT_EQ(action_name(step.action), "bus_off");
+  EXPECT_TRUE(set.vectors.front().has_bus_off_step());
+  const auto error = only_error(std::string(kHead) + "  steps:\n    - bus_off: 0ms\n");
+  EXPECT_NE(error.find("v.yaml:6: bus_off: the duration must be above 0"), std::string::npos)
+      << error;
+}
+
 TEST(VectorFile, SendRefusesPatterns) {
   // Given `..` in a frame to send; When parsed; Then an error naming the frame
   const auto error = only_error(std::string(kHead) + "  steps:\n    - send: \"600+N#40..\"\n");

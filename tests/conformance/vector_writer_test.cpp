@@ -77,6 +77,7 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
       expect: {data: ""}
     - wait: 90s
     - wait: 1500us
+    - bus_off: 20ms
     - controlword: 0x000F
     - simulate: {input: "fault over-temperature: é", value: -9223372036854775808}
     - mark: t0

@@ -213,6 +213,34 @@ INSTANTIATE_TEST_SUITE_P(
                   "only integer types"},
         ErrorCase{"ListFileWithoutDirectory", with("objects: objects.yaml\n"), 7,
                   "has no directory"},
+        ErrorCase{"CommissioningUnknownKey",
+                  with("commissioning:\n  vectors: [\"cia402/*\"]\n  writes:\n"
+                       "    - {index: 0x6094, sub: 1, value: 15, size: 4, source: s, why: w}\n"
+                       "    - {index: 0x6094, sub: 2, value: 4, size: 4, source: s, wy: w}\n"),
+                  11, "unknown key 'wy'"},
+        ErrorCase{"CommissioningValueTooWide",
+                  with("commissioning:\n  vectors: [\"cia402/*\"]\n  writes:\n"
+                       "    - {index: 0x6060, value: 300, size: 1, source: s, why: w}\n"),
+                  10, "commissioning.writes.value (1 bytes)"},
+        ErrorCase{"CommissioningWrittenTwice",
+                  with("commissioning:\n  vectors: [\"cia402/*\"]\n  writes:\n"
+                       "    - {index: 0x6094, sub: 1, value: 15, size: 4, source: s, why: w}\n"
+                       "    - {index: 0x6094, sub: 1, value: 16, size: 4, source: s, why: w}\n"),
+                  11, "written twice"},
+        ErrorCase{"CommissioningWithoutWhy",
+                  with("commissioning:\n  vectors: [\"cia402/*\"]\n  writes:\n"
+                       "    - {index: 0x6094, sub: 1, value: 15, size: 4, source: s}\n"),
+                  10, "missing required key 'why'"},
+        ErrorCase{"CommissioningBadGlob",
+                  with("commissioning:\n  vectors: [\"Cia402/*\"]\n  writes:\n"
+                       "    - {index: 0x6094, sub: 1, value: 15, size: 4, source: s, why: w}\n"),
+                  8, "not a glob"},
+        ErrorCase{"CommissioningNoWrites",
+                  with("commissioning:\n  vectors: [\"cia402/*\"]\n  writes: []\n"), 9,
+                  "at least one write"},
+        ErrorCase{"InternalUnitsNotAFraction",
+                  with("personality:\n  internal_units: {velocity: [4]}\n"), 8,
+                  "[numerator, divisor]"},
         ErrorCase{"InvalidUtf8", with("manual: \"a\xC3(b\"\n"), 7, "not valid UTF-8"},
         ErrorCase{"Utf8Surrogate", with("manual: \"\xED\xA0\x80\"\n"), 7, "not valid UTF-8"}),
     [](const ::testing::TestParamInfo<ErrorCase>& param_info) {
@@ -326,7 +354,18 @@ personality:
   heartbeat_time_ms: 100
   guard_time_ms: 50
   life_time_factor: 3
+  internal_units: {velocity: [4, 15], acceleration: [64, 15]}
+  pp_change_on_set_point: false
+  ip_submode: -2
+  power_stage_in_switched_on: true
+  nmt_min_spacing: 1ms
   note: "why"
+commissioning:
+  vectors: ["cia402/*"]
+  except: ["cia402/factor/*"]
+  writes:
+    - {index: 0x6094, sub: 1, value: 15, size: 4, source: [s, t], why: "15/4: increments/s"}
+    - {index: 0x6060, value: -1, size: 1, source: s, why: w}
 )"));
   ASSERT_TRUE(p.has_value()) << p.error().to_string();
   const std::string yaml = to_yaml(*p);
@@ -334,6 +373,29 @@ personality:
   ASSERT_TRUE(again.has_value()) << again.error().to_string() << "\n" << yaml;
   EXPECT_EQ(*again, *p) << yaml;
   EXPECT_EQ(to_yaml(*again), yaml);
+}
+
+TEST(DriveProfileCommissioning, AppliesToItsGlobsButNotTheExceptions) {
+  // Given a commissioning for cia402/* except cia402/factor/* / When asked per vector id /
+  // Then only the motion vectors get it; a profile without writes commissions nothing
+  auto p = parse(with(R"(commissioning:
+  vectors: ["cia402/*"]
+  except: ["cia402/factor/*"]
+  writes:
+    - {index: 0x6094, sub: 1, value: 15, size: 4, source: s, why: w}
+    - {index: 0x6097, sub: 2, value: 64, size: 4, source: s, why: w}
+)"));
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  const Commissioning& c = p->commissioning;
+  ASSERT_EQ(c.writes.size(), 2U);
+  EXPECT_EQ(c.writes[1].index, 0x6097);
+  EXPECT_EQ(c.writes[1].sub, 2);
+  EXPECT_EQ(c.writes[1].value, 64);
+  EXPECT_EQ(c.writes[1].size, 4);
+  EXPECT_TRUE(c.applies_to("cia402/pp/relative"));
+  EXPECT_FALSE(c.applies_to("cia402/factor/festo/defaults"));
+  EXPECT_FALSE(c.applies_to("cia301/sdo/abort/timeout"));
+  EXPECT_FALSE(Commissioning{}.applies_to("cia402/pp/relative"));
 }
 
 TEST(DriveProfilePersonality, DefaultsComeFromTheProfile) {

@@ -7,6 +7,8 @@
 
 #include <array>
 #include <chrono>
+#include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -598,6 +600,212 @@ personality:
       "name: x\ntitle: x\nfeatures: [cia402]\npersonality: {ack_latency_cycles: 0}\n", {});
   ASSERT_TRUE(zero.has_value()) << zero.error().to_string();
   EXPECT_FALSE(plan_personality(&*zero).has_value());
+}
+
+// --- Festo and Kollmorgen deviations the personalities impersonate (issues #5, #6, #7) -----
+
+// Festo's commissioning to increments/s and increments/s² (festo-cmmp.yaml `commissioning:`).
+void commission_increments(ServoRig& rig) {
+  ASSERT_EQ(rig.write(0x6094, 1, 15, 4), 0U);  // velocity_encoder_factor 15/4
+  ASSERT_EQ(rig.write(0x6094, 2, 4, 4), 0U);
+  ASSERT_EQ(rig.write(0x6097, 1, 15, 4), 0U);  // acceleration_factor 15/64
+  ASSERT_EQ(rig.write(0x6097, 2, 64, 4), 0U);
+  rig.run(5ms);
+}
+
+TEST(ServoDriveFesto, PositionFactorAboveTwoToTheTwentyFourIsRefused) {
+  // Given the Festo drive ("The position_factor must not be larger than 2^24", L2662) and the
+  // standard drive, both with 6093h sub 2 = 1
+  ServoRig festo("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(festo.ok());
+  ASSERT_TRUE(standard.ok());
+  // When 6093h sub 1 := 2^25 / Then Festo aborts 06090031h and keeps 1, the standard drive takes it
+  EXPECT_EQ(festo.write(0x6093, 1, 0x0200'0000, 4), 0x0609'0031U);
+  EXPECT_EQ(festo.read(0x6093, 1), 1U);
+  EXPECT_EQ(standard.write(0x6093, 1, 0x0200'0000, 4), 0U);
+  // When the divisor is 2 first / Then 2^25 / 2 = 2^24 is accepted, and the divisor cannot go
+  // back to 1 under it
+  ASSERT_EQ(festo.write(0x6093, 2, 2, 4), 0U);
+  EXPECT_EQ(festo.write(0x6093, 1, 0x0200'0000, 4), 0U);
+  EXPECT_EQ(festo.write(0x6093, 2, 1, 4), 0x0609'0031U);
+}
+
+TEST(ServoDriveFesto, FactorDefaultsAreInFestoUnits) {
+  // Given the Festo drive (6094h = 4096/1 min^-1, 6097h = 256/1 min^-1/s, internal units
+  // 1/4096 min^-1 and 1/256 min^-1/s, L2709-2811) and the standard drive / When read after power
+  // on / Then Festo shows the manual's defaults and one user unit is 1 min^-1 on the axis
+  ServoRig festo("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(festo.ok());
+  ASSERT_TRUE(standard.ok());
+  EXPECT_EQ(festo.read(0x6094, 1), 4096U);
+  EXPECT_EQ(festo.read(0x6094, 2), 1U);
+  EXPECT_EQ(festo.read(0x6097, 1), 256U);
+  EXPECT_EQ(festo.read(0x6097, 2), 1U);
+  EXPECT_EQ(standard.read(0x6094, 1), 1U);
+  EXPECT_EQ(standard.read(0x6097, 1), 1U);
+  // 1 min^-1 = 65536 / 60 increments/s = 4096 x 4/15; 1 min^-1/s = 256 x 64/15 increments/s².
+  const FactorGroup& f = festo.drive().application().factors();
+  EXPECT_NEAR(f.speed_to_internal(1.0), 65536.0 / 60.0, 1e-9);
+  EXPECT_NEAR(f.acceleration_to_internal(1.0), 65536.0 / 60.0, 1e-9);
+  EXPECT_EQ(standard.drive().application().factors().speed_to_internal(1.0), 1.0);
+}
+
+TEST(ServoDriveFesto, CommissioningMakesUserUnitsIncrementsPerSecond) {
+  // Given the Festo drive / When commissioned with 6094h = 15/4, 6097h = 15/64 / Then one
+  // user unit is one increment/s (/s²) on the axis, as on the standard drive uncommissioned
+  ServoRig festo("festo-cmmp");
+  ASSERT_TRUE(festo.ok());
+  commission_increments(festo);
+  const FactorGroup& f = festo.drive().application().factors();
+  EXPECT_NEAR(f.speed_to_internal(1000.0), 1000.0, 1e-9);
+  EXPECT_NEAR(f.acceleration_to_internal(1000.0), 1000.0, 1e-9);
+}
+
+TEST(ServoDriveFesto, MotionProfileTypeSin2IsRefused) {
+  // Given Festo (6086h value range 0, 2: L6393-6410) and the standard drive / When 6086h := 1
+  // (sin²), 2 and 0 / Then Festo aborts 1 with 06090030h, both take 0 and 2
+  ServoRig festo("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(festo.ok());
+  ASSERT_TRUE(standard.ok());
+  EXPECT_EQ(festo.write(0x6086, 0, 1, 2), kInvalidValue);
+  EXPECT_EQ(standard.write(0x6086, 0, 1, 2), 0U);
+  for (ServoRig* r : {&festo, &standard}) {
+    EXPECT_EQ(r->write(0x6086, 0, 2, 2), 0U);
+    EXPECT_EQ(r->write(0x6086, 0, 0, 2), 0U);
+  }
+}
+
+TEST(ServoDriveFesto, InterpolationSubModeIsMinusTwoOnly) {
+  // Given Festo (60C0h value range -2, default -2: L6478-6494) and the standard drive (0) /
+  // When read, 0 and -2 written / Then each takes only its own value
+  ServoRig festo("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(festo.ok());
+  ASSERT_TRUE(standard.ok());
+  EXPECT_EQ(festo.read(0x60C0), 0xFFFEU);  // INTEGER16 -2
+  EXPECT_EQ(standard.read(0x60C0), 0U);
+  EXPECT_EQ(festo.write(0x60C0, 0, 0, 2), kInvalidValue);
+  EXPECT_EQ(festo.write(0x60C0, 0, 0xFFFE, 2), 0U);
+  EXPECT_EQ(standard.write(0x60C0, 0, 0, 2), 0U);
+  EXPECT_EQ(standard.write(0x60C0, 0, 0xFFFE, 2), kInvalidValue);
+}
+
+// pp at 1000 increments/s and 1000 increments/s²: A = 1000, then B = 3000 with controlword bit 9
+// (change on set-point); the actual position 2.4 s after B was given.
+std::int32_t position_after_set_of_set_points(ServoRig& rig) {
+  EXPECT_EQ(rig.write(0x6060, 0, 1, 1), 0U);  // profile position
+  for (const std::uint16_t index :
+       {std::uint16_t{0x6081}, std::uint16_t{0x6083}, std::uint16_t{0x6084}})
+    EXPECT_EQ(rig.write(index, 0, 1000, 4), 0U);
+  rig.controlword(0x0006);  // shutdown
+  rig.controlword(0x000F);  // switch on + enable operation
+  EXPECT_EQ(rig.statusword() & 0x006F, 0x0027);
+  EXPECT_EQ(rig.write(0x607A, 0, 1000, 4), 0U);  // A
+  rig.controlword(0x001F);                       // new set-point
+  rig.controlword(0x000F);
+  EXPECT_EQ(rig.write(0x607A, 0, 3000, 4), 0U);  // B
+  rig.controlword(0x021F);                       // new set-point + change on set-point
+  rig.controlword(0x020F);
+  rig.run(2400ms);
+  return static_cast<std::int32_t>(rig.read(0x6064));
+}
+
+TEST(ServoDriveFesto, ChangeOnSetPointBitIsReserved) {
+  // Given Festo (controlword bits 9..15 reserved: L5326-5424), commissioned to increments/s,
+  // and the standard drive / When A then B with bit 9 / Then the standard drive passes A at
+  // speed (near 1930 after 2.4 s), Festo stops at A first (near 1100)
+  ServoRig festo("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(festo.ok());
+  ASSERT_TRUE(standard.ok());
+  commission_increments(festo);
+  const std::int32_t at_festo = position_after_set_of_set_points(festo);
+  const std::int32_t at_standard = position_after_set_of_set_points(standard);
+  EXPECT_GE(at_standard, 1600);
+  EXPECT_LE(at_standard, 2300);
+  EXPECT_LT(at_festo, 1600);
+  EXPECT_GT(at_festo, 900);
+}
+
+TEST(ServoDriveFesto, NmtBurstLosesTheSecondCommand) {
+  // Given Festo (two NMT messages need 2 x 500 us between them, L1403-1405) and the standard
+  // drive / When start and stop are sent back to back / Then Festo stays operational (stop
+  // lost), the standard drive is stopped; with 2 ms between them both obey both
+  ServoRig festo("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(festo.ok());
+  ASSERT_TRUE(standard.ok());
+  for (ServoRig* r : {&festo, &standard}) {
+    r->send(can::Frame::standard(0x000, std::array<std::uint8_t, 2>{0x01, 0x00}));  // start, all
+    r->send(can::Frame::standard(0x000, std::array<std::uint8_t, 2>{0x02, 0x00}));  // stop, all
+    r->run(10ms);
+  }
+  EXPECT_EQ(festo.drive().device().state(), cia301::NmtState::operational);
+  EXPECT_EQ(standard.drive().device().state(), cia301::NmtState::stopped);
+  for (ServoRig* r : {&festo, &standard}) {
+    r->send(can::Frame::standard(0x000, std::array<std::uint8_t, 2>{0x80, 0x00}));  // pre-op
+    r->run(2ms);
+    r->send(can::Frame::standard(0x000, std::array<std::uint8_t, 2>{0x01, 0x00}));  // start
+    r->run(10ms);
+    EXPECT_EQ(r->drive().device().state(), cia301::NmtState::operational);
+  }
+}
+
+TEST(ServoDriveKollmorgen, SwitchedOnHoldsTheMotorAgainstALoad) {
+  // Given Kollmorgen (SWITCHED ON: power stage enabled, L3057-3061, L3099-3101) and the
+  // standard drive, a load torque of 20 per mille / When in READY TO SWITCH ON and then SWITCHED
+  // ON / Then both give no torque in READY TO SWITCH ON; in SWITCHED ON Kollmorgen holds the
+  // load (torque, no motion), the standard drive gives no torque and the load moves the axis
+  ServoRig kollmorgen("kollmorgen-s300-s700");
+  ServoRig standard;
+  ASSERT_TRUE(kollmorgen.ok());
+  ASSERT_TRUE(standard.ok());
+  for (ServoRig* r : {&kollmorgen, &standard}) {
+    ASSERT_TRUE(r->drive().simulate("load-torque", 20));
+    r->controlword(0x0006);  // shutdown
+    EXPECT_EQ(r->statusword() & 0x006F, 0x0021);
+    EXPECT_EQ(r->read(0x6077), 0U);  // torque actual value
+    ASSERT_TRUE(r->drive().simulate("axis-position", 0));
+    r->controlword(0x0007);  // switch on
+    EXPECT_EQ(r->statusword() & 0x006F, 0x0023);
+    r->run(50ms);
+  }
+  EXPECT_NE(kollmorgen.read(0x6077), 0U);
+  EXPECT_LT(std::abs(kollmorgen.drive().application().axis().velocity()), 50.0);
+  EXPECT_EQ(standard.read(0x6077), 0U);
+  EXPECT_GT(std::abs(standard.drive().application().axis().velocity()), 100.0);
+  for (ServoRig* r : {&kollmorgen, &standard})
+    ASSERT_TRUE(r->drive().simulate("load-torque", 0));
+}
+
+TEST(ServoDriveKollmorgen, DisableOperationKeepsHoldingThePosition) {
+  // Given Kollmorgen (transition 5: "Aktuelle Position wird gehalten", L3102-3107) and the
+  // standard drive in OPERATION ENABLED, profile position, a load torque of 20 per mille /
+  // When disable operation (SWITCHED ON) / Then Kollmorgen holds the load, the standard drive
+  // gives no torque
+  ServoRig kollmorgen("kollmorgen-s300-s700");
+  ServoRig standard;
+  ASSERT_TRUE(kollmorgen.ok());
+  ASSERT_TRUE(standard.ok());
+  for (ServoRig* r : {&kollmorgen, &standard}) {
+    ASSERT_EQ(r->write(0x6060, 0, 1, 1), 0U);  // profile position: holds the position enabled
+    r->controlword(0x0006);                    // shutdown
+    r->controlword(0x000F);                    // switch on + enable operation
+    EXPECT_EQ(r->statusword() & 0x006F, 0x0027);
+    ASSERT_TRUE(r->drive().simulate("load-torque", 20));
+    r->run(50ms);
+    EXPECT_NE(r->read(0x6077), 0U);  // both hold the load while enabled
+    r->controlword(0x0007);          // disable operation
+    r->run(200ms);
+    EXPECT_EQ(r->statusword() & 0x006F, 0x0023);
+  }
+  EXPECT_NE(kollmorgen.read(0x6077), 0U);
+  EXPECT_EQ(standard.read(0x6077), 0U);
+  for (ServoRig* r : {&kollmorgen, &standard})
+    ASSERT_TRUE(r->drive().simulate("load-torque", 0));
 }
 
 }  // namespace

@@ -152,6 +152,32 @@ TEST(Cia402Application, SimulateRejectsUnknownInputs) {
   EXPECT_EQ(d.value(0x60FD) & 0x2, 0x2);
 }
 
+TEST(Cia402Application, CoastToRestStopsOnlyAnUnpoweredAxis) {
+  // Given pv running at 10000 increments/s
+  Cia402Drive d;
+  d.enable(3);
+  d.write(0x60FF, 0, 10000, 4);
+  d.rig().run(500ms);
+  ASSERT_GT(d.value(0x606C), 9000);
+  // When axis-coast-to-rest is simulated while the power stage drives the axis
+  ASSERT_TRUE(d.app().simulate("axis-coast-to-rest", 1));
+  d.rig().run(3ms);
+  // Then nothing changes: the drive keeps running
+  EXPECT_GT(d.value(0x606C), 9000);
+  // When the power stage is switched off (disable voltage: the load coasts on its friction)
+  d.controlword(0x0000);
+  d.rig().run(50ms);
+  ASSERT_GT(d.value(0x606C), 5000);
+  const auto coasting_at = d.value(0x6064);
+  // And axis-coast-to-rest is simulated
+  ASSERT_TRUE(d.app().simulate("axis-coast-to-rest", 1));
+  d.rig().run(20ms);
+  // Then the axis stands where it was; other values than 1 are refused
+  EXPECT_EQ(d.value(0x606C), 0);
+  EXPECT_NEAR(static_cast<double>(d.value(0x6064)), static_cast<double>(coasting_at), 200.0);
+  EXPECT_FALSE(d.app().simulate("axis-coast-to-rest", 0));
+}
+
 TEST(Cia402Application, HardwareEnableGatesSwitchOn) {
   // Given a drive that needs the hardware enable for transition 3
   Cia402ApplicationConfig config;
