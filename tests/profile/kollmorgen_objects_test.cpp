@@ -18,105 +18,28 @@
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/servo_drive.hpp"
+#include "tests/profile/servo_rig.hpp"
 
 namespace drivecheck::reference_drive {
 namespace {
 
 using namespace std::chrono_literals;
 
-constexpr std::uint8_t kNode = 5;
-constexpr std::uint32_t kNoAnswer = 0xFFFFFFFF;
 constexpr std::uint32_t kCommandBufferFull = 0xFF030000;
 constexpr std::uint32_t kNotMappable = 0x06040041;
 constexpr std::uint32_t kWriteReadOnly = 0x06010002;
 constexpr std::uint32_t kValueTooLow = 0x06090032;
 constexpr std::uint32_t kNoObject = 0x06020000;
 
-const std::filesystem::path kDrives =
-    std::filesystem::path(DRIVECHECK_SOURCE_DIR) / "vectors/drives";
+using testing::kNoAnswer;
+using testing::kNode;
 
-// One ServoDrive (node 5) with the Kollmorgen personality (or the standard drive) and a tester
-// port on a 1 Mbit/s simulated bus, powered on.
-class KollmorgenRig {
+// The Kollmorgen drive (or the standard drive), with the OS prompt 1026h typed on.
+class KollmorgenRig : public testing::ServoRig {
  public:
-  explicit KollmorgenRig(bool kollmorgen = true) {
-    if (kollmorgen) {
-      auto loaded = profile::find_profile("kollmorgen-s300-s700", kDrives);
-      if (!loaded) {
-        ADD_FAILURE() << loaded.error().to_string();
-        return;
-      }
-      profile_ = std::move(*loaded);
-    }
-    tester_ = bus_.attach("tester");
-    port_ = bus_.attach("drive");
-    tester_->set_frame_handler([this](const can::TimedFrame& f) { seen_.push_back(f.frame); });
-    ServoDriveOptions options;
-    options.node = kNode;
-    options.profile = profile_ ? &*profile_ : nullptr;
-    auto created = ServoDrive::create(*port_, options);
-    if (!created) {
-      ADD_FAILURE() << "ServoDrive::create: " << created.error();
-      return;
-    }
-    drive_ = std::move(*created);
-    drive_->power_on();
-    run(20ms);
-  }
+  explicit KollmorgenRig(bool kollmorgen = true)
+      : ServoRig(kollmorgen ? "kollmorgen-s300-s700" : "") {}
 
-  bool ok() const { return drive_ != nullptr; }
-
-  std::vector<can::Frame> run(can::Duration window) {
-    seen_.clear();
-    bus_.run_for(window);
-    return std::exchange(seen_, {});
-  }
-  void send(const can::Frame& frame) { ASSERT_FALSE(tester_->send(frame)); }
-
-  // Expedited download of `size` bytes: 0, the abort code, or kNoAnswer.
-  std::uint32_t write(std::uint16_t index, std::uint8_t sub, std::uint32_t value, unsigned size) {
-    // ccs=1 e=1 s=1 n=4-size, index LE, sub, data LE
-    const std::uint8_t bytes[8] = {static_cast<std::uint8_t>(0x23 | ((4 - size) << 2)),
-                                   static_cast<std::uint8_t>(index & 0xFF),
-                                   static_cast<std::uint8_t>(index >> 8),
-                                   sub,
-                                   static_cast<std::uint8_t>(value & 0xFF),
-                                   static_cast<std::uint8_t>(size > 1 ? (value >> 8) & 0xFF : 0),
-                                   static_cast<std::uint8_t>(size > 2 ? (value >> 16) & 0xFF : 0),
-                                   static_cast<std::uint8_t>(size > 3 ? (value >> 24) & 0xFF : 0)};
-    send(can::Frame::standard(0x600 + kNode, bytes));
-    for (const auto& f : run(5ms)) {
-      if (f.id != 0x580U + kNode) continue;
-      if (f.data[0] == 0x60) return 0;
-      if (f.data[0] == 0x80) return data32(f);
-    }
-    return kNoAnswer;
-  }
-  // Expedited upload: the value, or the abort code in `abort`.
-  std::uint32_t read(std::uint16_t index, std::uint8_t sub, std::uint32_t* abort = nullptr) {
-    // ccs=2 initiate upload, index LE, sub
-    const std::uint8_t bytes[8] = {0x40,
-                                   static_cast<std::uint8_t>(index & 0xFF),
-                                   static_cast<std::uint8_t>(index >> 8),
-                                   sub,
-                                   0,
-                                   0,
-                                   0,
-                                   0};
-    send(can::Frame::standard(0x600 + kNode, bytes));
-    for (const auto& f : run(5ms)) {
-      if (f.id != 0x580U + kNode) continue;
-      if (f.data[0] == 0x80) {
-        if (abort != nullptr) *abort = data32(f);
-        return kNoAnswer;
-      }
-      if ((f.data[0] & 0xE3) != 0x43) return kNoAnswer;
-      const unsigned size = 4 - ((f.data[0] >> 2) & 3);
-      const std::uint32_t data = data32(f);
-      return size == 4 ? data : data & ((1U << (8 * size)) - 1);
-    }
-    return kNoAnswer;
-  }
   // Each character to 1026h sub 1 (StdIn): the first abort code, else 0.
   std::uint32_t type(std::string_view text) {
     for (char c : text) {
@@ -135,23 +58,6 @@ class KollmorgenRig {
     }
     return out;
   }
-  void controlword(std::uint16_t value) {
-    EXPECT_EQ(write(0x6040, 0, value, 2), 0U);
-    run(20ms);
-  }
-
- private:
-  static std::uint32_t data32(const can::Frame& f) {
-    return static_cast<std::uint32_t>(f.data[4] | f.data[5] << 8 | f.data[6] << 16 |
-                                      static_cast<std::uint32_t>(f.data[7]) << 24);
-  }
-
-  std::optional<profile::DriveProfile> profile_;
-  can::SimBus bus_{can::SimBusConfig{.bitrate = 1'000'000}};
-  std::unique_ptr<can::SimPort> tester_;
-  std::unique_ptr<can::SimPort> port_;
-  std::unique_ptr<ServoDrive> drive_;
-  std::vector<can::Frame> seen_;
 };
 
 TEST(KollmorgenOsPrompt, GvCommandSetsTheObjectChannel) {

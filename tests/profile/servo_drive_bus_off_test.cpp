@@ -13,83 +13,17 @@
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/servo_drive.hpp"
+#include "tests/profile/servo_rig.hpp"
 
 namespace drivecheck::reference_drive {
 namespace {
 
 using namespace std::chrono_literals;
 
-const std::filesystem::path kDrivesDir =
-    std::filesystem::path(DRIVECHECK_SOURCE_DIR) / "vectors/drives";
-
-class BusOffRig {
+// The drive is powered on by the test, after the bus-off set-up it needs.
+class BusOffRig : public testing::ServoRig {
  public:
-  // `profile_name` empty: the standard drive. The drive is not powered on yet.
-  explicit BusOffRig(const std::string& profile_name) {
-    if (!profile_name.empty()) {
-      auto loaded = profile::find_profile(profile_name, kDrivesDir);
-      if (!loaded) {
-        ADD_FAILURE() << loaded.error().to_string();
-        return;
-      }
-      profile_ = std::move(*loaded);
-    }
-    tester_ = bus_.attach("tester");
-    port_ = bus_.attach("drive");
-    ServoDriveOptions options;
-    options.node = 5;
-    options.profile = profile_ ? &*profile_ : nullptr;
-    auto created = ServoDrive::create(*port_, options);
-    if (!created) {
-      ADD_FAILURE() << "ServoDrive::create: " << created.error();
-      return;
-    }
-    drive_ = std::move(*created);
-  }
-
-  ServoDrive& drive() { return *drive_; }
-  void power_on() {
-    drive_->power_on();
-    bus_.run_for(20ms);
-  }
-  void bus_off(bool off) {
-    port_->set_bus_off(off);
-    drive_->device().set_bus_off(off);
-  }
-  void run(can::Duration d) { bus_.run_for(d); }
-  // 6040h := value (expedited download from the tester), then 20 ms.
-  void controlword(std::uint16_t value) {
-    can::Frame f;
-    f.id = 0x605;
-    f.dlc = 8;
-    f.data = {0x2B,
-              0x40,
-              0x60,
-              0x00,
-              static_cast<std::uint8_t>(value),
-              static_cast<std::uint8_t>(value >> 8),
-              0,
-              0};
-    EXPECT_FALSE(tester_->send(f));
-    bus_.run_for(20ms);
-  }
-  void enable() {
-    for (std::uint16_t cw : {0x0006, 0x0007, 0x000F})
-      controlword(cw);
-  }
-  cia402::State state() const { return drive_->application().pds().state(); }
-  std::uint64_t value(std::uint16_t index, std::uint8_t sub) {
-    const cia301::Entry* entry = drive_->device().dictionary().find(index, sub);
-    EXPECT_NE(entry, nullptr);
-    return entry != nullptr ? entry->as_unsigned() : ~std::uint64_t{0};
-  }
-
- private:
-  std::optional<profile::DriveProfile> profile_;
-  can::SimBus bus_{can::SimBusConfig{.bitrate = 1'000'000}};
-  std::unique_ptr<can::SimPort> tester_;
-  std::unique_ptr<can::SimPort> port_;
-  std::unique_ptr<ServoDrive> drive_;
+  explicit BusOffRig(const std::string& profile_name) : ServoRig(profile_name, PowerOn::later) {}
 };
 
 TEST(ServoDriveBusOff, KollmorgenEnabledDriveStopsWithF23) {

@@ -18,118 +18,17 @@
 
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/profile/drive_profile.hpp"
+#include "tests/profile/servo_rig.hpp"
 
 namespace drivecheck::reference_drive {
 namespace {
 
 using namespace std::chrono_literals;
 
-constexpr std::uint8_t kNode = 5;
-constexpr std::uint32_t kNoAnswer = 0xFFFFFFFF;
-
-const std::filesystem::path kDrives =
-    std::filesystem::path(DRIVECHECK_SOURCE_DIR) / "vectors/drives";
-
-// One ServoDrive (node 5) and a tester port on a 1 Mbit/s simulated bus, powered on.
-class ServoRig {
- public:
-  // `profile_name` empty: the standard drive.
-  explicit ServoRig(const std::string& profile_name = "") {
-    if (!profile_name.empty()) {
-      auto loaded = profile::find_profile(profile_name, kDrives);
-      if (!loaded) {
-        ADD_FAILURE() << loaded.error().to_string();
-        return;
-      }
-      profile_ = std::move(*loaded);
-    }
-    tester_ = bus_.attach("tester");
-    port_ = bus_.attach("drive");
-    tester_->set_frame_handler([this](const can::TimedFrame& f) { seen_.push_back(f.frame); });
-    ServoDriveOptions options;
-    options.node = kNode;
-    options.profile = profile_ ? &*profile_ : nullptr;
-    auto created = ServoDrive::create(*port_, options);
-    if (!created) {
-      ADD_FAILURE() << "ServoDrive::create: " << created.error();
-      return;
-    }
-    drive_ = std::move(*created);
-    drive_->power_on();
-    run(20ms);
-  }
-
-  bool ok() const { return drive_ != nullptr; }
-  ServoDrive& drive() { return *drive_; }
-
-  std::vector<can::Frame> run(can::Duration window) {
-    seen_.clear();
-    bus_.run_for(window);
-    return std::exchange(seen_, {});
-  }
-  void send(const can::Frame& frame) { ASSERT_FALSE(tester_->send(frame)); }
-
-  // Expedited download of `size` bytes: 0, the abort code, or kNoAnswer.
-  std::uint32_t write(std::uint16_t index, std::uint8_t sub, std::uint64_t value, unsigned size) {
-    // ccs=1 e=1 s=1 n=4-size, index LE, sub, data LE
-    const std::uint8_t bytes[8] = {static_cast<std::uint8_t>(0x23 | ((4 - size) << 2)),
-                                   static_cast<std::uint8_t>(index & 0xFF),
-                                   static_cast<std::uint8_t>(index >> 8),
-                                   sub,
-                                   static_cast<std::uint8_t>(value & 0xFF),
-                                   static_cast<std::uint8_t>(size > 1 ? (value >> 8) & 0xFF : 0),
-                                   static_cast<std::uint8_t>(size > 2 ? (value >> 16) & 0xFF : 0),
-                                   static_cast<std::uint8_t>(size > 3 ? (value >> 24) & 0xFF : 0)};
-    send(can::Frame::standard(0x600 + kNode, bytes));
-    for (const auto& f : run(5ms)) {
-      if (f.id != 0x580U + kNode) continue;
-      if (f.data[0] == 0x60) return 0;
-      if (f.data[0] == 0x80) return data32(f);
-    }
-    return kNoAnswer;
-  }
-  // Expedited upload: the response frame (nullopt: none).
-  std::optional<can::Frame> upload(std::uint16_t index, std::uint8_t sub) {
-    // ccs=2 initiate upload, index LE, sub
-    const std::uint8_t bytes[8] = {0x40,
-                                   static_cast<std::uint8_t>(index & 0xFF),
-                                   static_cast<std::uint8_t>(index >> 8),
-                                   sub,
-                                   0,
-                                   0,
-                                   0,
-                                   0};
-    send(can::Frame::standard(0x600 + kNode, bytes));
-    for (const auto& f : run(5ms))
-      if (f.id == 0x580U + kNode) return f;
-    return std::nullopt;
-  }
-  std::uint32_t read(std::uint16_t index, std::uint8_t sub = 0) {
-    const auto f = upload(index, sub);
-    if (!f || (f->data[0] & 0xE3) != 0x43) return kNoAnswer;
-    const unsigned size = 4 - ((f->data[0] >> 2) & 3);
-    const std::uint32_t data = data32(*f);
-    return size == 4 ? data : data & ((1U << (8 * size)) - 1);
-  }
-  std::uint16_t statusword() { return static_cast<std::uint16_t>(read(0x6041)); }
-  void controlword(std::uint16_t value) {
-    EXPECT_EQ(write(0x6040, 0, value, 2), 0U);
-    run(20ms);
-  }
-
- private:
-  static std::uint32_t data32(const can::Frame& f) {
-    return static_cast<std::uint32_t>(f.data[4] | f.data[5] << 8 | f.data[6] << 16 |
-                                      f.data[7] << 24);
-  }
-
-  std::optional<profile::DriveProfile> profile_;
-  can::SimBus bus_{can::SimBusConfig{.bitrate = 1'000'000}};
-  std::unique_ptr<can::SimPort> tester_;
-  std::unique_ptr<can::SimPort> port_;
-  std::unique_ptr<ServoDrive> drive_;
-  std::vector<can::Frame> seen_;
-};
+using testing::kDrives;
+using testing::kNoAnswer;
+using testing::kNode;
+using testing::ServoRig;
 
 constexpr std::uint32_t kInvalidValue = 0x06090030;
 
