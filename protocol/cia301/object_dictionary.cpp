@@ -278,21 +278,24 @@ Expected<Object*, std::string> ObjectDictionary::add_object(ObjectDefinition def
   object.entries_.reserve(entries.size());
   for (auto& def : entries) {
     if (auto ok = check_definition(index, def); !ok) return Unexpected(ok.error());
-    if (def.default_value.empty()) {  // explicit zero, so that definitions compare by value
-      const auto size = info(def.type).size;
-      auto zero = decode(def.type, std::vector<std::uint8_t>(size, 0));
-      def.default_value = zero ? *zero : Value::of_bytes({});
-    }
-    Entry entry;
-    entry.index_ = index;
-    entry.store_group_ = default_store_group(index, def.access);
-    entry.def_ = std::move(def);
-    entry.data_ = entry.default_bytes(node_id_);
-    entry.data_.reserve(std::max(entry.def_.max_size, entry.data_.size()));
-    entry.revision_.dictionary = &revision_;
-    object.entries_.push_back(std::move(entry));
+    object.entries_.push_back(make_entry(index, std::move(def)));
   }
   return &*objects_.insert(pos, std::move(object));
+}
+
+Entry ObjectDictionary::make_entry(std::uint16_t index, EntryDefinition def) {
+  if (def.default_value.empty()) {  // explicit zero, so that definitions compare by value
+    auto zero = decode(def.type, std::vector<std::uint8_t>(info(def.type).size, 0));
+    def.default_value = zero ? *zero : Value::of_bytes({});
+  }
+  Entry entry;
+  entry.index_ = index;
+  entry.store_group_ = default_store_group(index, def.access);
+  entry.def_ = std::move(def);
+  entry.data_ = entry.default_bytes(node_id_);
+  entry.data_.reserve(std::max(entry.def_.max_size, entry.data_.size()));
+  entry.revision_.dictionary = &revision_;
+  return entry;
 }
 
 Expected<void, std::string> ObjectDictionary::reshape_object(std::uint16_t index,
@@ -311,17 +314,7 @@ Expected<void, std::string> ObjectDictionary::reshape_object(std::uint16_t index
       return Unexpected(fmt::format("{:04X}h sub {}: cannot be added", index, def.sub_index));
     }
     if (auto ok = check_definition(index, def); !ok) return Unexpected(ok.error());
-    if (def.default_value.empty()) {
-      auto zero = decode(def.type, std::vector<std::uint8_t>(info(def.type).size, 0));
-      def.default_value = zero ? *zero : Value::of_bytes({});
-    }
-    Entry entry;
-    entry.index_ = index;
-    entry.store_group_ = default_store_group(index, def.access);
-    entry.def_ = std::move(def);
-    entry.data_ = entry.default_bytes(node_id_);
-    entry.revision_.dictionary = &revision_;
-    fresh.push_back(std::move(entry));
+    fresh.push_back(make_entry(index, std::move(def)));
   }
   auto& entries = object->entries_;
   entries.erase(std::remove_if(entries.begin(), entries.end(),

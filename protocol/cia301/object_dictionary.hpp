@@ -271,6 +271,9 @@ class ObjectDictionary {
  private:
   // Points every entry's revision at this dictionary's counter (after a copy or move).
   void adopt_entries();
+  // A checked definition's entry: explicit default, default bytes, storage for its largest
+  // value, counted by this dictionary's revision.
+  Entry make_entry(std::uint16_t index, EntryDefinition def);
 
   std::vector<Object> objects_;  // sorted by index
   std::uint8_t node_id_ = 1;
