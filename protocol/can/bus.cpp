@@ -4,19 +4,6 @@
 
 namespace drivecheck::can {
 
-std::uint32_t socketcan_id(const Frame& frame) {
-  if (frame.is_error()) return Filter::kErrFlag | (frame.id & kErrorClassMask);
-  std::uint32_t id = frame.id;
-  if (frame.is_extended()) id |= Filter::kEffFlag;
-  if (frame.is_remote()) id |= Filter::kRtrFlag;
-  return id;
-}
-
-bool Filter::matches(const Frame& frame) const {
-  const bool hit = (socketcan_id(frame) & mask) == (id & mask);
-  return hit != invert;
-}
-
 namespace {
 
 class BusCategory final : public std::error_category {

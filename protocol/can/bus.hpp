@@ -66,11 +66,23 @@ struct Filter {
   // Exactly this 29-bit identifier.
   static Filter extended(std::uint32_t id) { return {kEffFlag | id, kEffFlag | 0x1FFFFFFF, false}; }
 
+  // Inline: every port checks every frame it reads against its filters.
   bool matches(const Frame& frame) const;
 };
 
 // The SocketCAN can_id word of a frame: identifier plus EFF/RTR/ERR flags.
-std::uint32_t socketcan_id(const Frame& frame);
+inline std::uint32_t socketcan_id(const Frame& frame) {
+  if (frame.is_error()) return Filter::kErrFlag | (frame.id & kErrorClassMask);
+  std::uint32_t id = frame.id;
+  if (frame.is_extended()) id |= Filter::kEffFlag;
+  if (frame.is_remote()) id |= Filter::kRtrFlag;
+  return id;
+}
+
+inline bool Filter::matches(const Frame& frame) const {
+  const bool hit = (socketcan_id(frame) & mask) == (id & mask);
+  return hit != invert;
+}
 
 // Errors a port reports (std::error_code over BusError, category "can-bus").
 enum class BusError {

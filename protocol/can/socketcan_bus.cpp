@@ -560,9 +560,27 @@ void SocketCanBus::run_until(TimePoint deadline) {
     deliver_inbox_to_handler();
     const bool fired = fire_due_timers();
     if (stop_requested_.load(std::memory_order_relaxed)) continue;
-    const TimePoint t = now();
+    // With no deadline and no timer nothing can be due: no clock reading is needed.
+    const bool endless = deadline == kForever && !fired && next_timer_at() == kForever;
+    const TimePoint t = endless ? TimePoint{} : now();
     if (t >= deadline) return;
-    wait_and_read(fired ? t : std::min(deadline, next_timer_at()), t);
+    const TimePoint until = fired ? t : std::min(deadline, next_timer_at());
+    if (handler_ && inbox_.empty() && may_block(until, t)) {
+      // Nothing queued, nothing due: wait for a frame and hand it to the handler without
+      // the inbox (a stop() that came meanwhile leaves it queued for later).
+      std::optional<TimedFrame> frame;
+      read_socket(0, frame);
+      if (!frame) continue;
+      if (stop_requested_.load(std::memory_order_relaxed)) {
+        inbox_.push_back(*frame);
+        continue;
+      }
+      // A copy: the handler may replace itself while it runs.
+      const FrameHandler handler = handler_;
+      handler(*frame);
+      continue;
+    }
+    wait_and_read(until, t);
   }
 }
 
@@ -584,7 +602,15 @@ std::optional<TimedFrame> SocketCanBus::receive(TimePoint deadline) {
     const TimePoint t = now();
     const bool expired = t >= deadline;
     // At or past the deadline, still look once (without waiting) for a frame already there.
-    wait_and_read(fired || expired ? t : std::min(deadline, next_timer_at()), t);
+    const TimePoint until = fired || expired ? t : std::min(deadline, next_timer_at());
+    if (!handler_ && inbox_.empty() && may_block(until, t)) {
+      // Nothing queued, nothing due: the frame read is the answer, without the inbox.
+      std::optional<TimedFrame> frame;
+      read_socket(0, frame);
+      if (frame) return frame;
+      continue;
+    }
+    wait_and_read(until, t);
     if (!handler_ && !inbox_.empty()) return pop();
     if (expired) return std::nullopt;
   }
@@ -607,14 +633,20 @@ bool SocketCanBus::arm_wakeup(TimePoint until, TimePoint now_time) {
   return true;
 }
 
+bool SocketCanBus::may_block(TimePoint until, TimePoint now_time) {
+  // Nothing is due within the slice: wait and read in one call, as a plain blocking read()
+  // does (epoll_wait + recvmsg cost a round trip ~10 % more under QEMU). Outside the epoll
+  // set, so that each frame does not also run epoll's wake-up callback. A timeout (EAGAIN)
+  // or a signal (EINTR) returns with nothing read; the caller's loop looks at stop and time.
+  return blocking_receive_ && until - now_time >= kBlockingReceiveHorizon &&
+         (!socket_in_epoll_ || watch_socket_in_epoll(false));
+}
+
 void SocketCanBus::wait_and_read(TimePoint until, TimePoint now_time) {
-  if (blocking_receive_ && until - now_time >= kBlockingReceiveHorizon &&
-      (!socket_in_epoll_ || watch_socket_in_epoll(false))) {
-    // Nothing is due within the slice: wait and read in one call, as a plain blocking read()
-    // does (epoll_wait + recvmsg cost a round trip ~10 % more under QEMU). Outside the epoll
-    // set, so that each frame does not also run epoll's wake-up callback. A timeout (EAGAIN)
-    // or a signal (EINTR) returns with nothing read; the caller's loop looks at stop and time.
-    receive_one(true);
+  if (may_block(until, now_time)) {
+    std::optional<TimedFrame> frame;
+    read_socket(0, frame);
+    if (frame) inbox_.push_back(*frame);
     return;
   }
   if (!socket_in_epoll_ && !watch_socket_in_epoll(true)) {
@@ -706,7 +738,14 @@ void SocketCanBus::read_available() {
   }
 }
 
-bool SocketCanBus::receive_one(bool block) {
+bool SocketCanBus::read_one() {
+  std::optional<TimedFrame> frame;
+  const bool read = read_socket(MSG_DONTWAIT, frame);
+  if (frame) inbox_.push_back(*frame);
+  return read;
+}
+
+bool SocketCanBus::read_socket(int flags, std::optional<TimedFrame>& out) {
   // Room for SCM_TIMESTAMPING (3 timespecs) or SCM_TIMESTAMP, plus SO_RXQ_OVFL.
   alignas(cmsghdr) unsigned char
       control[CMSG_SPACE(sizeof(scm_timestamping)) + CMSG_SPACE(sizeof(std::uint32_t)) + 64];
@@ -717,7 +756,7 @@ bool SocketCanBus::receive_one(bool block) {
   header.msg_iovlen = 1;
   header.msg_control = control;
   header.msg_controllen = sizeof control;
-  const ssize_t length = ::recvmsg(socket_fd_, &header, block ? 0 : MSG_DONTWAIT);
+  const ssize_t length = ::recvmsg(socket_fd_, &header, flags);
   if (length < 0) {
     if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)
       last_error_ = map_io_errno(errno);
@@ -764,7 +803,7 @@ bool SocketCanBus::receive_one(bool block) {
     timed.timestamp = now();
     if (timestamp_source_ != TimestampSource::none) ++stats_.missing_timestamps;
   }
-  accept(timed);
+  if (accept(timed)) out = timed;
   return true;
 }
 
@@ -783,7 +822,7 @@ TimePoint SocketCanBus::to_bus_time(std::int64_t realtime_ns) {
   return last_clock_check_;
 }
 
-void SocketCanBus::accept(const TimedFrame& timed) {
+bool SocketCanBus::accept(const TimedFrame& timed) {
   ++stats_.frames_received;
   if (timed.frame.is_error()) {
     ++stats_.error_frames;
@@ -797,9 +836,9 @@ void SocketCanBus::accept(const TimedFrame& timed) {
   }
   if ((timed.own && !options_.loopback) || !passes_filters(timed.frame)) {
     ++stats_.frames_filtered;
-    return;
+    return false;
   }
-  inbox_.push_back(timed);
+  return true;
 }
 
 }  // namespace drivecheck::can

@@ -25,10 +25,11 @@
 //  - waiting (receive, run_until): when nothing is due for a while (the deadline and the next
 //    timer are at least 40 ms away) the port waits in a blocking recvmsg() whose SO_RCVTIMEO
 //    is one slice (20 ms), so a round trip costs one system call on the receive side, as a
-//    plain blocking read() does; otherwise it waits in epoll_wait() on the socket, an eventfd
-//    and a timerfd (the deadline), registered in an epoll set (the socket only while the port
-//    waits there, so that frames do not run epoll's callback in vain). stop() writes to the
-//    eventfd, which is async-signal-safe. A signal interrupts a blocking recvmsg() at once
+//    plain blocking read() does, and a frame read there goes straight to the caller or the
+//    frame handler when nothing is queued before it; otherwise it waits in epoll_wait() on the
+//    socket, an eventfd and a timerfd (the deadline), registered in an epoll set (the socket only
+//    while the port waits there, so that frames do not run epoll's callback in vain). stop() writes
+//    to the eventfd, which is async-signal-safe. A signal interrupts a blocking recvmsg() at once
 //    (EINTR: calls with SO_RCVTIMEO are never restarted); a stop() from another thread, or
 //    from a handler that ran just before the call, ends the wait within one slice.
 //
@@ -156,11 +157,17 @@ class SocketCanBus final : public Bus {
   void handle_wake(bool readable, bool error, bool stopped, bool timer);
   // Reads every frame available now (non-blocking) into inbox_.
   void read_available();
-  // Reads one frame if there is one (non-blocking); false when there was none.
-  bool read_one() { return receive_one(false); }
-  // Reads one frame; with `block`, waits for one up to the socket's SO_RCVTIMEO.
-  bool receive_one(bool block);
-  void accept(const TimedFrame& frame);
+  // Reads one frame if there is one (non-blocking) into inbox_; false when there was none.
+  bool read_one();
+  // Whether a wait until `until` may be one blocking recvmsg() (see wait_and_read); takes
+  // the socket out of the epoll set for it.
+  bool may_block(TimePoint until, TimePoint now_time);
+  // Reads one frame from the socket (`flags` 0: waits up to SO_RCVTIMEO; MSG_DONTWAIT: does
+  // not wait). False when there was none. When one was read, `out` holds it if it passes the
+  // filters (accept()).
+  bool read_socket(int flags, std::optional<TimedFrame>& out);
+  // Counts the frame, tracks bus-off from error frames; whether it passes the filters.
+  bool accept(const TimedFrame& frame);
   bool passes_filters(const Frame& frame) const;
   // Fires the timers due now that were started before this call; returns whether any fired.
   bool fire_due_timers();
