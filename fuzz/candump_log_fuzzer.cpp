@@ -10,8 +10,10 @@
 //     does not read names a line that exists and that the line parser rejects too.
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "fuzz/support/fuzz_check.hpp"
@@ -34,9 +36,11 @@ void check_frame_round_trip(std::string_view text) {
   DRIVECHECK_FUZZ_CHECK_EQ(can::to_candump(*again), printed, "printed frame is not canonical");
 }
 
-void check_record_round_trip(std::string_view line) {
-  const auto record = can::parse_candump_log_line(line);
-  if (!record) return;
+// Returns the line's record (parse_candump_log_line is a pure function: the whole-log checks
+// below compare against this result instead of parsing the line again).
+std::optional<can::LogRecord> check_record_round_trip(std::string_view line) {
+  auto record = can::parse_candump_log_line(line);
+  if (!record) return std::nullopt;
   const std::string printed = can::to_candump_log(*record);
   const auto again = can::parse_candump_log_line(printed);
   DRIVECHECK_FUZZ_CHECK_DETAIL(again.has_value(), "printed log record does not parse",
@@ -51,6 +55,7 @@ void check_record_round_trip(std::string_view line) {
                            "record's timestamp changed beyond microsecond truncation");
   DRIVECHECK_FUZZ_CHECK(again->direction == record->direction,
                         "record's direction changed in a round trip");
+  return std::move(*record);
 }
 
 std::string_view trim_blanks(std::string_view text) {
@@ -79,20 +84,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       rest.remove_prefix(end == std::string_view::npos ? rest.size() : end + 1);
     }
   }
+  std::vector<std::optional<can::LogRecord>> line_records;  // one per line
+  line_records.reserve(lines.size());
   for (const std::string_view line : lines) {
     check_frame_round_trip(line);
     if (trim_blanks(line).size() != line.size()) check_frame_round_trip(trim_blanks(line));
-    check_record_round_trip(line);
+    line_records.push_back(check_record_round_trip(line));
   }
 
   const auto log = can::read_candump_log(text, "fuzz.log");
   if (log) {
     std::size_t next = 0;
-    for (const std::string_view line : lines) {
-      const std::string_view content = trim_blanks(line);
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+      const std::string_view content = trim_blanks(lines[i]);
       if (content.empty() || content.front() == '#') continue;
       DRIVECHECK_FUZZ_CHECK(next < log->size(), "log has fewer records than record lines");
-      const auto record = can::parse_candump_log_line(line);
+      const std::optional<can::LogRecord>& record = line_records[i];
       DRIVECHECK_FUZZ_CHECK(record.has_value() && *record == (*log)[next],
                             "log reader and line parser disagree on a line");
       ++next;
@@ -119,8 +126,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     DRIVECHECK_FUZZ_CHECK_DETAIL(
         error.line >= 1 && static_cast<std::size_t>(error.line) <= lines.size(),
         "log error names no line of the input", error.to_string());
-    const std::string_view line = lines[static_cast<std::size_t>(error.line) - 1];
-    DRIVECHECK_FUZZ_CHECK_DETAIL(!can::parse_candump_log_line(line).has_value(),
+    DRIVECHECK_FUZZ_CHECK_DETAIL(!line_records[static_cast<std::size_t>(error.line) - 1],
                                  "log reader rejects a line the line parser accepts",
                                  error.to_string());
     DRIVECHECK_FUZZ_CHECK_DETAIL(error.to_string().starts_with("fuzz.log:"),

@@ -18,7 +18,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
-#include <vector>
 
 #include "fuzz/support/frame_record.hpp"
 #include "fuzz/support/fuzz_check.hpp"
@@ -50,6 +49,21 @@ void check_code_table(std::uint16_t code) {
       DRIVECHECK_FUZZ_CHECK(row.matches(code), "hierarchy row does not match the code");
   }
   DRIVECHECK_FUZZ_CHECK(!describe_emcy_code(code).empty(), "empty EMCY code description");
+}
+
+// The nodes whose EMCY COB-ID the frame is on, into `nodes`; returns how many. Oracle
+// bookkeeping (127 comparisons per frame), not the code under test: not instrumented.
+DRIVECHECK_FUZZ_ORACLE_CODE std::size_t nodes_on_cob_id(const std::array<NodeId, 128>& ids,
+                                                        const can::Frame& frame,
+                                                        std::array<std::uint8_t, 128>& nodes) {
+  std::size_t count = 0;
+  if (frame.is_error()) return 0;
+  for (std::uint8_t node = 1; node < ids.size(); ++node) {
+    if (ids[node].cob_id == frame.id && ids[node].extended == frame.is_extended()) {
+      nodes[count++] = node;
+    }
+  }
+  return count;
 }
 
 }  // namespace
@@ -106,22 +120,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
 
     // The consumer: exactly the frames on a node's COB-ID.
-    std::vector<std::uint8_t> candidates;
-    if (!frame.is_error()) {
-      for (std::uint8_t node = 1; node < ids.size(); ++node) {
-        if (ids[node].cob_id == frame.id && ids[node].extended == frame.is_extended()) {
-          candidates.push_back(node);
-        }
-      }
-    }
+    std::array<std::uint8_t, 128> candidates{};
+    const std::size_t candidate_count = nodes_on_cob_id(ids, frame, candidates);
     const auto event = consumer.on_frame(frame, now);
-    DRIVECHECK_FUZZ_CHECK_EQ(event.has_value(), !candidates.empty(),
+    DRIVECHECK_FUZZ_CHECK_EQ(event.has_value(), candidate_count != 0,
                              "consumer reports a frame iff it is on a node's EMCY COB-ID");
     if (event) {
       const std::uint8_t node = event->record.node;
-      DRIVECHECK_FUZZ_CHECK(
-          std::find(candidates.begin(), candidates.end(), node) != candidates.end(),
-          "consumer names a node whose COB-ID the frame is not on");
+      DRIVECHECK_FUZZ_CHECK(std::find(candidates.begin(), candidates.begin() + candidate_count,
+                                      node) != candidates.begin() + candidate_count,
+                            "consumer names a node whose COB-ID the frame is not on");
       if (emcy) {
         DRIVECHECK_FUZZ_CHECK(event->kind == (emcy->is_error_reset() ? EmcyEventKind::error_reset
                                                                      : EmcyEventKind::error),

@@ -1,7 +1,10 @@
 #include "protocol/can/pcap.hpp"
 
+#include <fmt/compile.h>
+
 #include <algorithm>
 #include <cerrno>
+#include <iterator>
 #include <limits>
 #include <system_error>
 
@@ -51,7 +54,8 @@ Expected<Frame, std::string> decode_can_frame(std::span<const std::uint8_t> data
   const std::uint8_t len8_dlc = data[7];
   if (len > 8) {
     return Unexpected(fmt::format(
-        "payload length {} is above 8: CAN FD frames are not supported (drivecheck is classic CAN)",
+        FMT_COMPILE("payload length {} is above 8: CAN FD frames are not supported (drivecheck is "
+                    "classic CAN)"),
         len));
   }
   const bool err = (can_id & Filter::kErrFlag) != 0;
@@ -60,14 +64,17 @@ Expected<Frame, std::string> decode_can_frame(std::span<const std::uint8_t> data
   Frame frame;
   frame.id = can_id & kMaxExtendedId;
   if (err) {
-    if (rtr) return Unexpected(fmt::format("can_id {:08X}: both ERR and RTR flags set", can_id));
+    if (rtr)
+      return Unexpected(
+          fmt::format(FMT_COMPILE("can_id {:08X}: both ERR and RTR flags set"), can_id));
     frame.kind = FrameKind::error;
     frame.format = IdFormat::extended;
   } else if (eff) {
     frame.format = IdFormat::extended;
   } else if (frame.id > kMaxStandardId) {
     return Unexpected(fmt::format(
-        "can_id {:08X}: 11-bit frame (no EFF flag) with identifier bits above 7FF", can_id));
+        FMT_COMPILE("can_id {:08X}: 11-bit frame (no EFF flag) with identifier bits above 7FF"),
+        can_id));
   }
   if (rtr) {
     frame.kind = FrameKind::remote;
@@ -75,8 +82,8 @@ Expected<Frame, std::string> decode_can_frame(std::span<const std::uint8_t> data
     return frame;
   }
   if (data.size() < 8u + len) {
-    return Unexpected(
-        fmt::format("payload length {} but only {} data bytes stored", len, data.size() - 8));
+    return Unexpected(fmt::format(FMT_COMPILE("payload length {} but only {} data bytes stored"),
+                                  len, data.size() - 8));
   }
   frame.dlc = len;
   std::copy_n(data.begin() + 8, len, frame.data.begin());
@@ -123,9 +130,11 @@ Expected<std::array<std::uint8_t, kPcapRecordSize>, std::string> encode_pcap_rec
 }
 
 Expected<std::vector<PcapRecord>, std::string> parse_pcap(std::span<const std::uint8_t> bytes) {
+  // Messages use compile-time format strings: most inputs a fuzzer gives are refused, and
+  // runtime-parsed ones were ~9 % of the pcap fuzz target's profile.
   if (bytes.size() < kPcapFileHeaderSize) {
-    return Unexpected(
-        fmt::format("truncated file header: {} of {} bytes", bytes.size(), kPcapFileHeaderSize));
+    return Unexpected(fmt::format(FMT_COMPILE("truncated file header: {} of {} bytes"),
+                                  bytes.size(), kPcapFileHeaderSize));
   }
   const std::uint32_t magic = get_le32(bytes.data());
   bool big_endian = false;
@@ -141,7 +150,7 @@ Expected<std::vector<PcapRecord>, std::string> parse_pcap(std::span<const std::u
         std::string("this is a pcapng file; drivecheck reads pcap (convert: editcap -F pcap "
                     "in.pcapng out.pcap)"));
   } else {
-    return Unexpected(fmt::format("not a pcap file: magic number {:08X}", magic));
+    return Unexpected(fmt::format(FMT_COMPILE("not a pcap file: magic number {:08X}"), magic));
   }
   const auto get32 = [big_endian](const std::uint8_t* in) {
     return big_endian ? get_be32(in) : get_le32(in);
@@ -149,12 +158,13 @@ Expected<std::vector<PcapRecord>, std::string> parse_pcap(std::span<const std::u
   const std::uint16_t major = get16(&bytes[4], big_endian);
   const std::uint16_t minor = get16(&bytes[6], big_endian);
   if (major != kVersionMajor) {
-    return Unexpected(fmt::format("pcap version {}.{} is not supported (2.x is)", major, minor));
+    return Unexpected(
+        fmt::format(FMT_COMPILE("pcap version {}.{} is not supported (2.x is)"), major, minor));
   }
   const std::uint32_t linktype = get32(&bytes[20]) & 0xFFFF;  // upper bits: FCS info
   if (linktype != kLinktypeCanSocketcan) {
-    return Unexpected(fmt::format("link type {} is not LINKTYPE_CAN_SOCKETCAN ({})", linktype,
-                                  kLinktypeCanSocketcan));
+    return Unexpected(fmt::format(FMT_COMPILE("link type {} is not LINKTYPE_CAN_SOCKETCAN ({})"),
+                                  linktype, kLinktypeCanSocketcan));
   }
   const std::uint32_t fraction_limit = nanoseconds ? 1'000'000'000 : 1'000'000;
   const std::int64_t fraction_scale = nanoseconds ? 1 : 1000;
@@ -162,13 +172,16 @@ Expected<std::vector<PcapRecord>, std::string> parse_pcap(std::span<const std::u
   std::vector<PcapRecord> records;
   std::size_t offset = kPcapFileHeaderSize;
   for (std::size_t number = 1; offset < bytes.size(); ++number) {
-    const auto fail = [&](std::string message) {
-      return Unexpected(fmt::format("record {} at byte {}: {}", number, offset, message));
+    // "record <n> at byte <offset>: " and the message, in one string.
+    const auto fail = [&](const auto& format, const auto&... args) {
+      std::string text = fmt::format(FMT_COMPILE("record {} at byte {}: "), number, offset);
+      fmt::format_to(std::back_inserter(text), format, args...);
+      return Unexpected(std::move(text));
     };
     const std::size_t left = bytes.size() - offset;
     if (left < kPcapRecordHeaderSize) {
-      return fail(
-          fmt::format("truncated record header: {} of {} bytes", left, kPcapRecordHeaderSize));
+      return fail(FMT_COMPILE("truncated record header: {} of {} bytes"), left,
+                  kPcapRecordHeaderSize);
     }
     const std::uint8_t* header = &bytes[offset];
     const std::uint32_t seconds = get32(header);
@@ -176,25 +189,26 @@ Expected<std::vector<PcapRecord>, std::string> parse_pcap(std::span<const std::u
     const std::uint32_t incl_len = get32(header + 8);
     const std::uint32_t orig_len = get32(header + 12);
     if (fraction >= fraction_limit) {
-      return fail(fmt::format("timestamp fraction {} is not below {}", fraction, fraction_limit));
+      return fail(FMT_COMPILE("timestamp fraction {} is not below {}"), fraction, fraction_limit);
     }
     if (incl_len > left - kPcapRecordHeaderSize) {
-      return fail(fmt::format("truncated: {} bytes stored but only {} left in the file", incl_len,
-                              left - kPcapRecordHeaderSize));
+      return fail(FMT_COMPILE("truncated: {} bytes stored but only {} left in the file"), incl_len,
+                  left - kPcapRecordHeaderSize);
     }
     if (incl_len < 8) {
-      return fail(fmt::format("{} bytes is shorter than the 8-byte can_frame header", incl_len));
+      return fail(FMT_COMPILE("{} bytes is shorter than the 8-byte can_frame header"), incl_len);
     }
     if (incl_len > kSocketcanFrameSize) {
-      return fail(fmt::format(
-          "{} bytes is longer than a classic can_frame (16): CAN FD frames are not supported",
-          incl_len));
+      return fail(
+          FMT_COMPILE(
+              "{} bytes is longer than a classic can_frame (16): CAN FD frames are not supported"),
+          incl_len);
     }
     if (orig_len < incl_len) {
-      return fail(fmt::format("orig_len {} is below incl_len {}", orig_len, incl_len));
+      return fail(FMT_COMPILE("orig_len {} is below incl_len {}"), orig_len, incl_len);
     }
     auto frame = decode_can_frame(bytes.subspan(offset + kPcapRecordHeaderSize, incl_len));
-    if (!frame) return fail(std::move(frame).error());
+    if (!frame) return fail(FMT_COMPILE("{}"), frame.error());
     records.push_back(PcapRecord{std::chrono::nanoseconds(std::int64_t{seconds} * kNanosPerSecond +
                                                           std::int64_t{fraction} * fraction_scale),
                                  *frame});

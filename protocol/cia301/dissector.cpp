@@ -273,7 +273,21 @@ std::string Dissector::object_text(std::uint16_t index, std::uint8_t sub_index) 
 std::string Dissector::value_text(std::uint16_t index, std::uint8_t sub_index,
                                   std::span<const std::uint8_t> bytes, bool size_known) const {
   const std::uint64_t raw = little_endian(bytes);
-  std::string text = fmt::format("0x{:0{}X}", raw, bytes.size() * 2);
+  // "0x" and fmt's "{:0{width}X}" with two digits per byte, by hand (runs for most SDO frames).
+  std::string text = "0x";
+  {
+    static constexpr char kDigits[] = "0123456789ABCDEF";
+    char digits[16];
+    std::size_t count = 0;
+    std::uint64_t rest = raw;
+    do {
+      digits[count++] = kDigits[rest & 0xF];
+      rest >>= 4;
+    } while (rest != 0);
+    if (count < bytes.size() * 2) text.append(bytes.size() * 2 - count, '0');
+    while (count > 0)
+      text += digits[--count];
+  }
   std::string meaning;
   const auto object = cia402::find_object(index, sub_index);
   if (index == 0x6040 && sub_index == 0) {

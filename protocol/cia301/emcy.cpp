@@ -1,9 +1,9 @@
 #include "protocol/cia301/emcy.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <bit>
 #include <cassert>
 #include <iterator>
 
@@ -41,37 +41,59 @@ std::span<const EmcyCodeInfo> emcy_code_table() {
   return kTable;
 }
 
+namespace {
+
+// The row whose code is `code`, by binary search (the table is ascending, codes unique).
+const EmcyCodeInfo* row_with_code(std::uint16_t code) {
+  const auto* const end = std::end(kTable);
+  const auto* const it =
+      std::lower_bound(std::begin(kTable), end, code, [](const EmcyCodeInfo& row, std::uint16_t c) {
+        return static_cast<std::uint16_t>(row.code) < c;
+      });
+  return (it != end && static_cast<std::uint16_t>(it->code) == code) ? it : nullptr;
+}
+
+// Calls `f` for every row that matches `value`, most general first. A row matches when
+// value & mask == code, and masks are F000h, FF00h or FFFFh, so a matching row's code is one
+// of value & F000h, value & FF00h, value; codes are unique, so looking up these three (each
+// once) finds every matching row. Nested masks make the candidates ascend in mask width.
+// (Three binary searches instead of a scan of every row: this runs for every EMCY code
+// described, e.g. every EMCY the dissector explains.)
+template <typename F>
+void for_each_matching_row(std::uint16_t value, F&& f) {
+  const std::uint16_t candidates[] = {static_cast<std::uint16_t>(value & 0xF000u),
+                                      static_cast<std::uint16_t>(value & 0xFF00u), value};
+  for (std::size_t i = 0; i < std::size(candidates); ++i) {
+    if (i > 0 && candidates[i] == candidates[i - 1]) continue;
+    const EmcyCodeInfo* row = row_with_code(candidates[i]);
+    if (row != nullptr && row->matches(value)) f(*row);
+  }
+}
+
+}  // namespace
+
 std::optional<EmcyCodeInfo> find_emcy_code(std::uint16_t value) {
   std::optional<EmcyCodeInfo> best;
-  for (const EmcyCodeInfo& row : kTable) {
-    if (!row.matches(value)) continue;
-    if (!best || std::popcount(row.mask) > std::popcount(best->mask)) best = row;
-  }
+  for_each_matching_row(value, [&](const EmcyCodeInfo& row) { best = row; });
   return best;
 }
 
 std::vector<EmcyCodeInfo> emcy_code_hierarchy(std::uint16_t value) {
   std::vector<EmcyCodeInfo> rows;
-  for (const EmcyCodeInfo& row : kTable) {
-    if (row.matches(value)) rows.push_back(row);
-  }
-  // Most general (fewest mask bits) first; rows of equal width cannot both match.
-  std::sort(rows.begin(), rows.end(), [](const EmcyCodeInfo& a, const EmcyCodeInfo& b) {
-    return std::popcount(a.mask) < std::popcount(b.mask);
-  });
+  for_each_matching_row(value, [&](const EmcyCodeInfo& row) { rows.push_back(row); });
   return rows;
 }
 
 std::string describe_emcy_code(std::uint16_t value) {
   const auto row = find_emcy_code(value);
-  if (!row) return fmt::format("{:04X}h (unknown error code)", value);
-  if (row->mask == 0xFFFF) return fmt::format("{:04X}h {}", value, row->text);
+  if (!row) return fmt::format(FMT_COMPILE("{:04X}h (unknown error code)"), value);
+  if (row->mask == 0xFFFF) return fmt::format(FMT_COMPILE("{:04X}h {}"), value, row->text);
   const auto base = static_cast<std::uint16_t>(row->code);
   if (row->mask == 0xFF00) {
-    if (value == base) return fmt::format("{:04X}h {}", value, row->text);
-    return fmt::format("{:04X}h {} (class {:02X}xxh)", value, row->text, base >> 8);
+    if (value == base) return fmt::format(FMT_COMPILE("{:04X}h {}"), value, row->text);
+    return fmt::format(FMT_COMPILE("{:04X}h {} (class {:02X}xxh)"), value, row->text, base >> 8);
   }
-  return fmt::format("{:04X}h {} (class {:X}xxxh)", value, row->text, base >> 12);
+  return fmt::format(FMT_COMPILE("{:04X}h {} (class {:X}xxxh)"), value, row->text, base >> 12);
 }
 
 std::string_view to_string(ErrorRegisterBit bit) {
@@ -132,8 +154,8 @@ Expected<Emcy, DecodeError> decode_emcy(const can::Frame& frame) {
     return Unexpected(DecodeError{"EMCY as a remote request: invalid (EMCY is a data frame)"});
   }
   if (frame.dlc != 8) {
-    return Unexpected(DecodeError{
-        fmt::format("EMCY with DLC {}: invalid (EMCY frames carry 8 bytes)", frame.dlc)});
+    return Unexpected(DecodeError{fmt::format(
+        FMT_COMPILE("EMCY with DLC {}: invalid (EMCY frames carry 8 bytes)"), frame.dlc)});
   }
   Emcy emcy;
   emcy.error_code = static_cast<std::uint16_t>(frame.data[0] | (frame.data[1] << 8));
@@ -155,7 +177,8 @@ Expected<EmcyCobIdEntry, DecodeError> decode_emcy_cob_id_entry(std::uint32_t val
   entry.can_id = value & can::kMaxExtendedId;
   if (!entry.extended && entry.can_id > can::kMaxStandardId) {
     return Unexpected(DecodeError{fmt::format(
-        "COB-ID EMCY {:08X}h: invalid (bits 28..11 must be 0 for an 11-bit CAN-ID)", value)});
+        FMT_COMPILE("COB-ID EMCY {:08X}h: invalid (bits 28..11 must be 0 for an 11-bit CAN-ID)"),
+        value)});
   }
   return entry;
 }

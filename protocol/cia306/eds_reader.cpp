@@ -512,13 +512,26 @@ class Reader {
               fmt::format("[{}] has no SupportedObjects", section->name));
         count = static_cast<std::uint32_t>(entries.size());
       }
-      for (std::uint32_t i = 1; i <= *count; ++i) {
-        if (entries.count(i) == 0) {
+      // One diagnostic per run of missing entry numbers: SupportedObjects=65535 with no
+      // entries is one error, not 65535 (~0.4 s per such file under the fuzz build's ASan).
+      std::uint32_t expected = 1;  // the next entry number a complete list has
+      const auto report_missing = [&](std::uint32_t first, std::uint32_t last) {
+        if (first == last) {
           error(section->line, "list-count-mismatch",
                 fmt::format("[{}] SupportedObjects={} but entry {} is missing", section->name,
-                            *count, i));
+                            *count, first));
+        } else if (first < last) {
+          error(section->line, "list-count-mismatch",
+                fmt::format("[{}] SupportedObjects={} but entries {}..{} are missing",
+                            section->name, *count, first, last));
         }
+      };
+      for (const auto& entry : entries) {
+        if (entry.first > *count) break;
+        report_missing(expected, entry.first - 1);
+        expected = entry.first + 1;
       }
+      report_missing(expected, *count);
       for (const auto& [number, key] : entries) {
         if (number > *count) {
           error(key->line, "list-count-mismatch",

@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <set>
+#include <vector>
 
 namespace drivecheck::cia301 {
 namespace {
@@ -139,6 +142,37 @@ TEST(EmcyCodeTable, UniqueNamesAndNoAmbiguousMatch) {
       }
     }
   }
+}
+
+TEST(EmcyCodeTable, LookupsAgreeWithAScanOfEveryRow) {
+  // Given the one EMCY table and the definition of a match (value & mask == code)
+  // When every 16-bit value is looked up (find_emcy_code, emcy_code_hierarchy search the table)
+  // Then the hierarchy is exactly the matching rows of a scan, by ascending mask width, and
+  //      the row found is the widest of them (none for a value no row matches)
+  std::size_t matched_values = 0;
+  for (unsigned value = 0; value <= 0xFFFF; ++value) {
+    const auto v = static_cast<std::uint16_t>(value);
+    std::vector<EmcyCodeInfo> scan;
+    for (const EmcyCodeInfo& row : emcy_code_table()) {
+      if (row.matches(v)) scan.push_back(row);
+    }
+    std::stable_sort(scan.begin(), scan.end(), [](const EmcyCodeInfo& a, const EmcyCodeInfo& b) {
+      return std::popcount(a.mask) < std::popcount(b.mask);
+    });
+    const auto hierarchy = emcy_code_hierarchy(v);
+    ASSERT_EQ(hierarchy.size(), scan.size()) << std::hex << value;
+    for (std::size_t i = 0; i < scan.size(); ++i) {
+      EXPECT_EQ(hierarchy[i].code, scan[i].code) << std::hex << value;
+      EXPECT_EQ(hierarchy[i].mask, scan[i].mask) << std::hex << value;
+    }
+    const auto found = find_emcy_code(v);
+    ASSERT_EQ(found.has_value(), !scan.empty()) << std::hex << value;
+    if (found) {
+      EXPECT_EQ(found->code, scan.back().code) << std::hex << value;
+      ++matched_values;
+    }
+  }
+  EXPECT_GT(matched_values, 0x4000u);  // 29952 values are in a class: the loop tested lookups
 }
 
 TEST(ErrorRegister, EveryBitNamed) {

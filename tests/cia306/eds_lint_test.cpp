@@ -124,6 +124,24 @@ TEST(EdsErrors, ListedObjectWithoutSection) {
             "but has no section [1005] [missing-object-section]"});
 }
 
+TEST(EdsErrors, MissingListEntriesAreReportedAsRuns) {
+  // Given [MandatoryObjects] SupportedObjects=65535 with entries 1, 3 and 6 (the objects of
+  // minimal.eds renumbered)
+  // When read
+  // Then one error per run of missing entry numbers (2, 4..5, 7..65535), at the section line:
+  //      not one per number (65533 errors for one wrong count)
+  const std::string text =
+      replaced(load("minimal.eds"), "SupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018\n",
+               "SupportedObjects=65535\n1=0x1000\n3=0x1001\n6=0x1018\n");
+  EXPECT_EQ(lines(read_eds(text, "runs.eds").diagnostics, Severity::error),
+            (Lines{"runs.eds:36: error: [MandatoryObjects] SupportedObjects=65535 but entry 2 is "
+                   "missing [list-count-mismatch]",
+                   "runs.eds:36: error: [MandatoryObjects] SupportedObjects=65535 but entries "
+                   "4..5 are missing [list-count-mismatch]",
+                   "runs.eds:36: error: [MandatoryObjects] SupportedObjects=65535 but entries "
+                   "7..65535 are missing [list-count-mismatch]"}));
+}
+
 TEST(EdsErrors, SectionNotListedAndOrphanSubSection) {
   // Given [2000] that no list names and [2001sub1] without [2001]
   // When read
