@@ -1,7 +1,8 @@
 // Fuzz target: the reference servo drive's CiA 402 side (reference_drive/servo_drive.hpp, built
 // as cli/embedded_drive.cpp builds it: the standard drive, node 5, on the simulated bus):
 // controlword, 6060h modes, targets, option codes, the factor group and limits, simulated
-// inputs (hardware enable, limit and home switches, fault causes), SYNC, NMT and time.
+// inputs (hardware enable, limit and home switches, mechanical end stops, coasting to rest,
+// fault causes), SYNC, NMT and time.
 //
 // Input: fuzz/support/cia402_input.hpp (6-byte operation records, at most 200 of them and
 // 2 s of simulated time). Objects are written by expedited SDO downloads from a tester node
@@ -19,7 +20,11 @@
 //   3. physics: per observation window dt, |Δv| <= (torque limit + friction) x rated
 //      acceleration / 1000 x dt while |v| stayed within the max speed (a lowered max speed
 //      only ever brings |v| down), |v| <= max(max speed before, after), and
-//      |Δposition| <= max(|v0|, |v1|) x dt (trapezoid integration, no jumps);
+//      |Δposition| <= max(|v0|, |v1|) x dt (trapezoid integration, no jumps); an axis that
+//      ends the window against a mechanical end stop may have lost more speed than the torque
+//      explains (the stop stops it dead), never gained it; axis-coast-to-rest (an operator's
+//      act) leaves a powered axis alone and stops an unpowered one where it is, and the next
+//      window starts after it;
 //   4. no motion outside OPERATION ENABLED, QUICK STOP ACTIVE and FAULT REACTION ACTIVE
 //      (states as the statusword shows them, before and after the window):
 //      - an axis at rest stays at rest (velocity exactly 0, position unchanged);
@@ -87,6 +92,7 @@ struct Observation {
   double max_speed = 0.0;
   double torque_limit = 0.0;
   reference_drive::AxisControl control = reference_drive::AxisControl::free;
+  bool at_end_stop = false;  // against a mechanical end stop (simulate stop-*-at)
   std::uint16_t statusword = 0;
   std::optional<State> shown;  // decoded from the statusword
   State state = State::not_ready_to_switch_on;
@@ -160,7 +166,9 @@ class Harness {
       case Cia402OpKind::simulate: {
         const auto& input = fuzz::kInputs[op.selector % fuzz::kInputs.size()];
         std::int64_t value = 0;
-        if (input.position) {
+        if (input.one) {
+          value = 1;
+        } else if (input.position) {
           value = static_cast<std::int32_t>(op.value);
         } else if (input.tristate) {
           value = static_cast<std::int64_t>(op.value % 3) - 1;
@@ -171,6 +179,7 @@ class Harness {
         DRIVECHECK_FUZZ_CHECK_DETAIL(
             done.has_value(), "a documented simulated input was refused",
             fmt::format("{} := {}: {}", input.name, value, done ? std::string() : done.error()));
+        if (input.one) coasted_to_rest();
         break;
       }
       case Cia402OpKind::sync:
@@ -211,6 +220,23 @@ class Harness {
 
   void send(const can::Frame& frame) { static_cast<void>(tester_->send(frame)); }
 
+  // axis-coast-to-rest, an outside act at this instant (no time passed since last_): a powered
+  // axis is left alone, an unpowered one stands still where it is. The next window starts
+  // after the act (its velocity step is the operator's, not the drive's).
+  void coasted_to_rest() {
+    const Observation now = observe();
+    // The message is built only when a check fails (every step would pay for it).
+    const auto where = [&] { return context(last_, now); };
+    if (last_.control != reference_drive::AxisControl::free) {
+      DRIVECHECK_FUZZ_CHECK_DETAIL(now.velocity == last_.velocity && now.position == last_.position,
+                                   "axis-coast-to-rest changed a powered axis", where());
+    } else {
+      DRIVECHECK_FUZZ_CHECK_DETAIL(now.velocity == 0.0 && now.position == last_.position,
+                                   "axis-coast-to-rest left an unpowered axis moving", where());
+    }
+    last_ = now;
+  }
+
   Observation observe() {
     const auto& axis = drive_->application().axis();
     const auto& pds = drive_->application().pds();
@@ -223,9 +249,12 @@ class Harness {
     o.max_speed = axis.max_speed();
     o.torque_limit = axis.torque_limit();
     o.control = axis.control();
-    const cia301::Entry* statusword = drive_->device().dictionary().find(0x6041, 0);
-    DRIVECHECK_FUZZ_CHECK(statusword != nullptr, "6041h statusword is missing");
-    o.statusword = static_cast<std::uint16_t>(statusword->as_unsigned());
+    o.at_end_stop = axis.at_end_stop();
+    if (statusword_ == nullptr) {
+      statusword_ = drive_->device().dictionary().find(0x6041, 0);
+      DRIVECHECK_FUZZ_CHECK(statusword_ != nullptr, "6041h statusword is missing");
+    }
+    o.statusword = static_cast<std::uint16_t>(statusword_->as_unsigned());
     o.shown = cia402::decode_statusword(o.statusword);
     o.state = pds.state();
     o.pending = pds.pending_transition();
@@ -255,21 +284,24 @@ class Harness {
   }
 
   void check(const Observation& before, const Observation& after) {
-    const std::string where = context(before, after);
+    // The message is built only when a check fails (every step would pay for it).
+    const auto where = [&] { return context(before, after); };
     // 1. The statusword shows a valid state, the one the drive is in.
     DRIVECHECK_FUZZ_CHECK_DETAIL(after.shown.has_value(), "the statusword shows no valid state",
-                                 where);
+                                 where());
     DRIVECHECK_FUZZ_CHECK_DETAIL(*after.shown == after.state,
-                                 "the statusword shows another state than the drive is in", where);
+                                 "the statusword shows another state than the drive is in",
+                                 where());
 
     // 2. The axis model is finite.
     for (const double value : {after.position, after.velocity, after.acceleration, after.torque,
                                after.max_speed, after.torque_limit}) {
       DRIVECHECK_FUZZ_CHECK_DETAIL(std::isfinite(value), "NaN or infinity in the axis model",
-                                   where);
+                                   where());
     }
     DRIVECHECK_FUZZ_CHECK_DETAIL(std::abs(after.position) < kMaxPosition,
-                                 "the axis position left the range a double counts exactly", where);
+                                 "the axis position left the range a double counts exactly",
+                                 where());
 
     // 3. Physics within the window.
     const double dt = std::chrono::duration<double>(after.at - before.at).count();
@@ -282,22 +314,28 @@ class Harness {
     const double tolerance =
         kEpsilon * (1.0 + std::abs(before.velocity) + std::abs(after.velocity));
     DRIVECHECK_FUZZ_CHECK_DETAIL(std::abs(after.velocity) <= speed_limit * (1 + 1e-12) + kEpsilon,
-                                 "the axis runs faster than its max speed", where);
-    if (std::abs(before.velocity) <= after.max_speed) {
+                                 "the axis runs faster than its max speed", where());
+    if (after.at_end_stop && std::abs(dv) > max_dv * (1 + 1e-9) + tolerance) {
+      // An end stop stops the axis dead (axis_model.hpp): it only takes speed away, and the
+      // axis stands at it.
+      DRIVECHECK_FUZZ_CHECK_DETAIL(
+          after.velocity == 0.0 || std::abs(after.velocity) < std::abs(before.velocity) + tolerance,
+          "an end stop made the axis faster", where());
+    } else if (std::abs(before.velocity) <= after.max_speed) {
       DRIVECHECK_FUZZ_CHECK_DETAIL(std::abs(dv) <= max_dv * (1 + 1e-9) + tolerance,
                                    "the velocity changed more than the torque limit allows",
-                                   fmt::format("{}\n  dv {} > {}", where, dv, max_dv));
+                                   fmt::format("{}\n  dv {} > {}", where(), dv, max_dv));
     } else {
       DRIVECHECK_FUZZ_CHECK_DETAIL(
           std::abs(after.velocity) <= std::abs(before.velocity) + tolerance,
-          "above a lowered max speed the axis got faster", where);
+          "above a lowered max speed the axis got faster", where());
     }
     const double max_dp =
         std::max(std::abs(before.velocity), std::abs(after.velocity)) * dt * (1 + 1e-9) + kEpsilon;
     // Several cycles in one window: the velocity in between is bounded by the speed limit.
     const double max_dp_cycles = std::max(max_dp, speed_limit * dt * (1 + 1e-9) + kEpsilon);
     DRIVECHECK_FUZZ_CHECK_DETAIL(std::abs(after.position - before.position) <= max_dp_cycles,
-                                 "the position jumped", where);
+                                 "the position jumped", where());
 
     // 4. No motion outside OPERATION ENABLED, QUICK STOP ACTIVE, FAULT REACTION ACTIVE.
     const bool outside = !motion_allowed(after.state) && before.shown &&
@@ -305,13 +343,14 @@ class Harness {
     if (outside) {
       if (before.velocity == 0.0) {
         DRIVECHECK_FUZZ_CHECK_DETAIL(after.velocity == 0.0 && after.position == before.position,
-                                     "an axis at rest moved outside the motion states", where);
+                                     "an axis at rest moved outside the motion states", where());
       } else {
         DRIVECHECK_FUZZ_CHECK_DETAIL(
             after.control == reference_drive::AxisControl::free && after.torque == 0.0,
-            "the drive function acts on the motor outside the motion states", where);
+            "the drive function acts on the motor outside the motion states", where());
         DRIVECHECK_FUZZ_CHECK_DETAIL(std::abs(after.velocity) <= std::abs(before.velocity),
-                                     "a coasting axis got faster outside the motion states", where);
+                                     "a coasting axis got faster outside the motion states",
+                                     where());
       }
     }
 
@@ -322,7 +361,7 @@ class Harness {
     if (ramping) {
       DRIVECHECK_FUZZ_CHECK_DETAIL(
           std::abs(after.velocity) <= std::abs(before.velocity) + tolerance,
-          "the axis got faster during a ramped shutdown/disable operation", where);
+          "the axis got faster during a ramped shutdown/disable operation", where());
     }
     ramp_seen_ = after.state == State::operation_enabled && after.pending.has_value();
   }
@@ -331,6 +370,7 @@ class Harness {
   std::unique_ptr<can::SimPort> drive_port_;
   std::unique_ptr<can::SimPort> tester_;
   std::unique_ptr<reference_drive::ServoDrive> drive_;
+  const cia301::Entry* statusword_ = nullptr;  // 6041h, found at the first observation
   can::TimePoint start_{};
   Observation last_;
   bool ramp_seen_ = false;

@@ -1,7 +1,8 @@
 // Fuzz target: NMT, heartbeat, node guarding and SYNC frames (and the SDO writes that configure
 // error control) into a whole reference drive (reference_drive/device.hpp) on the simulated
-// bus, node 5. Each input runs on a new bus with the drive restarted on it
-// (ReferenceDrive::restart: as created, without building the dictionary again).
+// bus, node 5. Each input runs on the bus reset to time 0 (SimBus::reset: as a new bus) with
+// the drive restarted on it (ReferenceDrive::restart: as created, without building the
+// dictionary again).
 //
 // Input (fuzz/support/fuzz_input.hpp reads past the end as zeros):
 //   byte 0   producer heartbeat time 1017h at power on: {0, 10, 100, 1000} ms by byte % 4
@@ -44,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "fuzz/support/drive_rig.hpp"
 #include "fuzz/support/fuzz_check.hpp"
 #include "fuzz/support/fuzz_input.hpp"
 #include "protocol/can/sim_bus.hpp"
@@ -55,6 +57,7 @@ namespace {
 using namespace drivecheck;
 using namespace std::chrono_literals;
 using cia301::NmtState;
+using drivecheck::fuzz::DriveRig;
 using drivecheck::fuzz::FuzzInput;
 
 constexpr std::uint8_t kNode = 5;
@@ -104,18 +107,8 @@ std::optional<NmtState> state_after(std::uint8_t command, NmtState before) {
   }
 }
 
-// One input's bus: a new one per input (time starts at 0, nothing queued).
-struct Rig {
-  can::SimBus bus{can::SimBusConfig{.bitrate = 1'000'000}};
-  std::unique_ptr<can::SimPort> drive_port = bus.attach("drive");
-  std::unique_ptr<can::SimPort> tester = bus.attach("tester");
-};
-
-// The drives live across inputs, one per 1017h default: an input restarts its drive on its
-// own new bus (ReferenceDrive::restart: the state create() leaves, without building the
-// dictionary again) and the drive leaves that bus at the end of the input (release_bus), so
-// that everything an input allocates is freed in the same input (libFuzzer's leak detection
-// re-runs an input that ends with more mallocs than frees).
+// The drives live across inputs, one per 1017h default: each input restarts its drive on the
+// reset bus and releases it at its end (fuzz/support/drive_rig.hpp).
 struct DriveSlot {
   std::unique_ptr<reference_drive::ReferenceDrive> drive;
 };
@@ -126,7 +119,7 @@ constexpr std::array<std::uint16_t, 4> kHeartbeats{0, 10, 100, 1000};
 // than frees, and libFuzzer runs it again to look for a leak), released until an input needs it.
 std::array<DriveSlot, kHeartbeats.size()> make_drives() {
   std::array<DriveSlot, kHeartbeats.size()> slots;
-  Rig rig;
+  DriveRig rig;
   for (std::size_t i = 0; i < slots.size(); ++i) {
     reference_drive::DriveConfig config;
     config.dictionary.node_id = kNode;
@@ -142,26 +135,13 @@ std::array<DriveSlot, kHeartbeats.size()> make_drives() {
   return slots;
 }
 
-reference_drive::ReferenceDrive& drive_on(DriveSlot& slot, can::SimPort& port) {
-  auto restarted = slot.drive->restart(port);
-  DRIVECHECK_FUZZ_CHECK_DETAIL(restarted.has_value(), "the reference drive did not restart",
-                               restarted ? std::string() : restarted.error());
-  return *slot.drive;
-}
-
 class Harness {
  public:
-  explicit Harness(DriveSlot& slot)
-      : rig_(std::make_unique<Rig>()),
-        bus_(rig_->bus),
-        tester_(rig_->tester.get()),
-        drive_(&drive_on(slot, *rig_->drive_port)) {
-    bus_.add_monitor([this](const can::TimedFrame& seen) { on_frame(seen); });
-    // The tester's own frames come back when they have been on the wire.
-    tester_->set_loopback(true);
-    tester_->set_frame_handler([this](const can::TimedFrame& seen) {
-      if (seen.own) ++delivered_;
-    });
+  Harness(DriveRig& rig, DriveSlot& slot)
+      : session_(rig, *slot.drive, [this](const can::TimedFrame& seen) { on_frame(seen); }),
+        bus_(session_.bus()),
+        tester_(&session_.tester()),
+        drive_(&session_.drive()) {
     reset_pending_ = true;  // power on: a boot-up is due
     reset_since_ = bus_.now();
     must_boot_ = true;
@@ -169,7 +149,6 @@ class Harness {
     run(1ms);
   }
 
-  ~Harness() { drive_->release_bus(); }  // before the bus goes
   Harness(const Harness&) = delete;
   Harness& operator=(const Harness&) = delete;
 
@@ -180,11 +159,11 @@ class Harness {
   // e.g. a SYNC producer configured to a 29-bit COB-ID with a tiny period, may hold it back),
   // then 1 ms for the drive to react. Whether it went out.
   bool send(const can::Frame& frame) {
-    const std::uint64_t before = delivered_;
+    const std::uint64_t before = session_.delivered();
     if (tester_->send(frame)) return false;
-    for (int waited = 0; delivered_ == before && waited < 100; ++waited)
+    for (int waited = 0; session_.delivered() == before && waited < 100; ++waited)
       run(1ms);
-    if (delivered_ == before) return false;
+    if (session_.delivered() == before) return false;
     run(1ms);
     return true;
   }
@@ -306,7 +285,7 @@ class Harness {
                                  fmt::format("{}", frame));
   }
 
-  std::unique_ptr<Rig> rig_;
+  fuzz::DriveSession session_;  // first: the bus reset, the drive restarted, released last
   can::SimBus& bus_;
   can::SimPort* tester_;
   reference_drive::ReferenceDrive* drive_;
@@ -314,7 +293,6 @@ class Harness {
   bool must_boot_ = false;      // a well-formed reset was sent: a boot-up must come
   can::TimePoint reset_since_{};
   bool error_control_configured_ = false;
-  std::uint64_t delivered_ = 0;          // the tester's frames that were on the wire
   std::uint64_t boot_ups_ = 0;           // boot-up messages seen
   std::vector<can::TimedFrame> recent_;  // the last frames on the bus, for oracle messages
 };
@@ -324,7 +302,8 @@ class Harness {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzInput in(data, size);
   static std::array<DriveSlot, kHeartbeats.size()> slots = make_drives();
-  Harness harness(slots[in.u8() % kHeartbeats.size()]);
+  static fuzz::DriveRig rig;
+  Harness harness(rig, slots[in.u8() % kHeartbeats.size()]);
 
   static constexpr std::array<std::uint8_t, 5> kCommands{0x01, 0x02, 0x80, 0x81, 0x82};
   int operations = 0;

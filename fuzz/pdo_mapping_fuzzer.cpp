@@ -1,7 +1,7 @@
 // Fuzz target: PDO communication and mapping parameters written in any order (SDO), with NMT,
 // SYNC, RPDO and RTR frames and time, into a whole reference drive (node 5) whose application
-// has a few mappable objects. Each input runs on a new bus with the drive restarted on it
-// (ReferenceDrive::restart: as created, without building the dictionary again).
+// has a few mappable objects. Each input runs on the bus reset to time 0 with the drive
+// restarted on it (fuzz/support/drive_rig.hpp: as new, without building anything again).
 //
 // Input (fuzz/support/fuzz_input.hpp reads past the end as zeros): operations, one byte each
 // (op % 7) and their operands; a frame is followed by bus time until it was on the wire (at
@@ -39,6 +39,7 @@
 #include <utility>
 #include <vector>
 
+#include "fuzz/support/drive_rig.hpp"
 #include "fuzz/support/fuzz_check.hpp"
 #include "fuzz/support/fuzz_input.hpp"
 #include "protocol/can/sim_bus.hpp"
@@ -54,6 +55,7 @@ using cia301::DataType;
 using cia301::EntryDefinition;
 using cia301::ObjectCode;
 using cia301::ObjectDictionary;
+using drivecheck::fuzz::DriveRig;
 using drivecheck::fuzz::FuzzInput;
 
 constexpr std::uint8_t kNode = 5;
@@ -117,24 +119,21 @@ struct Mapped {
   std::uint8_t bits;
 };
 
-// One input's bus: a new one per input (time starts at 0, nothing queued).
-struct Rig {
-  can::SimBus bus{can::SimBusConfig{.bitrate = 1'000'000}};
-  std::unique_ptr<can::SimPort> drive_port = bus.attach("drive");
-  std::unique_ptr<can::SimPort> tester = bus.attach("tester");
-};
-
-// The drive lives across inputs: an input restarts it on its own new bus
-// (ReferenceDrive::restart: the state create() leaves, without building the dictionary
-// again) and the drive leaves that bus at the end of the input (release_bus), so that
-// everything an input allocates is freed in the same input (libFuzzer's leak detection re-runs
-// an input that ends with more mallocs than frees). The application has no state of its own
-// (its objects' values are the dictionary's).
+// The drive lives across inputs: each input restarts it on the reset bus and releases it at
+// its end (fuzz/support/drive_rig.hpp). The application has no state of its own (its objects'
+// values are the dictionary's).
 struct DriveSlot {
   FuzzApplication application;  // before drive: destroyed after it
   std::unique_ptr<reference_drive::ReferenceDrive> drive;
 
-  reference_drive::ReferenceDrive& on(can::SimPort& port) {
+  // The PDO parameter entries (1400h, 1600h, 1800h, 1A00h + n, n < 4, sub 0..8; nullptr where
+  // none) and the application objects, found once: the oracles read them after every step, and
+  // entries stay where they are for the drive's lifetime.
+  std::array<std::array<std::array<const cia301::Entry*, 9>, 4>, 4> pdo_entries{};
+  std::array<cia301::Entry*, kAppObjects.size()> app_entries{};
+
+  // The drive, created (and released) at the first call.
+  reference_drive::ReferenceDrive& get(can::SimPort& port) {
     if (drive == nullptr) {
       reference_drive::DriveConfig config;
       config.dictionary.node_id = kNode;
@@ -145,32 +144,45 @@ struct DriveSlot {
       auto created = reference_drive::ReferenceDrive::create(port, config);
       DRIVECHECK_FUZZ_CHECK(created.has_value(), "the reference drive could not be created");
       drive = std::move(*created);
-    } else {
-      auto restarted = drive->restart(port);
-      DRIVECHECK_FUZZ_CHECK_DETAIL(restarted.has_value(), "the reference drive did not restart",
-                                   restarted ? std::string() : restarted.error());
+      drive->release_bus();
+      static constexpr std::array<std::uint16_t, 4> kGroups{0x1400, 0x1600, 0x1800, 0x1A00};
+      for (std::size_t g = 0; g < kGroups.size(); ++g) {
+        for (std::uint16_t n = 0; n < 4; ++n) {
+          for (std::uint8_t sub = 0; sub <= 8; ++sub)
+            pdo_entries[g][n][sub] = drive->dictionary().find(kGroups[g] + n, sub);
+        }
+      }
+      for (std::size_t i = 0; i < kAppObjects.size(); ++i)
+        app_entries[i] = drive->dictionary().find(kAppObjects[i].index, kAppObjects[i].sub);
     }
     return *drive;
+  }
+
+  // od.find(index, sub) for a PDO parameter entry, from the table where it holds it.
+  const cia301::Entry* pdo_entry(std::uint16_t index, std::uint8_t sub) const {
+    const std::size_t group = index >= 0x1400 && index < 0x1404   ? 0
+                              : index >= 0x1600 && index < 0x1604 ? 1
+                              : index >= 0x1800 && index < 0x1804 ? 2
+                              : index >= 0x1A00 && index < 0x1A04 ? 3
+                                                                  : 4;
+    if (group == 4 || sub > 8) return drive->dictionary().find(index, sub);
+    return pdo_entries[group][index & 0x3u][sub];
   }
 };
 
 class Harness {
  public:
-  explicit Harness(DriveSlot& slot)
-      : rig_(std::make_unique<Rig>()),
-        bus_(rig_->bus),
-        tester_(rig_->tester.get()),
-        drive_(&slot.on(*rig_->drive_port)) {
-    tester_->set_loopback(true);
-    tester_->set_frame_handler([this](const can::TimedFrame& seen) {
-      if (seen.own) ++delivered_;
-    });
-    bus_.add_monitor([this](const can::TimedFrame& seen) { on_wire(seen); });
+  Harness(DriveRig& rig, DriveSlot& slot)
+      : slot_(slot),
+        session_(rig, slot.get(*rig.drive_port),
+                 [this](const can::TimedFrame& seen) { on_wire(seen); }),
+        bus_(session_.bus()),
+        tester_(&session_.tester()),
+        drive_(&session_.drive()) {
     drive_->power_on();
     run(1ms);
   }
 
-  ~Harness() { drive_->release_bus(); }  // before the bus goes
   Harness(const Harness&) = delete;
   Harness& operator=(const Harness&) = delete;
 
@@ -179,9 +191,9 @@ class Harness {
   // A frame from the tester, the bus run until it was on the wire (at most 100 ms) + 1 ms.
   void send(const can::Frame& frame, std::set<std::pair<std::uint16_t, std::uint8_t>> may_change) {
     observe();
-    const std::uint64_t sent = delivered_;
+    const std::uint64_t sent = session_.delivered();
     if (!tester_->send(frame)) {
-      for (int waited = 0; delivered_ == sent && waited < 100; ++waited)
+      for (int waited = 0; session_.delivered() == sent && waited < 100; ++waited)
         bus_.run_for(1ms);
       bus_.run_for(1ms);
     }
@@ -237,8 +249,7 @@ class Harness {
   }
 
   void application_changes(std::size_t which, std::uint16_t value) {
-    const AppObject& object = kAppObjects[which];
-    cia301::Entry* entry = od().find(object.index, object.sub);
+    cia301::Entry* entry = slot_.app_entries[which];
     if (entry == nullptr) return;
     last_value_change_ = bus_.now();
     entry->assign_unsigned(value);
@@ -246,7 +257,7 @@ class Harness {
   }
 
   std::uint32_t cob_id(std::uint16_t comm_index) {
-    const cia301::Entry* entry = od().find(comm_index, 1);
+    const cia301::Entry* entry = slot_.pdo_entry(comm_index, 1);
     return entry != nullptr ? static_cast<std::uint32_t>(entry->as_unsigned()) : 0x80000000u;
   }
 
@@ -257,10 +268,8 @@ class Harness {
 
   std::vector<std::uint64_t> app_values() {
     std::vector<std::uint64_t> out;
-    for (const AppObject& object : kAppObjects) {
-      const cia301::Entry* entry = od().find(object.index, object.sub);
+    for (const cia301::Entry* entry : slot_.app_entries)
       out.push_back(entry != nullptr ? entry->as_unsigned() : 0);
-    }
     return out;
   }
 
@@ -270,11 +279,11 @@ class Harness {
     std::vector<Mapped> out;
     const bool is_valid = (cob_id(comm_index) & 0x80000000u) == 0;
     if (valid != nullptr) *valid = is_valid;
-    const cia301::Entry* count = od().find(mapping_index, 0);
+    const cia301::Entry* count = slot_.pdo_entry(mapping_index, 0);
     if (count == nullptr) return out;
     const auto n = static_cast<std::uint8_t>(count->as_unsigned());
     for (std::uint8_t sub = 1; sub <= n; ++sub) {
-      const cia301::Entry* e = od().find(mapping_index, sub);
+      const cia301::Entry* e = slot_.pdo_entry(mapping_index, sub);
       if (e == nullptr) break;
       const auto word = static_cast<std::uint32_t>(e->as_unsigned());
       out.push_back({static_cast<std::uint16_t>(word >> 16), static_cast<std::uint8_t>(word >> 8),
@@ -405,14 +414,14 @@ class Harness {
     }
   }
 
-  std::unique_ptr<Rig> rig_;
+  const DriveSlot& slot_;
+  fuzz::DriveSession session_;  // the bus reset, the drive restarted; released last
   can::SimBus& bus_;
   can::SimPort* tester_;
   reference_drive::ReferenceDrive* drive_;
   Observed previous_;  // the values before the last step that changed the dictionary
   Observed current_;   // the values now (as of current_.revision)
   bool checked_ = false;
-  std::uint64_t delivered_ = 0;
   can::TimePoint last_config_change_{};
   can::TimePoint last_value_change_{};
 };
@@ -422,7 +431,8 @@ class Harness {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzInput in(data, size);
   static DriveSlot slot;
-  Harness harness(slot);
+  static DriveRig rig;
+  Harness harness(rig, slot);
   int operations = 0;
   while (!in.empty() && ++operations <= 256) {
     switch (in.u8() % 7) {

@@ -198,15 +198,23 @@ Expected<void, std::string> ReferenceDrive::restore_snapshot() {
   for (PristineEntry& pristine : pristine_) {
     cia301::Entry& entry = *pristine.entry;
     if (entry.revision() != pristine.revision) {
-      if (!entry.assign_bytes(pristine.bytes)) {
+      // Stored into since: put the bytes back unless they are the pristine ones (most often
+      // a reset stored the default, which they are); not storing keeps the entry's revision,
+      // so that the next reset need not store its default again (restore_defaults).
+      const auto bytes = entry.bytes();
+      if (!std::equal(bytes.begin(), bytes.end(), pristine.bytes.begin(), pristine.bytes.end()) &&
+          !entry.assign_bytes(pristine.bytes)) {
         return Unexpected(fmt::format("restart: {:04X}h sub {} could not be restored",
                                       entry.index(), entry.sub_index()));
       }
       pristine.revision = entry.revision();
     }
-    entry.set_read_hook(pristine.read_hook);
-    entry.set_write_validator(pristine.validator);
-    entry.set_write_observer(pristine.observer);
+    // Hooks: copying an empty one over an empty one changes nothing.
+    if (pristine.read_hook || entry.read_hook()) entry.set_read_hook(pristine.read_hook);
+    if (pristine.validator || entry.write_validator()) {
+      entry.set_write_validator(pristine.validator);
+    }
+    if (pristine.observer || entry.write_observer()) entry.set_write_observer(pristine.observer);
   }
   return {};
 }

@@ -153,7 +153,8 @@ class ReferenceDrive {
   // The drive as create() left it, now on `bus` (which must outlive the drive; the previous
   // bus must still exist during this call unless release_bus() left it): services unbound
   // from the old bus and bound anew, every entry's value and hooks as they were before the
-  // services bound (only entries whose revision() moved are copied back), the drive's own
+  // services bound (only entries whose revision() moved and whose bytes differ are copied
+  // back: an entry a reset stored its unchanged default into keeps its revision), the drive's own
   // parameter storage emptied (an injected DriveConfig::storage keeps what it holds, as it
   // would over a power cycle), statistics cleared, powered off. Much cheaper than create(): no
   // dictionary is built. The application is not told: its owner resets its state. Error: a
@@ -247,7 +248,7 @@ class ReferenceDrive {
   can::DeadlineTimer timer_{bus_, [this] { tick(); }};
   bool in_tick_ = false;
   DriveStatistics stats_;
-  // restart(): each entry's value (with the revision() it had when taken or last put back) and
+  // restart(): each entry's value (with the revision() it last had with these bytes) and
   // hooks before the services bound. Entry pointers stay valid: no object is added after start().
   struct PristineEntry {
     cia301::Entry* entry = nullptr;

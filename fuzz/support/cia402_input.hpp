@@ -11,7 +11,7 @@
 //   target       a kTargets object := value (sizes 2 or 4; rows with INTEGER types sign-extend)
 //   option_code  a kOptionCodes object := (value % 12) - 2 (selector bit 7 = 0) or raw INT16
 //   factor       a kFactors object := value (factor group, 6080h max motor speed, 6072h ...)
-//   simulate     a kInputs input := value as that input wants it (see decode)
+//   simulate     a kInputs input := value as that input wants it (cia402_fuzzer.cpp)
 //   sync         SYNC (080h), with a counter byte when selector bit 0 is set
 //   nmt          kNmtCommands row to the drive's node
 //   time         value % 256 ms of time (one cycle per ms)
@@ -122,24 +122,31 @@ inline constexpr std::array<Cia402Object, 14> kFactors{{
 
 // Simulated inputs (reference_drive/cia402_application.hpp "simulate"); not axis-position
 // (it teleports the axis) and not load-torque (an external torque may move a free axis).
+// The mechanical end stops (stop-negative-at, stop-positive-at) stop an axis dead, and
+// axis-coast-to-rest puts an unpowered axis at rest: the target's physics oracle knows both
+// (cia402_fuzzer.cpp).
 struct Cia402Input {
   std::string_view name;
   bool position;  // the value is a position (INTEGER32); else 0/1 or -1/0/1 (switches)
   bool tristate;  // -1 layout, 0 off, 1 on
+  bool one;       // the value is always 1 (an act, not a level)
 };
-inline constexpr std::array<Cia402Input, 12> kInputs{{
-    {"hardware-enable", false, false},
-    {"limit-positive", false, true},
-    {"limit-negative", false, true},
-    {"home-switch", false, true},
-    {"limit-positive-at", true, false},
-    {"limit-negative-at", true, false},
-    {"home-switch-from", true, false},
-    {"fault:following-error", false, false},
-    {"fault:limit-switch", false, false},
-    {"fault:overcurrent", false, false},
-    {"fault:over-voltage", false, false},
-    {"fault:over-temperature", false, false},
+inline constexpr std::array<Cia402Input, 15> kInputs{{
+    {"hardware-enable", false, false, false},
+    {"limit-positive", false, true, false},
+    {"limit-negative", false, true, false},
+    {"home-switch", false, true, false},
+    {"limit-positive-at", true, false, false},
+    {"limit-negative-at", true, false, false},
+    {"home-switch-from", true, false, false},
+    {"fault:following-error", false, false, false},
+    {"fault:limit-switch", false, false, false},
+    {"fault:overcurrent", false, false, false},
+    {"fault:over-voltage", false, false, false},
+    {"fault:over-temperature", false, false, false},
+    {"stop-negative-at", true, false, false},
+    {"stop-positive-at", true, false, false},
+    {"axis-coast-to-rest", false, false, true},
 }};
 
 // NMT command specifiers (CiA 301 §7.2.8.3.1): start, pre-operational, stop, reset node,

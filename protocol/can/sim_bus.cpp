@@ -344,6 +344,46 @@ class SimNetwork {
 
   void stop() { stop_.store(true, std::memory_order_relaxed); }
 
+  // SimBus::reset.
+  bool reset() {
+    if (running_) return false;  // from a handler or timer: the contract forbids it
+    now_ = TimePoint{};
+    seq_ = 0;
+    rng_.seed(config_.seed);
+    stop_.store(false, std::memory_order_relaxed);
+    for (const auto& port : ports_) {
+      port->tx.clear();
+      port->rx.clear();
+      port->rx_dropped = 0;
+      port->bus_off = false;
+    }
+    std::fill(pending_words_.begin(), pending_words_.end(), std::uint64_t{0});
+    queued_ = 0;
+    // Pending timers go without running. Serial numbers go on, so that an id from before the
+    // reset never names a timer started after it. The free slots are handed out in ascending
+    // order again, as a new bus would.
+    timer_heap_.clear();
+    free_timer_slots_.clear();
+    for (std::size_t i = timers_.size(); i-- > 0;) {
+      timers_[i].id = kNoTimer;
+      timers_[i].in_heap = false;
+      timers_[i].callback = nullptr;
+      free_timer_slots_.push_back(static_cast<std::uint32_t>(i));
+    }
+    stale_timer_events_ = 0;
+    wire_state_ = WireState::idle;
+    wire_event_at_ = TimePoint{};
+    wire_seq_ = 0;
+    wire_free_at_ = TimePoint{};
+    on_wire_ = TxEntry{};
+    on_wire_port_ = kNoPort;
+    frames_on_wire_ = 0;
+    busy_time_ = Duration{};
+    for (Fault& fault : faults_)
+      fault.hits = 0;
+    return true;
+  }
+
   // ---- monitors and faults
 
   MonitorId add_monitor(std::function<void(const TimedFrame&)> callback) {
@@ -784,6 +824,9 @@ void SimBus::run_until(TimePoint deadline) {
 }
 void SimBus::stop() {
   network_->stop();
+}
+bool SimBus::reset() {
+  return network_->reset();
 }
 
 MonitorId SimBus::add_monitor(std::function<void(const TimedFrame&)> monitor) {

@@ -169,6 +169,16 @@ class SimBus final : public Clock {
   // Makes the current or next run_until()/receive() on this bus or any port return early.
   // Safe from a signal handler.
   void stop();
+  // The bus as a new one with the same configuration and the same ports: time 0, nothing
+  // queued, on the wire or waiting in a receive queue, no pending stop, no timer (pending ones
+  // are dropped without running; their ids stay invalid, so cancelling one does nothing), the
+  // generator at SimBusConfig::seed, frames_on_wire(), busy_time(), fault hits and every
+  // port's rx_dropped() at 0, no port in bus-off. Kept: the ports with their names, frame
+  // handlers, filters and loopback, the monitors and the fault rules. A network built the
+  // same way on a reset bus runs exactly as on a new one (fuzz targets reuse one bus per
+  // input). Owners of timers must forget them (DeadlineTimer::disarm()). False, and nothing
+  // done, from inside a handler, timer or monitor (which the Bus contract forbids).
+  bool reset();
 
   // `monitor` sees every frame that reaches the receivers, at end-of-frame time, own = false.
   MonitorId add_monitor(std::function<void(const TimedFrame&)> monitor);

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <bit>
 #include <cassert>
 
 #include "protocol/cia301/cob_id.hpp"
@@ -39,11 +41,30 @@ std::string_view to_string(HeartbeatEventKind kind) {
   return "?";
 }
 
+void HeartbeatConsumer::set_monitored(std::uint8_t node, bool monitored) {
+  const std::uint64_t bit = std::uint64_t{1} << (node % 64);
+  if (monitored) {
+    monitored_[node / 64] |= bit;
+  } else {
+    monitored_[node / 64] &= ~bit;
+  }
+}
+
+template <class F>
+void HeartbeatConsumer::for_each_monitored(F&& f) const {
+  for (std::size_t word = 0; word < monitored_.size(); ++word) {
+    for (std::uint64_t bits = monitored_[word]; bits != 0; bits &= bits - 1) {
+      f(word * 64 + static_cast<std::size_t>(std::countr_zero(bits)));
+    }
+  }
+}
+
 void HeartbeatConsumer::monitor(std::uint8_t node, can::Duration consumer_time) {
   assert(is_valid_node_id(node));
   assert(consumer_time > can::Duration::zero());
   nodes_[node] = Node{};
   nodes_[node].consumer_time = consumer_time;
+  set_monitored(node, true);
 }
 
 void HeartbeatConsumer::monitor(const ConsumerHeartbeatEntry& entry) {
@@ -54,6 +75,7 @@ void HeartbeatConsumer::monitor(const ConsumerHeartbeatEntry& entry) {
 void HeartbeatConsumer::stop_monitoring(std::uint8_t node) {
   assert(is_valid_node_id(node));
   nodes_[node] = Node{};
+  set_monitored(node, false);
 }
 
 std::optional<HeartbeatEvent> HeartbeatConsumer::on_frame(const can::Frame& frame,
@@ -90,9 +112,9 @@ std::optional<HeartbeatEvent> HeartbeatConsumer::on_frame(const can::Frame& fram
 
 std::vector<HeartbeatEvent> HeartbeatConsumer::on_time(can::TimePoint now) {
   std::vector<HeartbeatEvent> events;
-  for (std::size_t i = kMinNodeId; i <= kMaxNodeId; ++i) {
+  for_each_monitored([&](std::size_t i) {
     Node& node = nodes_[i];
-    if (node.consumer_time == can::Duration::zero() || node.deadline > now) continue;
+    if (node.deadline > now) return;
     events.push_back(HeartbeatEvent{HeartbeatEventKind::timeout,
                                     static_cast<std::uint8_t>(i),
                                     node.deadline,
@@ -101,15 +123,13 @@ std::vector<HeartbeatEvent> HeartbeatConsumer::on_time(can::TimePoint now) {
                                     {}});
     node.timed_out = true;
     node.deadline = can::kForever;
-  }
+  });
   return events;
 }
 
 can::TimePoint HeartbeatConsumer::next_deadline() const {
   can::TimePoint next = can::kForever;
-  for (const Node& node : nodes_) {
-    if (node.consumer_time != can::Duration::zero() && node.deadline < next) next = node.deadline;
-  }
+  for_each_monitored([&](std::size_t i) { next = std::min(next, nodes_[i].deadline); });
   return next;
 }
 

@@ -98,7 +98,14 @@ class HeartbeatConsumer {
     bool timed_out = false;
     std::optional<NmtState> state;
   };
+  // Whether node i is monitored is bit i % 64 of word i / 64: time and the next deadline visit
+  // the monitored nodes only (a device monitors a few of 127), in node order.
+  void set_monitored(std::uint8_t node, bool monitored);
+  template <class F>
+  void for_each_monitored(F&& f) const;
+
   std::array<Node, 128> nodes_{};
+  std::array<std::uint64_t, 2> monitored_{};
 };
 
 // HeartbeatConsumer on a bus port: feed frames with handle() (from the port's frame handler);

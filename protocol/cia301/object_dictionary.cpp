@@ -468,6 +468,11 @@ void ObjectDictionary::restore_defaults(std::uint8_t group) {
   for (auto& o : objects_) {
     for (auto& e : o.entries_) {
       if (!in_group(e.store_group_, group)) continue;
+      // Still the default this function stored (see the file comment of the header).
+      if (e.restored_.revision != 0 && e.revision_.count == e.restored_.revision &&
+          (!e.def_.default_adds_node_id || e.restored_.node_id == node_id_)) {
+        continue;
+      }
       // Fixed-size integer defaults are stored in place, as default_bytes would encode them
       // (little endian, zeros when the value does not fit): no vector per entry at every reset.
       const Value& value = e.def_.default_value;
@@ -488,6 +493,8 @@ void ObjectDictionary::restore_defaults(std::uint8_t group) {
         e.data_ = e.default_bytes(node_id_);
       }
       e.revision_.touch();
+      e.restored_.revision = e.revision_.count;
+      e.restored_.node_id = node_id_;
     }
   }
 }

@@ -30,6 +30,9 @@
 // dictionary's revision(), whether or not the bytes differ. A dictionary whose revision() did not
 // change has the same values; an entry whose revision() did not change has the same bytes. Each
 // dictionary (copies too) counts on its own; a copy starts at the revisions of its original.
+// restore_defaults skips (stores nothing into, counts nothing for) an entry that holds the
+// default it stored itself, unchanged since (the same revision, for a $NODEID default the same
+// node-ID): every reset restores its groups, and most entries were never written.
 //
 // Hooks may read and change any entry's value (set/get/write) but must not add objects:
 // Object and Entry references stay valid until the next add_object.
@@ -172,6 +175,21 @@ class Entry {
   };
   std::vector<std::uint8_t> data_;
   Revision revision_;
+  // restore_defaults: the revision the entry had right after it last stored the default (0:
+  // never; a revision is never 0 after a store), and the node-ID it applied. A copy keeps it
+  // (same bytes, same revision); assigning an entry over another forgets it.
+  struct RestoreMark {
+    std::uint64_t revision = 0;
+    std::uint8_t node_id = 0;
+    RestoreMark() = default;
+    RestoreMark(const RestoreMark&) = default;
+    RestoreMark& operator=(const RestoreMark&) {
+      revision = 0;
+      return *this;
+    }
+    ~RestoreMark() = default;
+  };
+  RestoreMark restored_;
   ReadHook read_hook_;
   WriteValidator validator_;
   WriteObserver observer_;

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <atomic>
 #include <bit>
 #include <csignal>
@@ -724,36 +725,56 @@ TEST(SimBusRunning, WaitingFromAHandlerDoesNotRecurse) {
 
 // ---------------------------------------------------------------- determinism
 
-// Four nodes with periodic traffic, answers and every fault hook at a probability below 1;
-// returns the monitor trace.
+// Four nodes with periodic traffic, answers and every fault hook at a probability below 1.
+class FaultyNetwork {
+ public:
+  explicit FaultyNetwork(SimBus& bus) : bus_(bus), log_(bus) {
+    for (int i = 0; i < 4; ++i)
+      nodes_.push_back(bus.attach(fmt::format("node{}", i)));
+    for (std::size_t i = 0; i < 4; ++i) {
+      SimPort& node = *nodes_[i];
+      ticks_[i] = [this, &node, i] {
+        // TPDO1 of node i+1: a counter, A5h
+        (void)node.send(
+            Frame::standard(0x181 + static_cast<std::uint32_t>(i), {counters_[i]++, 0xA5}));
+        node.start_timer_after(microseconds(700 + 130 * static_cast<int>(i)), ticks_[i]);
+      };
+    }
+    // node 3 answers every TPDO of node 0 with an RPDO
+    nodes_[3]->set_frame_handler([this](const TimedFrame& frame) {
+      if (frame.frame.id == 0x181) (void)nodes_[3]->send(Frame::standard(0x201, {0x01}));
+    });
+    bus.drop({.probability = 0.1});
+    bus.corrupt({.probability = 0.2});
+    bus.duplicate({.probability = 0.1});
+    bus.delay({.sender = "node2", .probability = 0.3}, microseconds(333));
+  }
+
+  // Starts the periodic traffic at the bus's time (counters at 0), runs until `until` and
+  // returns the monitor trace of this run.
+  std::vector<std::string> run(TimePoint until) {
+    log_.lines.clear();
+    counters_.fill(0);
+    for (std::size_t i = 0; i < 4; ++i)
+      nodes_[i]->start_timer(bus_.now(), ticks_[i]);
+    bus_.run_until(until);
+    return log_.lines;
+  }
+
+  SimPort& node(std::size_t i) { return *nodes_[i]; }
+
+ private:
+  SimBus& bus_;
+  WireLog log_;
+  std::vector<std::unique_ptr<SimPort>> nodes_;
+  std::array<std::function<void()>, 4> ticks_;
+  std::array<std::uint8_t, 4> counters_{};
+};
+
 std::vector<std::string> faulty_network_trace(std::uint64_t seed) {
   SimBus bus({.seed = seed});
-  WireLog log(bus);
-  std::vector<std::unique_ptr<SimPort>> nodes;
-  for (int i = 0; i < 4; ++i)
-    nodes.push_back(bus.attach(fmt::format("node{}", i)));
-  std::vector<std::function<void()>> ticks(4);
-  std::vector<std::uint8_t> counters(4, 0);
-  for (std::size_t i = 0; i < 4; ++i) {
-    SimPort& node = *nodes[i];
-    ticks[i] = [&node, &ticks, &counters, i] {
-      // TPDO1 of node i+1: a counter, A5h
-      (void)node.send(
-          Frame::standard(0x181 + static_cast<std::uint32_t>(i), {counters[i]++, 0xA5}));
-      node.start_timer_after(microseconds(700 + 130 * static_cast<int>(i)), ticks[i]);
-    };
-    node.start_timer(TimePoint{}, ticks[i]);
-  }
-  // node 3 answers every TPDO of node 0 with an RPDO
-  nodes[3]->set_frame_handler([&](const TimedFrame& frame) {
-    if (frame.frame.id == 0x181) (void)nodes[3]->send(Frame::standard(0x201, {0x01}));
-  });
-  bus.drop({.probability = 0.1});
-  bus.corrupt({.probability = 0.2});
-  bus.duplicate({.probability = 0.1});
-  bus.delay({.sender = "node2", .probability = 0.3}, microseconds(333));
-  bus.run_until(at_us(200'000));
-  return log.lines;
+  FaultyNetwork network(bus);
+  return network.run(at_us(200'000));
 }
 
 TEST(SimBusDeterminism, SameSeedSameTraceByteForByte) {
@@ -766,6 +787,48 @@ TEST(SimBusDeterminism, SameSeedSameTraceByteForByte) {
   ASSERT_GT(first.size(), 500u);
   EXPECT_EQ(first, second);
   EXPECT_NE(first, other);
+}
+
+TEST(SimBusDeterminism, ResetBusRunsAsANewOne) {
+  // Given the faulty network with seed 7 stopped at 123.457 ms (frames queued and on the wire,
+  // timers pending, frames waiting in receive queues, fault hits counted), and a timer of the
+  // tester far ahead
+  SimBus bus({.seed = 7});
+  FaultyNetwork network(bus);
+  auto tester = bus.attach("tester");
+  bool stale_fired = false;
+  const TimerId stale = tester->start_timer(at_us(150'000), [&] { stale_fired = true; });
+  ASSERT_GT(network.run(at_us(123'457)).size(), 100u);
+  ASSERT_FALSE(network.node(1).send(Frame::standard(0x7FF, {0x01})));  // id 7FFh: loses to all
+  ASSERT_GT(bus.frames_on_wire(), 0u);
+  // When the bus is reset and the same traffic starts again
+  ASSERT_TRUE(bus.reset());
+  EXPECT_EQ(bus.now(), TimePoint{});
+  EXPECT_EQ(bus.frames_on_wire(), 0u);
+  EXPECT_EQ(bus.busy_time(), Duration{});
+  EXPECT_EQ(bus.timer_events(), 0u);
+  EXPECT_FALSE(tester->receive(bus.now()).has_value());  // its receive queue was emptied
+  tester->cancel_timer(stale);  // an id from before the reset names nothing
+  const auto again = network.run(at_us(200'000));
+  // Then the trace is the one of a new bus with seed 7, byte for byte, and the old timer is gone
+  EXPECT_EQ(again, faulty_network_trace(7));
+  EXPECT_FALSE(stale_fired);
+}
+
+TEST(SimBusDeterminism, ResetFromAHandlerDoesNothing) {
+  // Given a handler that tries to reset the bus while a frame is delivered
+  SimBus bus;
+  auto a = bus.attach("a");
+  auto b = bus.attach("b");
+  bool reset = true;
+  b->set_frame_handler([&](const TimedFrame&) { reset = bus.reset(); });
+  // When a frame arrives
+  ASSERT_FALSE(a->send(Frame::standard(0x100, {})));
+  bus.run_until(at_us(1000));
+  // Then the reset was refused and time went on
+  EXPECT_FALSE(reset);
+  EXPECT_EQ(bus.now(), at_us(1000));
+  EXPECT_EQ(bus.frames_on_wire(), 1u);
 }
 
 // ---------------------------------------------------------------- faults

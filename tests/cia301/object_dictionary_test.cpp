@@ -430,6 +430,34 @@ TEST_F(ObjectDictionaryTest, RestoredDefaultsAreTheDefaultBytes) {
   }
 }
 
+TEST_F(ObjectDictionaryTest, RestoringUnchangedDefaultsStoresNothing) {
+  // Given the communication defaults restored once, then 1017h written
+  od_.restore_defaults(kStoreCommunication);
+  ASSERT_TRUE(od_.write(0x1017, 0, Bytes{0x64, 0x00}));
+  const Entry& heartbeat = *od_.find(0x1017, 0);
+  const Entry& emcy = *od_.find(0x1014, 0);
+  const std::uint64_t heartbeat_revision = heartbeat.revision();
+  const std::uint64_t emcy_revision = emcy.revision();
+  // When the defaults are restored again
+  od_.restore_defaults(kStoreCommunication);
+  // Then only the written entry is stored (its default is back), the untouched one is not
+  EXPECT_GT(heartbeat.revision(), heartbeat_revision);
+  EXPECT_EQ(bytes_of(od_.read(0x1017, 0)), (Bytes{0x00, 0x00}));
+  EXPECT_EQ(emcy.revision(), emcy_revision);
+  // And a new node-ID stores the $NODEID default again, with the new node-ID
+  od_.set_node_id(0x22);
+  od_.restore_defaults(kStoreCommunication);
+  EXPECT_GT(emcy.revision(), emcy_revision);
+  EXPECT_EQ(bytes_of(od_.read(0x1014, 0)), emcy.default_bytes(0x22));
+  // And an entry assigned over (a store) is restored again even with its old bytes
+  const std::uint64_t assigned = heartbeat.revision();
+  Entry& target = *od_.find(0x1017, 0);
+  const Entry saved = target;
+  target = saved;
+  od_.restore_defaults(kStoreCommunication);
+  EXPECT_GT(heartbeat.revision(), assigned + 1);
+}
+
 TEST_F(ObjectDictionaryTest, CopiesCountOnTheirOwn) {
   // Given a copy and a moved copy of the dictionary
   ObjectDictionary copy = od_;

@@ -77,6 +77,26 @@ Script script_c() {
   };
 }
 
+// D: started, a SYNC producer every 1 ms, guarding, a segmented SDO upload left open, TPDO1 on
+// every SYNC: the input ends with frames queued, timers pending and a transfer open.
+Script script_d() {
+  return {
+      // NMT start remote node, node 5
+      send(can::Frame::standard(0x000, {0x01, kNode})),
+      // SDO download 1 byte (2Fh), 1800h sub 2 = 01h (TPDO1 at every SYNC)
+      send(can::Frame::standard(0x605, {0x2F, 0x00, 0x18, 0x02, 0x01, 0x00, 0x00, 0x00})),
+      // SDO download 4 bytes, 1006h sub 0 = 000003E8h (communication cycle period 1000 us)
+      send(can::Frame::standard(0x605, {0x23, 0x06, 0x10, 0x00, 0xE8, 0x03, 0x00, 0x00})),
+      // SDO download 4 bytes, 1005h sub 0 = 40000080h (this device produces SYNC on 080h)
+      send(can::Frame::standard(0x605, {0x23, 0x05, 0x10, 0x00, 0x80, 0x00, 0x00, 0x40})),
+      // node guarding RTR, 705h, DLC 1 (guarding answers)
+      send(can::Frame::remote(0x705, 1), std::chrono::microseconds{345'678}),
+      // SDO initiate upload (40h), 1008h sub 0 (device name: segmented), never continued
+      send(can::Frame::standard(0x605, {0x40, 0x08, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00}),
+           std::chrono::microseconds{1'234}),
+  };
+}
+
 // What a script did: every frame on the bus with its time since the bus started, and every
 // entry's value at the end.
 struct Outcome {
@@ -95,6 +115,11 @@ class Rig {
   }
 
   can::SimPort& drive_port() { return *drive_port_; }
+  // The bus as new (SimBus::reset), the outcome forgotten.
+  bool reset() {
+    outcome_ = {};
+    return bus_.reset();
+  }
 
   Outcome run(ReferenceDrive& drive, const Script& script) {
     drive.power_on();
@@ -182,6 +207,45 @@ TEST(DriveRestart, BehavesAsANewDriveInEitherOrder) {
   EXPECT_EQ(backward[0], fresh_c);
   EXPECT_EQ(backward[1], fresh_b);
   EXPECT_EQ(backward[2], fresh_a);
+}
+
+// The scripts in `order` on one drive and one bus: before each, the drive leaves the bus, the
+// bus is reset (SimBus::reset) and the drive restarts on it.
+std::vector<Outcome> on_reset_bus(const std::vector<const Script*>& order) {
+  std::vector<Outcome> outcomes;
+  Rig rig;
+  auto created = ReferenceDrive::create(rig.drive_port(), config());
+  EXPECT_TRUE(created.has_value());
+  std::unique_ptr<ReferenceDrive> drive = std::move(*created);
+  for (const Script* script : order) {
+    drive->release_bus();
+    EXPECT_TRUE(rig.reset());
+    EXPECT_TRUE(drive->restart(rig.drive_port()).has_value());
+    outcomes.push_back(rig.run(*drive, *script));
+  }
+  return outcomes;
+}
+
+TEST(DriveRestart, OnAResetBusBehavesAsANewDriveOnANewBusInEitherOrder) {
+  // Given four scripts, one of which (D) ends with SYNC produced every 1 ms, TPDOs, guarding,
+  // an open SDO transfer, frames queued and timers pending, each run on a new drive and bus
+  const std::vector<Script> scripts{script_a(), script_b(), script_c(), script_d()};
+  std::vector<Outcome> fresh;
+  for (const Script& script : scripts)
+    fresh.push_back(on_new_drive(script));
+  ASSERT_GT(fresh[3].frames.size(), 300u);  // D's SYNCs did run
+  // When they run on one drive and one bus, reset before each, in the order A B C D and D C B A
+  const std::vector<Outcome> forward =
+      on_reset_bus({&scripts[0], &scripts[1], &scripts[2], &scripts[3]});
+  const std::vector<Outcome> backward =
+      on_reset_bus({&scripts[3], &scripts[2], &scripts[1], &scripts[0]});
+  // Then every script gives the same frames at the same times and the same dictionary
+  ASSERT_EQ(forward.size(), 4u);
+  ASSERT_EQ(backward.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(forward[i], fresh[i]) << "forward, script " << i;
+    EXPECT_EQ(backward[3 - i], fresh[i]) << "backward, script " << i;
+  }
 }
 
 TEST(DriveRestart, ForgetsWhatItsOwnStorageHeld) {
