@@ -52,6 +52,12 @@ class ServoSimulation final : public conformance::SimulationControl {
         return fmt::format("{} := {}: {}", input, value, error);
       }
     }
+    // Festo's sample input (festo_position_sampling.hpp), only where the personality has it.
+    if (drive_.position_sampling() != nullptr) {
+      if (auto error = set_input("sample-input", 0); !error.empty()) {
+        return fmt::format("sample-input := 0: {}", error);
+      }
+    }
     return {};
   }
 

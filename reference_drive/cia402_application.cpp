@@ -626,8 +626,9 @@ Expected<void, std::string> Cia402Application::simulate(std::string_view name, s
   } else if (name == "switch-layout-clear") {
     layout = SwitchLayout{};
   } else if (name == "index-period") {
-    if (value <= 0 || value > std::numeric_limits<std::uint32_t>::max()) {
-      return bad_value("1..4294967295 increments");
+    // 0: once per revolution again (608Fh, AxisConfig::encoder_increments).
+    if (value < 0 || value > std::numeric_limits<std::uint32_t>::max()) {
+      return bad_value("0 once per revolution, 1..4294967295 increments");
     }
     axis_.set_index(static_cast<std::uint32_t>(value), axis_.config().index_offset);
     return {};

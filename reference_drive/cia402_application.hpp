@@ -54,7 +54,8 @@
 //   hardware-enable 0|1          limit-positive, limit-negative, home-switch  1 on, 0 off,
 //                                                                             -1 by the layout
 //   limit-positive-at P          limit-negative-at P     home-switch-from P   home-switch-to P
-//   switch-layout-clear (any)    index-period N (increments)   index-offset P
+//   switch-layout-clear (any)    index-period N (increments; 0: once per revolution, 608Fh)
+//                                index-offset P
 //   stop-negative-at P           stop-positive-at P      mechanical end stops (cleared by
 //                                                         switch-layout-clear too)
 //   axis-position P              load-torque T (‰)

@@ -178,6 +178,12 @@ void apply_homing(const profile::DriveProfile* profile, const profile::Personali
     h.deviations.no_error_bit = true;
   }
   h.deviations.halt_sets_error = p.homing_halt_sets_error;
+  if (p.manufacturer_homing == profile::HomingTable::festo) {
+    // Festo 6510h:F0h compatibility_control bit 6 homing_to_zero (000_33c1d912b8b6010a.txt §5.2
+    // L2560-2566, §7.2.2 L6149-6151): travel to zero after homing (homing.hpp). The object
+    // is in Festo's objects list (objects.yaml), default 0: no travel (L6040).
+    h.travel_to_zero_bit = HomingConfig::ObjectBit{0x6510, 0xF0, 0x40};
+  }
 }
 
 Expected<void, std::string> apply_pdo_defaults(const std::vector<profile::PdoDefault>& pdos,
@@ -494,6 +500,7 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
   }
   plan.emcy_follow_up = p.emcy_follow_up;
   plan.manufacturer_objects = p.manufacturer_objects;
+  plan.position_sampling = p.position_sampling;
   plan.application.error_code_format = p.error_code_format == profile::ErrorCodeFormat::error_number
                                            ? ErrorCodeFormat::error_number
                                            : ErrorCodeFormat::standard;
@@ -551,6 +558,7 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
                                              p.internal_units.velocity.divisor};
   plan.application.internal_acceleration_unit = {p.internal_units.acceleration.numerator,
                                                  p.internal_units.acceleration.divisor};
+  if (p.encoder_resolution) plan.application.axis.encoder_increments = *p.encoder_resolution;
   plan.application.pp_change_on_set_point = p.pp_change_on_set_point;
   plan.application.ip_submode = p.ip_submode;
   plan.application.pds.power_stage_in_switched_on = p.power_stage_in_switched_on;

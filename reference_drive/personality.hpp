@@ -114,6 +114,11 @@
 //       the bits the reference drive can show), the OS prompt 1026h (ASCII commands over SDO)
 //       and the manufacturer object channel from 3500h (a few ASCII parameters, none
 //       PDO-mappable). Standard: none.
+//   position_sampling: none | festo
+//       festo: FestoPositionSampling (festo_position_sampling.hpp) adds 204Ah sample_data
+//       (000 §5.15 L4705-4816) with its behaviour: the simulated input `sample-input`, the
+//       actual position latched at its edges, sample_status, statusword bit 15 through
+//       sample_status_mask, autolock released by sample_control. Standard: none.
 //   internal_units: {velocity: [n, d], acceleration: [n, d]}
 //       The drive's internal units into which 6094h and 6097h convert, in increments/s and
 //       increments/s² of the axis (Cia402ApplicationConfig::internal_velocity_unit): the axis
@@ -121,6 +126,12 @@
 //       increments per revolution = [4, 15] and [64, 15], so that its defaults 4096/1 and
 //       256/1 mean min^-1 and min^-1/s and its commissioning 15/4, 15/64 increments/s (/s²).
 //       Standard: [1, 1] both.
+//   encoder_resolution: 4..2^31-1
+//       Increments per motor revolution (AxisConfig::encoder_increments): 608Fh sub 1 (sub 2 =
+//       1), the index pulse once per revolution (unless `simulate: index-period` sets another
+//       period), and 6093h as 6091h/6092h writes recompute it. Positions, windows and speeds in
+//       increments keep their numbers (the axis runs in increments). Festo: 65536 (000 §5.3
+//       L2601, L2617; 2024h:01 'always 65536' L4016-4030). Standard: 4096.
 //   pp_change_on_set_point: true | false
 //       false: controlword bit 9 is reserved and ignored in profile position, each set-point
 //       ends at its target (ModeContext::change_on_set_point; Festo L5326-5424). Standard: true.
@@ -179,6 +190,7 @@ struct PersonalityPlan {
   bool emcy_follow_up = false;
   profile::BusOffReaction bus_off = profile::BusOffReaction::cia301;  // ServoDrive applies it
   profile::ManufacturerObjects manufacturer_objects = profile::ManufacturerObjects::none;
+  profile::PositionSampling position_sampling = profile::PositionSampling::none;
   bool hardware_enable_present = true;  // the input's state at power on
   // An NMT frame (COB-ID 000h) received less than this after the previous one is lost (Festo
   // nmt_min_spacing); zero: every NMT frame is processed.

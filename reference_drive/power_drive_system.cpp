@@ -466,6 +466,7 @@ std::uint16_t PowerDriveSystem::statusword() const {
   }
   if (warning()) word |= sw::kWarning;
   if (config_.remote) word |= sw::kRemote;
+  word |= manufacturer_bits_;
   if (mode_status_ != nullptr) {
     constexpr std::uint16_t kModeBits = sw::kTargetReached | sw::kInternalLimitActive |
                                         sw::kSetPointAcknowledge | sw::kFollowingError;

@@ -74,7 +74,8 @@
 //   SWITCH ON, SWITCHED ON, OPERATION ENABLED, 0 in QUICK STOP ACTIVE and the "x" states);
 //   bit 4 voltage enabled = 1 in SWITCHED ON, OPERATION ENABLED, QUICK STOP ACTIVE, FAULT
 //   REACTION ACTIVE (high voltage applied to the power stage); bit 7 warning; bit 9 remote;
-//   bits 10-13 from the mode logic (ModeStatus); bits 8, 14, 15 (manufacturer) 0.
+//   bits 10-13 from the mode logic (ModeStatus); bits 8, 14, 15 (manufacturer) 0 unless a
+//   personality sets them (set_manufacturer_bits, e.g. Festo's sample bit 15).
 //     NOT READY 0200h  SOD 0240h  RTSO 0221h  SO 0233h  OE 0237h  QSA 0217h  FRA 021Fh
 //     FAULT 0208h
 //
@@ -298,6 +299,13 @@ class PowerDriveSystem {
   void set_hardware_enable(bool present);
   // An application warning (statusword bit 7, besides the missing-enable warning).
   void set_warning(bool active) { external_warning_ = active; }
+  // Statusword bits 8, 14 and 15 (manufacturer specific, mask C100h) a personality shows, e.g.
+  // Festo's "sample event occurred" bit 15 (reference_drive/festo_position_sampling.hpp).
+  // Other bits of `bits` are ignored.
+  void set_manufacturer_bits(std::uint16_t bits) {
+    manufacturer_bits_ = static_cast<std::uint16_t>(bits & kManufacturerBits);
+  }
+  static constexpr std::uint16_t kManufacturerBits = 0xC100;
   // A fault occurs (its cause is present until clear_fault_cause). Reported at once; transition
   // 13 at the next step.
   void raise_fault(const FaultDefinition& fault);
@@ -372,6 +380,7 @@ class PowerDriveSystem {
   bool enable_ = false;
   bool enable_blocked_ = false;  // a command waits for the hardware enable (warning)
   bool external_warning_ = false;
+  std::uint16_t manufacturer_bits_ = 0;  // set_manufacturer_bits
   std::array<std::int16_t, kOptionCodeCount> option_codes_{};
   std::uint32_t slow_down_ = 0;
   std::uint32_t quick_stop_ = 0;

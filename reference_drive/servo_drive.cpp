@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <utility>
 
+#include "reference_drive/festo_position_sampling.hpp"
 #include "reference_drive/kollmorgen_objects.hpp"
 #include "reference_drive/modes/homing.hpp"
 #include "reference_drive/profile_objects.hpp"
@@ -113,6 +114,9 @@ class PersonalityApplication final : public DriveApplication {
     if (kollmorgen_) {
       if (auto r = kollmorgen_->add_objects(od); !r) return r;
     }
+    if (sampling_) {
+      if (auto r = sampling_->add_objects(od); !r) return r;
+    }
     if (profile_objects_ != nullptr) {  // last: every object the drive has is in `od`
       for (std::string& line : add_profile_objects(od, *profile_objects_)) {
         not_applied_->push_back(std::move(line));
@@ -140,6 +144,7 @@ class PersonalityApplication final : public DriveApplication {
     inner_.on_reset(drive, kind);
     if (internal_units_) internal_units_->resync(od);
     if (kollmorgen_) kollmorgen_->on_reset();
+    if (sampling_) sampling_->on_reset(od, kind);
   }
   void on_nmt_state(ReferenceDrive& drive, cia301::NmtState from, cia301::NmtState to) override {
     inner_.on_nmt_state(drive, from, to);
@@ -147,12 +152,16 @@ class PersonalityApplication final : public DriveApplication {
   void on_cycle(ReferenceDrive& drive, can::TimePoint now) override {
     inner_.on_cycle(drive, now);
     if (kollmorgen_) kollmorgen_->refresh(drive.dictionary());  // 1002h for the TPDOs
+    if (sampling_) sampling_->refresh(drive.dictionary());      // 204Ah, statusword bit 15
   }
   void on_sync(ReferenceDrive& drive, can::TimePoint at) override { inner_.on_sync(drive, at); }
   void on_communication_loss(ReferenceDrive& drive) override {
     inner_.on_communication_loss(drive);
   }
-  void on_drive_destroyed(ReferenceDrive& drive) override { inner_.on_drive_destroyed(drive); }
+  void on_drive_destroyed(ReferenceDrive& drive) override {
+    if (sampling_) sampling_->detach();
+    inner_.on_drive_destroyed(drive);
+  }
 
  private:
   Cia402Application& inner_;
@@ -162,6 +171,7 @@ class PersonalityApplication final : public DriveApplication {
  public:
   std::unique_ptr<InternalUnitParameters> internal_units_;  // null: user units kept (standard)
   std::unique_ptr<KollmorgenObjects> kollmorgen_;           // manufacturer_objects: kollmorgen
+  std::unique_ptr<FestoPositionSampling> sampling_;         // position_sampling: festo
   // The profile's objects file (profile_objects.hpp): the objects the drive lacks are added;
   // what cannot be added goes to not_applied_ (the plan's). Null: the standard drive.
   const std::vector<profile::ObjectSpec>* profile_objects_ = nullptr;
@@ -239,6 +249,9 @@ Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& 
   if (p.manufacturer_objects == profile::ManufacturerObjects::kollmorgen) {
     servo->personality_->kollmorgen_ = std::make_unique<KollmorgenObjects>(*servo->application_);
   }
+  if (p.position_sampling == profile::PositionSampling::festo) {
+    servo->personality_->sampling_ = std::make_unique<FestoPositionSampling>(*servo->application_);
+  }
   if (options.profile != nullptr) {  // read during create() only (ReferenceDrive::create)
     servo->personality_->profile_objects_ = &options.profile->objects;
     servo->personality_->not_applied_ = &p.not_applied;
@@ -280,7 +293,15 @@ void ServoDrive::power_on() {
 }
 
 Expected<void, std::string> ServoDrive::simulate(std::string_view input, std::int64_t value) {
+  if (FestoPositionSampling* sampling = position_sampling();
+      sampling != nullptr && input == FestoPositionSampling::kInputName) {
+    return sampling->set_input(value);
+  }
   return application_->simulate(input, value);
+}
+
+FestoPositionSampling* ServoDrive::position_sampling() {
+  return personality_ ? personality_->sampling_.get() : nullptr;
 }
 
 }  // namespace drivecheck::reference_drive

@@ -23,7 +23,9 @@
 //      With a profile, its objects list (profile_objects.hpp) shapes the dictionary: the
 //      objects the drive lacks are added last (after KollmorgenObjects), the listed defaults
 //      of 6000h-9FFFh parameters join the default overrides, mapping records get the listed
-//      number of entries.
+//      number of entries. With position_sampling: festo, FestoPositionSampling
+//      (festo_position_sampling.hpp) adds 204Ah before the profile's objects and takes the
+//      simulated input `sample-input`.
 // The drive is powered off after create(): power_on() starts it (boot-up message).
 #pragma once
 
@@ -57,6 +59,7 @@ struct ServoDriveOptions {
 };
 
 class PersonalityPort;
+class FestoPositionSampling;
 class PersonalityApplication;
 
 class ServoDrive {
@@ -74,8 +77,11 @@ class ServoDrive {
   void power_on();
 
   // A simulated input (the vectors' `simulate` step; names and values as
-  // Cia402Application::simulate documents: hardware-enable, limit-positive, fault:..., ...).
+  // Cia402Application::simulate documents: hardware-enable, limit-positive, fault:..., ...;
+  // with `position_sampling: festo` also `sample-input` 0|1, festo_position_sampling.hpp).
   Expected<void, std::string> simulate(std::string_view input, std::int64_t value);
+  // Festo's position sampling (personality key position_sampling: festo); null: none.
+  FestoPositionSampling* position_sampling();
 
   ReferenceDrive& device() { return *drive_; }
   const ReferenceDrive& device() const { return *drive_; }

@@ -25,6 +25,10 @@ LAYOUTS = {
                "home-switch-from": 2100, "home-switch-to": 3400},
     "stops": {"limit-negative-at": -10000, "limit-positive-at": 10000,
               "stop-negative-at": -11000, "stop-positive-at": 11000},
+    # Festo -23/-27 'to stop or limit switch' (Tab. 7.1 L6235-6236): the stop variant, no
+    # limit switches.
+    "window-stops": {"stop-negative-at": -11000, "stop-positive-at": 11000,
+                     "home-switch-from": 2100, "home-switch-to": 3400},
 }
 LAYOUT_TEXT = {
     "limits": "LS- at -10000, LS+ at 10000, no home switch",
@@ -33,6 +37,8 @@ LAYOUT_TEXT = {
     "window": "LS- at -10000, LS+ at 10000, home switch active over [2100, 3400]",
     "stops": ("LS- at -10000, LS+ at 10000 (ignored on the way to a stop), mechanical end stops "
               "at -11000 and 11000, no home switch"),
+    "window-stops": ("no limit switches, mechanical end stops at -11000 and 11000, home switch "
+                     "active over [2100, 3400]"),
 }
 START_NAMES = {
     ("limits", 0): "between-limits", ("limits", -10500): "on-negative-limit",
@@ -42,6 +48,7 @@ START_NAMES = {
     ("negative-home", 0): "switch-active", ("negative-home", 5000): "switch-inactive",
     ("window", 0): "left-of-switch", ("window", 2800): "on-switch",
     ("window", 6000): "right-of-switch", ("stops", 0): "between-stops",
+    ("window-stops", 0): "left-of-switch-via-stop", ("window-stops", 6000): "right-of-switch-via-stop",
 }
 # The stop is detected by the following error (homing.hpp): 6065h is written to this window
 # in the stop vectors, so the home event comes window / search speed = 0.25 s after the touch.
@@ -50,6 +57,7 @@ STOP_SOURCES = {"festo": ["000_33c1d912b8b6010a.txt §5.7 L3697-3701",
                           "000_33c1d912b8b6010a.txt §B.3 L7845-7848"],
                 "kollmorgen": ["002_953174ea6ca45cdb.txt §5.10.4.2 L4527-4528",
                                "002_953174ea6ca45cdb.txt §6.1.3 L6333-6333"]}
+STOP_LAYOUTS = ("stops", "window-stops")
 # Kollmorgen -3 (NREF=7) takes DREF from the method written before it: (method, DREF text).
 DREF_FROM = {-6: "positive", -7: "negative"}
 
@@ -90,6 +98,9 @@ CASES += [
     (-23, "festo", "window", 0, +1, 2100), (-23, "festo", "window", 2800, +1, 2100),
     (-23, "festo", "window", 6000, +1, 2100), (-27, "festo", "window", 0, -1, 3400),
     (-27, "festo", "window", 2800, -1, 3400), (-27, "festo", "window", 6000, -1, 3400),
+    # ... and via the mechanical stop instead of the limit switch ("stop or limit switch").
+    (-23, "festo", "window-stops", 0, +1, 2100), (-23, "festo", "window-stops", 6000, +1, 2100),
+    (-27, "festo", "window-stops", 0, -1, 3400), (-27, "festo", "window-stops", 6000, -1, 3400),
     (-1, "kollmorgen", "limits", 600, -1, 250), (-1, "kollmorgen", "limits", 1000, +1, 1250),
     (-2, "kollmorgen", "limits", 1234, 0, 1234),
     (-127, "irtsa", "limits", 1234, 0, 1234), (-126, "irtsa", "limits", 1234, 0, 1234),
@@ -143,7 +154,7 @@ def setup_steps(layout, start, method, out, dref_from=None):
     out.append(f"    - sdo_write: {{index: 0x6099, sub: 1, value: {SEARCH}, size: 4}}  # search for switch")
     out.append(f"    - sdo_write: {{index: 0x6099, sub: 2, value: {CRAWL}, size: 4}}  # search for zero")
     out.append(f"    - sdo_write: {{index: 0x609A, sub: 0, value: {ACCEL}, size: 4}}  # homing acceleration")
-    if layout == "stops":
+    if layout in STOP_LAYOUTS:
         out.append(f"    - sdo_write: {{index: 0x6065, sub: 0, value: {STOP_WINDOW}, size: 4}}"
                    "  # following error window: detects the stop")
     out.append("    - controlword: 0x0006  # shutdown")
@@ -175,7 +186,7 @@ def vector(case, rows):
                  f"set home at {home}: 6064h = 607Ch there, 13/12/10 = 0/0/0 then 0/1/1")
     out.append(f'  title: "{title}"')
     out.append("  source:")
-    for s in source.split("; ") + (STOP_SOURCES[vendor] if layout == "stops" else []):
+    for s in source.split("; ") + (STOP_SOURCES[vendor] if layout in STOP_LAYOUTS else []):
         out.append(f'    - "{s}"')
     out.append(f'    - "{STATUS_TABLE}"')
     out.append(f'    - "{CONTROL}"')
@@ -225,6 +236,10 @@ def vector(case, rows):
         stop_note = (f" 6065h = {STOP_WINDOW}: the drive detects the stop by the following error "
                      f"(home {STOP_WINDOW / SEARCH:g} s after the touch); at a stop home is where "
                      "the axis stands (no braking), and it stays there.")
+    elif layout == "window-stops":
+        stop_note = (f" 6065h = {STOP_WINDOW}: the drive detects the stop by the following error "
+                     f"({STOP_WINDOW / SEARCH:g} s after the touch) and turns back there, as at a "
+                     "limit switch ('to stop or limit switch').")
     out.append(f'  note: "Layout: {LAYOUT_TEXT[layout]}; index pulses at 250 + k*1000; '
                f'6099h = {SEARCH}/{CRAWL}, 609Ah = {ACCEL}, 607Ch = {OFFSET}.{stop_note}"')
     return out

@@ -513,6 +513,7 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "tpdo_transmit_masks",
                      "parameters_internal",
                      "internal_units",
+                     "encoder_resolution",
                      "pp_change_on_set_point",
                      "ip_submode",
                      "power_stage_in_switched_on",
@@ -529,6 +530,7 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "sdo_server_node_id",
                      "bus_off",
                      "manufacturer_objects",
+                     "position_sampling",
                      "note"});
   Personality p;
   if (auto v = map.get("identity")) p.identity = read_identity(r, *v, "personality.identity");
@@ -611,6 +613,7 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
          GuardingLoss::pre_operational, GuardingLoss::no_nmt_change);
   choice("manufacturer_objects", p.manufacturer_objects, ManufacturerObjects::none,
          ManufacturerObjects::kollmorgen);
+  choice("position_sampling", p.position_sampling, PositionSampling::none, PositionSampling::festo);
   choice("sdo_dlc", p.sdo_dlc, SdoDlc::always_8, SdoDlc::minimal);
   choice("sdo_short_requests", p.sdo_short_requests, SdoShortRequests::ignore,
          SdoShortRequests::pad);
@@ -691,6 +694,10 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
     };
     fraction("velocity", p.internal_units.velocity);
     fraction("acceleration", p.internal_units.acceleration);
+  }
+  if (auto v = map.get("encoder_resolution")) {
+    p.encoder_resolution =
+        static_cast<std::uint32_t>(integer(r, *v, "personality.encoder_resolution", 4, 0x7FFFFFFF));
   }
   if (auto v = map.get("tpdo_transmit_masks")) {
     p.tpdo_transmit_masks = static_cast<std::uint16_t>(
@@ -1086,6 +1093,9 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
         << YAML::EndSeq;
     out << YAML::EndMap;
   }
+  if (p.encoder_resolution) {
+    out << YAML::Key << "encoder_resolution" << YAML::Value << *p.encoder_resolution;
+  }
   if (p.tpdo_transmit_masks != 0) {
     out << YAML::Key << "tpdo_transmit_masks" << YAML::Value << hex(p.tpdo_transmit_masks, 4);
   }
@@ -1093,6 +1103,10 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
   if (p.manufacturer_objects != ManufacturerObjects::none) {
     out << YAML::Key << "manufacturer_objects" << YAML::Value
         << std::string(to_string(p.manufacturer_objects));
+  }
+  if (p.position_sampling != PositionSampling::none) {
+    out << YAML::Key << "position_sampling" << YAML::Value
+        << std::string(to_string(p.position_sampling));
   }
   out << YAML::Key << "ack_latency_cycles" << YAML::Value << p.ack_latency_cycles;
   if (p.control_cycle) {
@@ -1246,6 +1260,10 @@ std::string_view to_string(ManufacturerObjects objects) {
       return "kollmorgen";
   }
   return "none";
+}
+
+std::string_view to_string(PositionSampling sampling) {
+  return sampling == PositionSampling::festo ? "festo" : "none";
 }
 
 std::string_view to_string(GuardingLoss loss) {

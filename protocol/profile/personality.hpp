@@ -72,6 +72,10 @@ enum class BusOffReaction : std::uint8_t { cia301, kollmorgen_f23, esr_8180 };
 // none: none. kollmorgen (002): 1002h manufacturer status, the OS prompt 1026h (ASCII commands)
 // and the object channel from 3500h.
 enum class ManufacturerObjects : std::uint8_t { none, kollmorgen };
+// Position sampling at a digital input (reference_drive/festo_position_sampling.hpp). none: no
+// such input. festo (000 §5.15 L4705-4816): 204Ah sample_data, the `sample-input` simulated
+// input, the actual position latched at its edges, statusword bit 15 through the status mask.
+enum class PositionSampling : std::uint8_t { none, festo };
 // What a node guarding (life guarding) or heartbeat consumer event does to the NMT state.
 // error-behaviour: what 1029h:01 says (CiA 301 default: Operational -> Pre-operational).
 // pre-operational: always Pre-operational (ESR), also from Stopped. no-nmt-change: the NMT state
@@ -145,8 +149,11 @@ struct Personality {
   std::uint16_t tpdo_transmit_masks = 0;  // Festo: index of TPDO1's transmit mask (2014h); 0 none
   bool parameters_internal = false;       // Festo: parameters kept in internal units (L2594)
   InternalUnits internal_units;           // Festo: 6094h/6097h convert into its units
-  bool pp_change_on_set_point = true;     // pp controlword bit 9; false: reserved, ignored (Festo)
-  std::int16_t ip_submode = 0;  // 60C0h: the one value accepted and its default (Festo -2)
+  // Increments per motor revolution (608Fh, the index pulse once per revolution); none: the
+  // reference drive's 4096. Festo: 65536 (000 §5.3 L2601, L2617).
+  std::optional<std::uint32_t> encoder_resolution;
+  bool pp_change_on_set_point = true;  // pp controlword bit 9; false: reserved, ignored (Festo)
+  std::int16_t ip_submode = 0;         // 60C0h: the one value accepted and its default (Festo -2)
   bool power_stage_in_switched_on = false;  // SWITCHED ON holds the motor (Kollmorgen)
   can::Duration nmt_min_spacing{};  // an NMT frame closer to the previous one is lost (Festo)
   GuardingLoss guarding_loss = GuardingLoss::error_behaviour;
@@ -161,6 +168,8 @@ struct Personality {
   cia301::SdoNodeIdSub sdo_server_node_id = cia301::SdoNodeIdSub::client;  // their sub 03h
   BusOffReaction bus_off = BusOffReaction::cia301;
   ManufacturerObjects manufacturer_objects = ManufacturerObjects::none;
+  // Festo 204Ah sample_data with its behaviour (PositionSampling above).
+  PositionSampling position_sampling = PositionSampling::none;
   std::string note;  // free text (why these values)
 
   friend bool operator==(const Personality&, const Personality&) = default;
@@ -176,6 +185,7 @@ std::string_view to_string(SdoShortRequests policy);      // "ignore", "pad"
 std::string_view to_string(BusOffReaction reaction);      // "cia301", "kollmorgen-f23", "esr-8180"
 std::string_view to_string(cia301::SdoNodeIdSub sub);     // "none", "client", "server"
 std::string_view to_string(ManufacturerObjects objects);  // "none", "kollmorgen"
+std::string_view to_string(PositionSampling sampling);    // "none", "festo"
 std::string_view to_string(
     GuardingLoss loss);  // "error-behaviour", "pre-operational", "no-nmt-change"
 

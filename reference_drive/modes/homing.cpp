@@ -340,7 +340,11 @@ void HomingMode::run_phase(HomingAxis& axis) {
   track_demand(axis);
   const bool stop = dir_ != 0 && following_error_ * dir_ > static_cast<double>(active_.stop_window);
   const bool seeks_limit = phase_ == Phase::to_limit || phase_ == Phase::seek_window;
-  if (is_stop_method(signal)) {
+  if (phase_ == Phase::to_zero) {
+    // Travel to zero: blocked (a stop before the zero point) or a limit switch ahead is an
+    // error; the home found stays (homed()).
+    if (stop || limit_ahead) return fail(axis);
+  } else if (is_stop_method(signal)) {
     if (stop && phase_ != Phase::to_limit) return fail(axis);  // limit switches ignored
   } else {
     const bool ahead_is_signal = (signal == HomingSignal::limit_positive && dir_ > 0) ||
@@ -380,6 +384,13 @@ void HomingMode::run_phase(HomingAxis& axis) {
     case Phase::index:
       if (const auto pulse = axis.index_pulse_between(from, p)) home_found(*pulse, axis);
       return;
+    case Phase::to_zero:
+      if (zero_reached(axis)) {
+        status_ = HomingStatus::attained;
+        phase_ = Phase::stopping;
+        axis.command_velocity(0.0, active_.acceleration);
+      }
+      return;
     case Phase::stopping:
       return;
   }
@@ -406,9 +417,27 @@ void HomingMode::home_found(double position, HomingAxis& axis) {
   home_position_ = offset;
   last_position_ = axis.position();
   homed_ = true;
+  if (active_.travel_to_zero && axis.position() != 0.0) {
+    // Festo 6510h:F0h bit 6 (homing.hpp): on to the zero point at search speed; the run ends
+    // when the axis brakes there (to_zero in run_phase).
+    move(Phase::to_zero, axis.position() < 0.0 ? +1 : -1, false, axis);
+    return;
+  }
   status_ = HomingStatus::attained;
   phase_ = Phase::stopping;
   axis.command_velocity(0.0, active_.acceleration);
+}
+
+bool HomingMode::zero_reached(const HomingAxis& axis) const {
+  // Brake now when the braking distance v²/(2a) plus one cycle's travel (1 ms, the drive
+  // cycle) covers what is left to 6064h = 0, or when the axis has passed it.
+  const double left = -axis.position() * dir_;
+  const double v = axis.velocity() * dir_;
+  if (left <= 0.0) return true;
+  if (v <= 0.0) return false;  // still turning toward the zero point
+  const double a = static_cast<double>(active_.acceleration);
+  const double braking = a > 0.0 ? v * v / (2.0 * a) : 0.0;
+  return left <= braking + v * 0.001;
 }
 
 void HomingMode::fail(HomingAxis& axis) {
@@ -513,6 +542,10 @@ void HomingObjects::read_parameters() {
   }
   if (const auto* e = od_.find(cia402::kHomingAcceleration.index, 0)) {
     mode_.set_acceleration(static_cast<std::uint32_t>(e->as_unsigned()));
+  }
+  if (const auto& bit = mode_.config().travel_to_zero_bit) {
+    const auto* e = od_.find(bit->index, bit->sub);
+    mode_.set_travel_to_zero(e != nullptr && (e->as_unsigned() & bit->mask) != 0);
   }
   // The stop detection uses the following error window while it is on (not FFFFFFFFh).
   if (const auto* e = od_.find(cia402::kFollowingErrorWindow.index, 0)) {

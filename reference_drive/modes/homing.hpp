@@ -63,7 +63,7 @@
 //     actual position at that moment (the axis stands at the stop), and the time from
 //     touching the stop to the home event is window / search speed. The axis is not driven
 //     off the stop afterwards (no travel to zero under CANopen, Festo L6040; Festo footnote 3
-//     L6197 asks the user to parameterise it).
+//     L6197 asks the user to parameterise it: the travel to zero below).
 //   current position (35, 37, Kollmorgen -2, IRTSA -127): home is where the axis stands, no
 //     motion, completed at the start step. IRTSA -126: 6064h := the value nearest 607Ch that
 //     keeps the position within the index period (whole periods of 607Ch only, L421).
@@ -73,6 +73,17 @@
 // (Festo L6040: "the drive to the zero position under CANopen is normally not a component of
 // the reference travel"), so 6064h ends at 607Ch ± the braking distance crawl²/(2·609Ah), in
 // the approach direction.
+// Travel to zero (HomingConfig::travel_to_zero_bit; Festo 6510h:F0h bit 6 homing_to_zero,
+// 000_33c1d912b8b6010a.txt §5.2 L2560-2566, §7.2.2 L6149-6151): when the bit is set at the
+// start, the run goes on after the home event at search speed (6099h sub 1, 'the speed for the
+// travel to zero', L6151) to the axis zero point, 6064h = 0 (home_offset shifts it from the
+// reference position, L6061), and brakes with 609Ah to stand there (0 ± one cycle's travel);
+// 0/0/0 until it brakes, then 0/1/0 and 0/1/1 at standstill. It is what takes the axis off a
+// stop (Tab. 7.1 footnote 3, L6196-6197: "the axis is not to remain at the stop, the travel to
+// the axis zero point must be parameterised and the axis zero point offset must be ≠ 0"):
+// with 607Ch = 0 home is the zero point and nothing moves; a zero point beyond the stop makes
+// the axis block again, which is a homing error. Without the bit the axis stays where it
+// braked, at a stop on the stop itself, with no torque pressing into it.
 // Errors (bit 13; the axis stops with 609Ah): a limit switch ahead that the phase does not
 // seek (both limit switches at once included; Festo 11-4 / 11-5), a blocked axis (following
 // error as above) in a switch or index method or while crawling off a stop, no index pulse
@@ -195,6 +206,14 @@ struct HomingConfig {
   std::uint32_t stop_window = 500;
   // Kollmorgen DREF (352Ch) at power on: the direction of -3 until a 6098h write sets it.
   std::uint8_t kollmorgen_dref = 0;
+  // The object bit that asks for the travel to zero after homing (read at each start by
+  // HomingObjects); none: never (CiA 402: "homing" ends at home). Festo: 6510h:F0h mask 40h.
+  struct ObjectBit {
+    std::uint16_t index = 0;
+    std::uint8_t sub = 0;
+    std::uint32_t mask = 0;
+  };
+  std::optional<ObjectBit> travel_to_zero_bit;
   HomingDeviations deviations;
 };
 
@@ -215,6 +234,7 @@ struct HomingParameters {
   std::uint32_t zero_speed = 0;
   std::uint32_t acceleration = 0;
   std::uint32_t stop_window = 500;  // following error that means "blocked" (6065h)
+  bool travel_to_zero = false;      // after the home event, on to 6064h = 0 (config above)
 };
 
 class HomingMode {
@@ -230,6 +250,7 @@ class HomingMode {
   void set_zero_speed(std::uint32_t speed) { params_.zero_speed = speed; }
   void set_acceleration(std::uint32_t acceleration) { params_.acceleration = acceleration; }
   void set_stop_window(std::uint32_t window) { params_.stop_window = window; }
+  void set_travel_to_zero(bool on) { params_.travel_to_zero = on; }
   // Kollmorgen DREF (direction of -3): 0 negative, 1 positive, 2 by distance (method -1).
   std::uint8_t kollmorgen_dref() const { return dref_; }
   const HomingParameters& parameters() const { return params_; }
@@ -261,6 +282,7 @@ class HomingMode {
     leave,        // travel dir_ until the signal shows the level before the edge
     approach,     // travel dir_ (the approach direction) until the signal changes: the edge
     index,        // travel dir_ to the first index pulse
+    to_zero,      // home found: travel dir_ to 6064h = 0 (travel_to_zero)
     stopping,     // home found: decelerate
   };
   void start(can::TimePoint now, HomingAxis& axis);
@@ -268,6 +290,7 @@ class HomingMode {
   void inside_window(HomingAxis& axis);
   void after_edge(double edge_position, HomingAxis& axis);
   void home_found(double position, HomingAxis& axis);
+  bool zero_reached(const HomingAxis& axis) const;  // travel to zero: brake now
   void fail(HomingAxis& axis);
   void interrupt(bool as_error, HomingAxis& axis);
   void move(Phase phase, int direction, bool crawl, HomingAxis& axis);

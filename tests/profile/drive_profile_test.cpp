@@ -241,6 +241,8 @@ INSTANTIATE_TEST_SUITE_P(
         ErrorCase{"InternalUnitsNotAFraction",
                   with("personality:\n  internal_units: {velocity: [4]}\n"), 8,
                   "[numerator, divisor]"},
+        ErrorCase{"EncoderResolutionBelowFour", with("personality:\n  encoder_resolution: 2\n"), 8,
+                  "encoder_resolution"},
         ErrorCase{"InvalidUtf8", with("manual: \"a\xC3(b\"\n"), 7, "not valid UTF-8"},
         ErrorCase{"Utf8Surrogate", with("manual: \"\xED\xA0\x80\"\n"), 7, "not valid UTF-8"}),
     [](const ::testing::TestParamInfo<ErrorCase>& param_info) {
@@ -355,6 +357,7 @@ personality:
   guard_time_ms: 50
   life_time_factor: 3
   internal_units: {velocity: [4, 15], acceleration: [64, 15]}
+  encoder_resolution: 65536
   pp_change_on_set_point: false
   ip_submode: -2
   power_stage_in_switched_on: true

@@ -551,6 +551,72 @@ TEST(ServoDriveFesto, FactorDefaultsAreInFestoUnits) {
   EXPECT_EQ(standard.drive().application().factors().speed_to_internal(1.0), 1.0);
 }
 
+TEST(ServoDriveFesto, EncoderCountsSixtyFiveThousandFiveHundredThirtySixPerRevolution) {
+  // Given the Festo drive ('65536 increments per revolution', Tab. 5.3 L2598-2605, L2617) and
+  // the standard drive (4096) / When 608Fh is read / Then 65536/1 and 4096/1
+  ServoRig festo("festo-cmmp");
+  ServoRig standard;
+  ASSERT_TRUE(festo.ok());
+  ASSERT_TRUE(standard.ok());
+  EXPECT_EQ(festo.read(0x608F, 1), 65536U);
+  EXPECT_EQ(festo.read(0x608F, 2), 1U);
+  EXPECT_EQ(standard.read(0x608F, 1), 4096U);
+  // Then Festo's windows are the manual's defaults in increments at that resolution: 6065h
+  // 9101 (50 degree, L3716), 6067h 1820 (10 degree, L3778)
+  EXPECT_EQ(festo.read(0x6065), 9101U);
+  EXPECT_EQ(festo.read(0x6067), 1820U);
+  // When gear 1/1 and feed 3600 (1/10 degree) are written / Then 6093h = 65536 / 3600 = 4096/225,
+  // the manual's Tab. 5.5 row (L2664-2703); the standard drive gets 4096 / 3600 = 256/225
+  for (ServoRig* r : {&festo, &standard}) {
+    ASSERT_EQ(r->write(0x6092, 1, 3600, 4), 0U);
+    ASSERT_EQ(r->write(0x6092, 2, 1, 4), 0U);
+  }
+  EXPECT_EQ(festo.read(0x6093, 1), 4096U);
+  EXPECT_EQ(festo.read(0x6093, 2), 225U);
+  EXPECT_EQ(standard.read(0x6093, 1), 256U);
+  EXPECT_EQ(standard.read(0x6093, 2), 225U);
+  // When gear 2/3 and feed 100 (1/100 rev) / Then 32768/75 (Tab. 5.5)
+  ASSERT_EQ(festo.write(0x6091, 1, 2, 4), 0U);
+  ASSERT_EQ(festo.write(0x6091, 2, 3, 4), 0U);
+  ASSERT_EQ(festo.write(0x6092, 1, 100, 4), 0U);
+  EXPECT_EQ(festo.read(0x6093, 1), 32768U);
+  EXPECT_EQ(festo.read(0x6093, 2), 75U);
+  // When gear 4/5 and feed 6315 per 10 shaft revolutions (63.15 mm in 1/10 mm) / Then 524288/6315
+  ASSERT_EQ(festo.write(0x6091, 1, 4, 4), 0U);
+  ASSERT_EQ(festo.write(0x6091, 2, 5, 4), 0U);
+  ASSERT_EQ(festo.write(0x6092, 1, 6315, 4), 0U);
+  ASSERT_EQ(festo.write(0x6092, 2, 10, 4), 0U);
+  EXPECT_EQ(festo.read(0x6093, 1), 524288U);
+  EXPECT_EQ(festo.read(0x6093, 2), 6315U);
+  // Then the index pulse comes once per revolution: 65536 increments, 3600 under 4096/225
+  ASSERT_EQ(festo.write(0x6093, 1, 1, 4), 0U);
+  ASSERT_EQ(festo.write(0x6093, 2, 1, 4), 0U);
+  festo.run(5ms);
+  Cia402Application& app = festo.drive().application();
+  EXPECT_EQ(app.axis().config().encoder_increments, 65536U);
+  EXPECT_DOUBLE_EQ(AxisModelHomingAxis(app.axis(), app.factors()).index_period(), 65536.0);
+  ASSERT_EQ(festo.write(0x6093, 1, 4096, 4), 0U);
+  ASSERT_EQ(festo.write(0x6093, 2, 225, 4), 0U);
+  festo.run(5ms);
+  EXPECT_NEAR(AxisModelHomingAxis(app.axis(), app.factors()).index_period(), 3600.0, 1e-9);
+  // When `simulate index-period` sets 1000 and then 0 / Then 0 is once per revolution again
+  ASSERT_TRUE(festo.drive().simulate("index-period", 1000));
+  EXPECT_EQ(app.axis().config().index_period, 1000U);
+  ASSERT_TRUE(festo.drive().simulate("index-period", 0));
+  EXPECT_NEAR(AxisModelHomingAxis(app.axis(), app.factors()).index_period(), 3600.0, 1e-9);
+  EXPECT_FALSE(festo.drive().simulate("index-period", -1));
+}
+
+TEST(ServoDriveIrtsa, EncoderCountsSixtyFiveThousandFiveHundredThirtySixPerRevolution) {
+  // Given the IRTSA drive (608Fh 00010000h increments per 1 motor revolution, L750-752) / When
+  // 608Fh and the axis are read / Then 65536/1, and the axis counts the same (the index pulse)
+  ServoRig irtsa("irtsa-drive-fb");
+  ASSERT_TRUE(irtsa.ok());
+  EXPECT_EQ(irtsa.read(0x608F, 1), 65536U);
+  EXPECT_EQ(irtsa.read(0x608F, 2), 1U);
+  EXPECT_EQ(irtsa.drive().application().axis().config().encoder_increments, 65536U);
+}
+
 TEST(ServoDriveFesto, CommissioningMakesUserUnitsIncrementsPerSecond) {
   // Given the Festo drive / When commissioned with 6094h = 15/4, 6097h = 15/64 / Then one
   // user unit is one increment/s (/s²) on the axis, as on the standard drive uncommissioned

@@ -488,6 +488,68 @@ TEST(HomingStops, ViaLimitMethodsReverseAtAStopWithoutLimitSwitch) {
   check({-23, l, 0, +1, 2100}, HomingVendor::festo);
 }
 
+// Festo -17 from 0 against the stops at +-11000 with 607Ch = `offset` and the travel to zero
+// (6510h:F0h bit 6, homing.hpp) on or off; runs until the axis stands after the run.
+Rig run_to_zero(std::int32_t offset, bool travel_to_zero) {
+  HomingConfig config;
+  config.vendor = HomingVendor::festo;
+  Rig rig(config, stops(), 0);
+  EXPECT_TRUE(rig.mode.set_method(-17));
+  rig.mode.set_home_offset(offset);
+  rig.mode.set_travel_to_zero(travel_to_zero);
+  for (int i = 0; i < 10; ++i)
+    rig.cycle(kEnable);
+  for (int i = 0; i < 30000; ++i) {
+    rig.cycle(kStart);
+    if (!rig.mode.running() && rig.axis.velocity() == 0) break;
+  }
+  return rig;
+}
+
+TEST(HomingTravelToZero, WithoutTheBitTheAxisStaysAtTheStop) {
+  // Given Festo -17 with 607Ch = -1000 and 6510h:F0h bit 6 clear (the default: "the drive to
+  // the zero position under CANopen is normally not a component of the reference travel",
+  // L6040) / When homing ends / Then the axis stands on the stop, 6064h = 607Ch, 0/1/1
+  Rig rig = run_to_zero(-1000, false);
+  EXPECT_EQ(rig.mode.status(), HomingStatus::attained);
+  EXPECT_DOUBLE_EQ(rig.axis.physical(), -11000.0);
+  EXPECT_DOUBLE_EQ(rig.axis.position(), -1000.0);
+  EXPECT_EQ(rig.bits, (std::vector<std::uint16_t>{kNotStarted, kInProgress, kCompleted}));
+}
+
+TEST(HomingTravelToZero, WithTheBitTheAxisLeavesTheStopForTheZeroPoint) {
+  // Given Festo -17 with 607Ch = -1000 and bit 6 set ("the axis is not to remain at the stop,
+  // the travel to the axis zero point must be parameterised and the axis zero point offset must
+  // be not 0", Tab. 7.1 footnote 3 L6196-6197; bit 6 L2560-2566) / When homing runs / Then home
+  // is the stop (6064h = -1000 there), the axis travels +1000 at search speed and brakes at the
+  // zero point: 6064h = 0 +- one cycle (2000/s x 1 ms), in progress until it brakes
+  Rig rig = run_to_zero(-1000, true);
+  EXPECT_EQ(rig.mode.status(), HomingStatus::attained);
+  ASSERT_TRUE(rig.mode.home_position());
+  EXPECT_DOUBLE_EQ(*rig.mode.home_position(), -1000.0);
+  EXPECT_NEAR(rig.axis.position(), 0.0, 2.5);
+  EXPECT_NEAR(rig.axis.physical(), -10000.0, 2.5);
+  EXPECT_NEAR(rig.axis.offset(), -1000.0 - (-11000.0), 1e-9);  // home (the stop) = -1000
+  EXPECT_EQ(rig.bits,
+            (std::vector<std::uint16_t>{kNotStarted, kInProgress, kAttainedMoving, kCompleted}));
+}
+
+TEST(HomingTravelToZero, OffsetZeroMovesNothingAndAZeroBeyondTheStopIsAnError) {
+  // Given bit 6 set and 607Ch = 0 / When -17 homes / Then home is the zero point: the axis
+  // stays at the stop, 0/1/1
+  Rig at_home = run_to_zero(0, true);
+  EXPECT_EQ(at_home.mode.status(), HomingStatus::attained);
+  EXPECT_DOUBLE_EQ(at_home.axis.physical(), -11000.0);
+  // Given 607Ch = +1000 (the zero point 1000 beyond the negative stop) / When the travel to
+  // zero runs into the stop / Then it is blocked (following error): homing error 1/0/1, with
+  // the home found kept
+  Rig beyond = run_to_zero(1000, true);
+  EXPECT_EQ(beyond.mode.status(), HomingStatus::error);
+  EXPECT_EQ(beyond.mode.statusword_bits(), kErrorStopped);
+  EXPECT_TRUE(beyond.mode.homed());
+  EXPECT_DOUBLE_EQ(beyond.axis.physical(), -11000.0);
+}
+
 TEST(HomingMethods, IrtsaSettingAndTolerant) {
   // Given IRTSA's -127 with 607Ch = 500 at 1234, When started, Then 6064h = 500 at once.
   const HomingRun set = run_method(-127, limits(), 1234, HomingVendor::irtsa, 500);
@@ -937,6 +999,22 @@ TEST(HomingInTheDrive, StopMethodsAgainstTheAxisModelsEndStops) {
   check_in_drive({-7, stops(), 0, -1, -11000}, HomingVendor::kollmorgen);
   check_in_drive({-3, stops(), 0, +1, 10250}, HomingVendor::kollmorgen, {}, std::int8_t{-6});
   check_in_drive({-3, stops(), 0, -1, -10750}, HomingVendor::kollmorgen, {}, std::int8_t{-7});
+}
+
+TEST(HomingInTheDrive, FestoViaLimitMethodsTurnAtTheEndStops) {
+  // Given the window layout with mechanical stops at +-11000 and no limit switches (Festo -23
+  // / -27: "to stop or limit switch", Tab. 7.1 L6235-6236), When -23 / -27 run over SDO from
+  // either side of the switch, Then each turns at the stop it meets first (found by the
+  // following error, 6065h = 500) and ends at the edge: -23 the lower 2100, -27 the upper 3400
+  Layout l = window();
+  l.limit_negative.reset();
+  l.limit_positive.reset();
+  l.stop_negative = -11000;
+  l.stop_positive = 11000;
+  for (const Case& c : {Case{-23, l, 0, +1, 2100}, Case{-23, l, 6000, +1, 2100},
+                        Case{-27, l, 0, -1, 3400}, Case{-27, l, 6000, -1, 3400}}) {
+    check_in_drive(c, HomingVendor::festo);
+  }
 }
 
 TEST(HomingInTheDrive, DeviationSetReachesTheMode) {
