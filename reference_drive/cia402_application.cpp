@@ -9,6 +9,8 @@
 #include "protocol/cia402/modes.hpp"
 #include "reference_drive/modes/cyclic_sync.hpp"
 #include "reference_drive/modes/interpolated_position.hpp"
+#include "reference_drive/modes/manual_profile_position.hpp"
+#include "reference_drive/modes/manufacturer_mode.hpp"
 #include "reference_drive/modes/profile_position.hpp"
 #include "reference_drive/modes/profile_torque.hpp"
 #include "reference_drive/modes/profile_velocity.hpp"
@@ -100,10 +102,10 @@ Cia402ApplicationConfig normalised(Cia402ApplicationConfig config) {
     config.pds.deviations.add(deviation);
   for (Deviation deviation : config.pds.deviations.list())
     config.deviations.add(deviation);
-  for (std::int8_t value : config.manufacturer_modes) {
+  for (const ManufacturerModeConfig& m : config.manufacturer_modes) {
     auto& list = config.pds.manufacturer_modes;
-    if (value < 0 && std::find(list.begin(), list.end(), value) == list.end()) {
-      list.push_back(value);
+    if (m.value < 0 && std::find(list.begin(), list.end(), m.value) == list.end()) {
+      list.push_back(m.value);
     }
   }
   return config;
@@ -139,32 +141,51 @@ FactorGroup read_factor_group(const cia301::ObjectDictionary& od) {
   return factors;
 }
 
+// The built-in logic of a standard mode (homing is add_mode()d by its owner; vl has none).
+std::unique_ptr<OperationMode> Cia402Application::make_standard_mode(cia402::Mode mode) const {
+  switch (mode) {
+    case cia402::Mode::profile_position:
+      return std::make_unique<ProfilePositionMode>();
+    case cia402::Mode::profile_velocity:
+      return std::make_unique<ProfileVelocityMode>();
+    case cia402::Mode::profile_torque:
+      return std::make_unique<ProfileTorqueMode>();
+    case cia402::Mode::interpolated_position:
+      return std::make_unique<InterpolatedPositionMode>(config_.ip_submode);
+    case cia402::Mode::cyclic_sync_position:
+      return std::make_unique<CyclicSyncMode>(CyclicKind::position);
+    case cia402::Mode::cyclic_sync_velocity:
+      return std::make_unique<CyclicSyncMode>(CyclicKind::velocity);
+    case cia402::Mode::cyclic_sync_torque:
+      return std::make_unique<CyclicSyncMode>(CyclicKind::torque);
+    default:
+      return nullptr;
+  }
+}
+
 Cia402Application::Cia402Application(Cia402ApplicationConfig config)
     : config_(normalised(std::move(config))),
       axis_(config_.axis),
       pds_(axis_, config_.pds, this, this) {
   const std::uint32_t supported = config_.pds.supported_modes;
-  auto supports = [supported](cia402::Mode m) { return cia402::supports(supported, m); };
-  if (supports(cia402::Mode::profile_position)) {
-    modes_.push_back(std::make_unique<ProfilePositionMode>());
+  for (cia402::Mode m : {cia402::Mode::profile_position, cia402::Mode::profile_velocity,
+                         cia402::Mode::profile_torque, cia402::Mode::interpolated_position,
+                         cia402::Mode::cyclic_sync_position, cia402::Mode::cyclic_sync_velocity,
+                         cia402::Mode::cyclic_sync_torque}) {
+    if (cia402::supports(supported, m)) modes_.push_back(make_standard_mode(m));
   }
-  if (supports(cia402::Mode::profile_velocity)) {
-    modes_.push_back(std::make_unique<ProfileVelocityMode>());
-  }
-  if (supports(cia402::Mode::profile_torque)) {
-    modes_.push_back(std::make_unique<ProfileTorqueMode>());
-  }
-  if (supports(cia402::Mode::interpolated_position)) {
-    modes_.push_back(std::make_unique<InterpolatedPositionMode>(config_.ip_submode));
-  }
-  if (supports(cia402::Mode::cyclic_sync_position)) {
-    modes_.push_back(std::make_unique<CyclicSyncMode>(CyclicKind::position));
-  }
-  if (supports(cia402::Mode::cyclic_sync_velocity)) {
-    modes_.push_back(std::make_unique<CyclicSyncMode>(CyclicKind::velocity));
-  }
-  if (supports(cia402::Mode::cyclic_sync_torque)) {
-    modes_.push_back(std::make_unique<CyclicSyncMode>(CyclicKind::torque));
+  for (const ManufacturerModeConfig& m : config_.manufacturer_modes) {
+    if (m.value >= 0) continue;
+    if (m.logic == ManufacturerModeConfig::Logic::irtsa_mpp) {
+      modes_.push_back(std::make_unique<ManualProfilePositionMode>(m.value));
+      continue;
+    }
+    const auto standard = cia402::mode_from_value(m.behaves_as);
+    if (!standard) continue;
+    if (auto logic = make_standard_mode(*standard)) {
+      const bool hosted = cia402::supports(supported, *standard);
+      modes_.push_back(std::make_unique<ManufacturerMode>(m.value, std::move(logic), !hosted));
+    }
   }
 }
 
@@ -174,8 +195,8 @@ void Cia402Application::add_mode(std::unique_ptr<OperationMode> mode) {
   if (!mode) return;
   const auto value = cia402::mode_from_value(mode->mode());
   const auto& manufacturer = config_.manufacturer_modes;
-  const bool listed =
-      std::find(manufacturer.begin(), manufacturer.end(), mode->mode()) != manufacturer.end();
+  const bool listed = std::any_of(manufacturer.begin(), manufacturer.end(),
+                                  [&](const auto& m) { return m.value == mode->mode(); });
   if (!listed && (!value || !cia402::supports(config_.pds.supported_modes, *value))) return;
   for (auto& hosted : modes_) {
     if (hosted->mode() == mode->mode()) {

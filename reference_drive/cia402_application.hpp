@@ -79,6 +79,7 @@
 #include <vector>
 
 #include "protocol/cia301/object_dictionary.hpp"
+#include "protocol/cia402/modes.hpp"
 #include "protocol/common/expected.hpp"
 #include "reference_drive/axis/axis_model.hpp"
 #include "reference_drive/axis/factor_group.hpp"
@@ -98,6 +99,19 @@ enum class ErrorCodeFormat : std::uint8_t {
 // 6060h/6061h size (CiA 402: INTEGER8; ESR maps them as 16 bit, 004_956552dcd17e975a.txt).
 enum class ModeObjectWidth : std::uint8_t { bits8, bits16 };
 
+// A manufacturer-specific mode of operation and the logic that runs under it.
+struct ManufacturerModeConfig {
+  enum class Logic : std::uint8_t {
+    behaves_as,  // the standard mode `behaves_as` (modes/manufacturer_mode.hpp)
+    irtsa_mpp,   // IRTSA manual profile position (modes/manual_profile_position.hpp)
+  };
+  std::int8_t value = 0;  // -128..-1
+  // 1 pp, 3 pv, 4 tq, 7 ip, 8 csp, 9 csv, 10 cst; 0 (or a mode the drive cannot run, 2, 6):
+  // no logic, the axis holds its position and the mode bits are 0.
+  std::int8_t behaves_as = 0;
+  Logic logic = Logic::behaves_as;
+};
+
 struct Cia402ApplicationConfig {
   PowerDriveConfig pds;  // 6502h = pds.supported_modes: only those modes are hosted
   AxisConfig axis;
@@ -108,9 +122,9 @@ struct Cia402ApplicationConfig {
   std::vector<std::pair<std::uint16_t, std::uint8_t>> error_numbers;
   ModeObjectWidth mode_object_width = ModeObjectWidth::bits8;
   // Manufacturer-specific 6060h values the drive's manual lists (e.g. IRTSA -127): accepted in
-  // 6060h and shown in 6061h (added to pds.manufacturer_modes); no mode logic runs for them
-  // (the axis holds its position, mode bits 0) unless a mode with that value is add_mode()d.
-  std::vector<std::int8_t> manufacturer_modes;
+  // 6060h and shown in 6061h (added to pds.manufacturer_modes), each running the logic below
+  // (or a mode with that value add_mode()d later).
+  std::vector<ManufacturerModeConfig> manufacturer_modes;
   // The deviations of the modes (cia402/pp, pv, tq, ip, csp); merged with pds.deviations both
   // ways, so either place serves the PDS and the modes.
   DeviationSet deviations;
@@ -175,6 +189,7 @@ class Cia402Application final : public DriveApplication, private FaultReporter, 
   // ModeStatus.
   std::uint16_t statusword_bits(cia402::State state, std::int8_t mode_display) const override;
 
+  std::unique_ptr<OperationMode> make_standard_mode(cia402::Mode mode) const;
   Expected<void, std::string> add_shared_objects(cia301::ObjectDictionary& od);
   void bind(cia301::ObjectDictionary& od);
   void read_parameters();

@@ -87,9 +87,18 @@ Expected<void, std::string> apply_modes(const profile::Personality& p, Personali
   plan.application.pds.supported_modes = supported;
   plan.host_homing = cia402::supports(supported, cia402::Mode::homing);
   for (const auto& m : p.manufacturer_modes) {
-    plan.application.manufacturer_modes.push_back(static_cast<std::int8_t>(m.value));
-    plan.not_applied.push_back(fmt::format(
-        "manufacturer mode {} ({}): the PDS refuses negative 6060h values", m.value, m.name));
+    ManufacturerModeConfig mode;
+    mode.value = static_cast<std::int8_t>(m.value);
+    mode.behaves_as = static_cast<std::int8_t>(m.behaves_as);
+    if (m.logic == profile::ManufacturerModeLogic::irtsa_mpp) {
+      mode.logic = ManufacturerModeConfig::Logic::irtsa_mpp;
+    } else if (m.behaves_as == 2 || m.behaves_as == 6) {
+      plan.not_applied.push_back(fmt::format(
+          "manufacturer mode {} ({}): behaves_as {} has no logic in the reference drive: the axis "
+          "holds its position",
+          m.value, m.name, m.behaves_as));
+    }
+    plan.application.manufacturer_modes.push_back(mode);
   }
   return {};
 }

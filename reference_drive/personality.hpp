@@ -14,9 +14,13 @@
 //       6502h and the modes hosted: 1 pp, 3 pv, 4 tq, 6 hm, 7 ip, 8 csp, 9 csv, 10 cst.
 //       2 (vl) has no implementation in the reference drive: ignored (not_applied). Negative
 //       values must be manufacturer_modes. Default: the profile's `modes:`.
-//   manufacturer_modes: [{value: -128..-1, behaves_as: 0|1..10, name}]
-//       Cia402ApplicationConfig::manufacturer_modes (the PDS does not accept negative 6060h
-//       values yet: see cia402_application.hpp; behaves_as is recorded, not simulated).
+//   manufacturer_modes: [{value: -128..-1, behaves_as: 0|1..10, logic, name}]
+//       Cia402ApplicationConfig::manufacturer_modes: 6060h accepts the value, 6061h shows it.
+//       logic: behaves-as (default): the logic of the standard mode behaves_as runs under
+//       the manufacturer value (modes/manufacturer_mode.hpp); 0 moves nothing (the axis
+//       holds: e.g. a set-point from an analogue input); 2 (vl) and 6 (hm) have no such logic:
+//       not_applied. irtsa-mpp: IRTSA's manual profile position
+//       (modes/manual_profile_position.hpp).
 //   option_codes: {quick-stop: [..], shutdown, disable-operation, halt, fault-reaction,
 //                  abort-connection}
 //       The values 605Ah..605Eh and 6007h accept (PowerDriveConfig::option_code_support; any

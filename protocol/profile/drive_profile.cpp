@@ -539,7 +539,7 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
     require_sequence(r, *v, "personality.manufacturer_modes");
     for (const auto& item : *v) {
       const MapView m(r, item, "personality.manufacturer_modes entry",
-                      {"value", "behaves_as", "name"});
+                      {"value", "behaves_as", "logic", "name"});
       ManufacturerMode mode;
       mode.value = static_cast<int>(integer(r, m.require("value", "manufacturer_modes entry"),
                                             "manufacturer_modes.value", -128, -1));
@@ -548,6 +548,16 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
         if (mode.behaves_as != 0 && !mode_feature(mode.behaves_as)) {
           r.fail(*b, fmt::format("manufacturer_modes.behaves_as: {} is not a CiA 402 mode",
                                  mode.behaves_as));
+        }
+      }
+      if (auto l = m.get("logic")) {
+        const std::string text = scalar(r, *l, "manufacturer_modes.logic");
+        if (text == to_string(ManufacturerModeLogic::irtsa_mpp)) {
+          mode.logic = ManufacturerModeLogic::irtsa_mpp;
+        } else if (text != to_string(ManufacturerModeLogic::behaves_as)) {
+          r.fail(*l,
+                 fmt::format("manufacturer_modes.logic: '{}' is not one of behaves-as, irtsa-mpp",
+                             text));
         }
       }
       if (auto n = m.get("name")) mode.name = scalar(r, *n, "manufacturer_modes.name");
@@ -1002,8 +1012,11 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
     out << YAML::Key << "manufacturer_modes" << YAML::Value << YAML::BeginSeq;
     for (const auto& m : p.manufacturer_modes) {
       out << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value << m.value
-          << YAML::Key << "behaves_as" << YAML::Value << m.behaves_as << YAML::Key << "name"
-          << YAML::Value << YAML::DoubleQuoted << m.name << YAML::EndMap;
+          << YAML::Key << "behaves_as" << YAML::Value << m.behaves_as;
+      if (m.logic != ManufacturerModeLogic::behaves_as) {
+        out << YAML::Key << "logic" << YAML::Value << std::string(to_string(m.logic));
+      }
+      out << YAML::Key << "name" << YAML::Value << YAML::DoubleQuoted << m.name << YAML::EndMap;
     }
     out << YAML::EndSeq;
   }
@@ -1252,6 +1265,10 @@ std::string_view to_string(ObjectAction action) {
 std::string_view to_string(SdoDlc dlc) {
   return dlc == SdoDlc::always_8 ? "always-8" : "minimal";
 }
+std::string_view to_string(ManufacturerModeLogic logic) {
+  return logic == ManufacturerModeLogic::irtsa_mpp ? "irtsa-mpp" : "behaves-as";
+}
+
 std::string_view to_string(ManufacturerObjects objects) {
   switch (objects) {
     case ManufacturerObjects::none:

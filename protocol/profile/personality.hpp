@@ -33,11 +33,17 @@ struct Identity {
   friend bool operator==(const Identity&, const Identity&) = default;
 };
 
+// How the reference drive runs a manufacturer mode. behaves-as: the logic of the standard mode
+// `behaves_as` (0: none, the axis holds). irtsa-mpp: IRTSA's manual profile position mode
+// (controlword bits 5/6 jog through the trajectory generator, 003_111f14ab1c37c28a.txt §4.5.4).
+enum class ManufacturerModeLogic : std::uint8_t { behaves_as, irtsa_mpp };
+
 // A manufacturer-specific mode of operation (6060h value < 0) the drive accepts.
 struct ManufacturerMode {
   int value = 0;       // -128..-1
   int behaves_as = 0;  // the standard mode it moves like (1..10), 0: none (no motion)
-  std::string name;    // the manual's name for it
+  ManufacturerModeLogic logic = ManufacturerModeLogic::behaves_as;
+  std::string name;  // the manual's name for it
   friend bool operator==(const ManufacturerMode&, const ManufacturerMode&) = default;
 };
 
@@ -185,6 +191,7 @@ std::string_view to_string(SdoShortRequests policy);      // "ignore", "pad"
 std::string_view to_string(BusOffReaction reaction);      // "cia301", "kollmorgen-f23", "esr-8180"
 std::string_view to_string(cia301::SdoNodeIdSub sub);     // "none", "client", "server"
 std::string_view to_string(ManufacturerObjects objects);  // "none", "kollmorgen"
+std::string_view to_string(ManufacturerModeLogic logic);  // "behaves-as", "irtsa-mpp"
 std::string_view to_string(PositionSampling sampling);    // "none", "festo"
 std::string_view to_string(
     GuardingLoss loss);  // "error-behaviour", "pre-operational", "no-nmt-change"

@@ -205,6 +205,9 @@ INSTANTIATE_TEST_SUITE_P(
         ErrorCase{"ManufacturerModeBadBehaviour",
                   with("personality:\n  manufacturer_modes: [{value: -3, behaves_as: 5}]\n"), 8,
                   "not a CiA 402 mode"},
+        ErrorCase{"ManufacturerModeBadLogic",
+                  with("personality:\n  manufacturer_modes: [{value: -3, logic: jog}]\n"), 8,
+                  "manufacturer_modes.logic: 'jog' is not one of behaves-as, irtsa-mpp"},
         ErrorCase{"OptionDefaultNotAccepted",
                   with("personality:\n  option_defaults: {quick-stop: 6}\n"), 8,
                   "not an accepted value"},
@@ -338,7 +341,7 @@ deviations:
   - {id: x, vectors: ["a/*", "b?"], source: [s, t], description: "d: e", contradiction: "c"}
 personality:
   identity: {product_code: 7}
-  manufacturer_modes: [{value: -3, behaves_as: 3, name: "user velocity"}]
+  manufacturer_modes: [{value: -3, behaves_as: 1, logic: irtsa-mpp, name: "user jog"}]
   option_defaults: {quick-stop: 2}
   hardware_enable: transition-3
   manufacturer_homing: irtsa

@@ -906,7 +906,7 @@ TEST(CyclicSyncTorque, FollowsTargetTorque) {
 TEST(Cia402Application, ManufacturerModeValuesAreAccepted) {
   // Given a personality listing the manufacturer mode -127 (IRTSA mpp)
   Cia402ApplicationConfig config;
-  config.manufacturer_modes = {-127};
+  config.manufacturer_modes = {{.value = -127}};
   Cia402Drive d(config);
   // When 6060h = -127 (81h) and -126 (82h) are written
   // Then -127 is accepted and shown in 6061h, -126 is refused with 06090030h
@@ -914,6 +914,146 @@ TEST(Cia402Application, ManufacturerModeValuesAreAccepted) {
   EXPECT_EQ(d.rig().write(0x6060, 0, 0x82, 1), 0x06090030u);
   d.rig().run(2ms);
   EXPECT_EQ(d.value(0x6061), -127);
+}
+
+TEST(ManufacturerMode, RunsTheLogicOfItsStandardModeUnderItsOwnValue) {
+  // Given Kollmorgen's -128 "digital speed controller" behaving as profile velocity
+  Cia402ApplicationConfig config;
+  config.manufacturer_modes = {{.value = -128, .behaves_as = 3}};
+  Cia402Drive d(config);
+  d.enable(-128);
+  // When 60FFh = 1000 is asked
+  d.write(0x60FF, 0, 1000, 4);
+  d.rig().run(500ms);
+  // Then the axis runs at 1000, 6061h still shows -128 and pv's target reached bit is set
+  EXPECT_NEAR(d.value(0x606C), 1000, 20);
+  EXPECT_EQ(d.value(0x6061), -128);
+  EXPECT_NE(d.statusword() & kTargetReached, 0);
+  // And the mode's pv-only object 60F8h exists once (pv is hosted too)
+  EXPECT_NE(d.rig().drive().dictionary().find(0x60F8, 0), nullptr);
+}
+
+TEST(ManufacturerMode, BringsTheObjectsOfAStandardModeTheDriveDoesNotHost) {
+  // Given a drive that hosts only pp, with -128 behaving as pv
+  Cia402ApplicationConfig config;
+  config.pds.supported_modes = 0x1;
+  config.manufacturer_modes = {{.value = -128, .behaves_as = 3}};
+  Cia402Drive d(config);
+  // Then pv's own object 60F8h exists and 6060h = 3 is refused
+  EXPECT_NE(d.rig().drive().dictionary().find(0x60F8, 0), nullptr);
+  EXPECT_EQ(d.rig().write(0x6060, 0, 3, 1), 0x06090030u);
+  // And -128 runs pv's logic
+  d.enable(-128);
+  d.write(0x60FF, 0, -500, 4);
+  d.rig().run(500ms);
+  EXPECT_NEAR(d.value(0x606C), -500, 20);
+}
+
+TEST(ManufacturerMode, WithoutLogicTheAxisHolds) {
+  // Given Kollmorgen's -127 "analogue speed controller" (no bus set-point: behaves_as 0)
+  Cia402ApplicationConfig config;
+  config.manufacturer_modes = {{.value = -127, .behaves_as = 0}};
+  Cia402Drive d(config);
+  d.enable(-127);
+  const auto start = d.value(0x6064);
+  // When the set-points of pv, tq and pp are written
+  d.write(0x60FF, 0, 1000, 4);
+  d.write(0x6071, 0, 100, 2);
+  d.write(0x607A, 0, 5000, 4);
+  d.controlword(0x001F);
+  d.rig().run(500ms);
+  // Then the axis has not moved and the mode bits are 0
+  EXPECT_EQ(d.value(0x606C), 0);
+  EXPECT_EQ(d.value(0x6064), start);
+  EXPECT_EQ(d.statusword() & (kTargetReached | kBit12 | kBit13), 0);
+}
+
+namespace {
+
+Cia402ApplicationConfig irtsa_mpp() {
+  Cia402ApplicationConfig config;
+  config.manufacturer_modes = {
+      {.value = -127, .behaves_as = 1, .logic = ManufacturerModeConfig::Logic::irtsa_mpp}};
+  return config;
+}
+
+}  // namespace
+
+TEST(IrtsaManualPositioning, JogsWhileADirectionBitIsSet) {
+  // Given IRTSA mpp (-127) in OPERATION ENABLED, 6081h = 2000
+  Cia402Drive d(irtsa_mpp());
+  d.enable(-127);
+  d.write(0x6081, 0, 2000, 4);
+  // When bit 5 (positive direction) is set
+  d.controlword(0x002F);
+  d.rig().run(500ms);
+  // Then the axis runs positive at the profile velocity
+  EXPECT_NEAR(d.value(0x606C), 2000, 20);
+  EXPECT_GT(d.value(0x6064), 500);
+  // When bit 5 is released
+  d.controlword(0x000F);
+  d.rig().run(300ms);
+  // Then the axis stops and stays
+  EXPECT_EQ(d.value(0x606C), 0);
+  const auto stopped = d.value(0x6064);
+  d.rig().run(300ms);
+  EXPECT_EQ(d.value(0x6064), stopped);
+  // When bit 6 (negative direction) is set
+  d.controlword(0x004F);
+  d.rig().run(500ms);
+  // Then it runs negative
+  EXPECT_NEAR(d.value(0x606C), -2000, 20);
+  EXPECT_LT(d.value(0x6064), stopped);
+}
+
+TEST(IrtsaManualPositioning, TheDirectionSetFirstWinsWhileBothBitsAreSet) {
+  // Given IRTSA mpp (-127) jogging positive (bit 5)
+  Cia402Drive d(irtsa_mpp());
+  d.enable(-127);
+  d.write(0x6081, 0, 2000, 4);
+  d.controlword(0x002F);
+  d.rig().run(200ms);
+  ASSERT_GT(d.value(0x606C), 1900);
+  // When bit 6 is set in addition: still positive (L489)
+  d.controlword(0x006F);
+  d.rig().run(200ms);
+  EXPECT_GT(d.value(0x606C), 1900);
+  // When bit 5 is released: negative (L489-490)
+  d.controlword(0x004F);
+  d.rig().run(300ms);
+  EXPECT_LT(d.value(0x606C), -1900);
+  // When bit 5 is set again in addition: still negative (L490)
+  d.controlword(0x006F);
+  d.rig().run(200ms);
+  EXPECT_LT(d.value(0x606C), -1900);
+  // When both are released: it stops (L490)
+  d.controlword(0x000F);
+  d.rig().run(300ms);
+  EXPECT_EQ(d.value(0x606C), 0);
+}
+
+TEST(IrtsaManualPositioning, StopsAtTheSoftwareLimitAndHalts) {
+  // Given IRTSA mpp with software limits -1000..3000
+  Cia402Drive d(irtsa_mpp());
+  d.write(0x607D, 1, -1000, 4);
+  d.write(0x607D, 2, 3000, 4);
+  d.enable(-127);
+  d.write(0x6081, 0, 5000, 4);
+  // When bit 5 stays set for 3 s
+  d.controlword(0x002F);
+  d.rig().run(3s);
+  // Then the axis stands at the limit with bit 11
+  EXPECT_NEAR(d.value(0x6064), 3000, 5);
+  EXPECT_EQ(d.value(0x606C), 0);
+  EXPECT_NE(d.statusword() & kInternalLimit, 0);
+  // When bit 6 with halt (bit 8)
+  d.controlword(0x014F);
+  d.rig().run(300ms);
+  // Then the axis does not move; released, it jogs negative
+  EXPECT_NEAR(d.value(0x6064), 3000, 5);
+  d.controlword(0x004F);
+  d.rig().run(300ms);
+  EXPECT_LT(d.value(0x606C), -4900);
 }
 
 TEST(ProfileVelocity, MaxSlippageWhenTheAxisCannotFollow) {
