@@ -56,4 +56,8 @@ while read -r name; do
   fi
   count=$((count + 1))
 done < "$work/fuzz/fuzzers.txt"
+# The cia402 target impersonates the manuals' drives: their profiles go next to the fuzzers
+# (cia402_fuzzer.cpp looks for <its folder>/drives).
+rm -rf "$OUT/drives"
+cp -r "$root/vectors/drives" "$OUT/drives"
 echo "build.sh: $count fuzz targets installed in $OUT"

@@ -46,4 +46,12 @@ for source in "$root"/fuzz/*_fuzzer.cpp; do
   count=$((count + 1))
 done
 ((count > 0)) || fail "no fuzz targets found"
+# cia402 impersonates the manuals' drives from $OUT/drives (it looks beside itself first).
+for profile in festo-cmmp kollmorgen-s300-s700 irtsa-drive-fb esr-triodrive; do
+  [[ -f $OUT/drives/$profile.yaml ]] || fail "drives/$profile.yaml not installed"
+done
+if grep -q "run the standard drive" "$out/cia402.log"; then
+  cat "$out/cia402.log" >&2
+  fail "cia402: a personality's profile could not be read"
+fi
 echo "build_sh_test: $count targets built, installed and run on their seeds"

@@ -1,13 +1,18 @@
 // Fuzz target: the reference servo drive's CiA 402 side (reference_drive/servo_drive.hpp, built
-// as cli/embedded_drive.cpp builds it: the standard drive, node 5, on the simulated bus):
+// as cli/embedded_drive.cpp builds it: node 5 on the simulated bus, the standard drive or, when
+// the input starts with a personality record, one of the manuals' personalities):
 // controlword, 6060h modes, targets, option codes, the factor group and limits, simulated
 // inputs (hardware enable, limit and home switches, mechanical end stops, coasting to rest,
 // fault causes), SYNC, NMT and time.
 //
 // Input: fuzz/support/cia402_input.hpp (6-byte operation records, at most 200 of them and
-// 2 s of simulated time). Objects are written by expedited SDO downloads from a tester node
-// (the answers are not checked here: sdo_server is another target's business). After every
-// operation and every millisecond of time the drive's state is observed (one drive cycle).
+// 2 s of simulated time). The personalities' profiles (vectors/drives/<name>.yaml) are read once
+// per process from $DRIVECHECK_VECTORS_DIR/drives, else <this program's folder>/drives
+// (fuzz/build.sh copies them there), else the source tree's vectors/drives; a profile that
+// cannot be read is reported once on stderr and its inputs run the standard drive. Objects are
+// written by expedited SDO downloads from a tester node (the answers are not checked here:
+// sdo_server is another target's business). After every operation and every millisecond of time the
+// drive's state is observed (one drive cycle).
 //
 // Oracles, checked after every observation (CiA 402-2 §8 "Device control"):
 //   1. the statusword 6041h as the dictionary holds it decodes to a valid state
@@ -32,6 +37,8 @@
 //        605Ah/605Bh/605Ch/605Eh = 0 "disable drive function", transitions 7, 9, 10, 12
 //        by disable voltage or the hardware enable, CiA 402-2 §8.4 "the motor is free to
 //        rotate") only coasts: no motor torque, |v| never grows;
+//      - except a personality whose power stage stays on in SWITCHED ON (Kollmorgen,
+//        power_stage_in_switched_on): there the axis is stopped and held, |v| never grows;
 //   5. the option-code ramps in OPERATION ENABLED: CiA 402-2 §8.4.5/§8.4.6 (605Bh/605Ch = 1,
 //      "slow down with slow down ramp and then disable the drive function") let the drive
 //      decelerate while still showing OPERATION ENABLED; this drive does exactly that and
@@ -51,6 +58,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -62,6 +70,7 @@
 #include "fuzz/support/fuzz_input.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/cia402/state_machine.hpp"
+#include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/servo_drive.hpp"
 
 namespace {
@@ -99,14 +108,52 @@ struct Observation {
   std::optional<std::uint8_t> pending;  // ramped transition 5 or 8
 };
 
+#ifndef DRIVECHECK_VECTORS_DIR
+#error "DRIVECHECK_VECTORS_DIR must be defined by the build (fuzz/CMakeLists.txt)"
+#endif
+
+// Where the personalities' profiles are (see the file comment).
+std::filesystem::path drives_dir() {
+  namespace fs = std::filesystem;
+  if (const char* dir = std::getenv("DRIVECHECK_VECTORS_DIR")) return fs::path(dir) / "drives";
+  std::error_code error;
+  const fs::path beside = fs::read_symlink("/proc/self/exe", error).parent_path() / "drives";
+  if (!error && fs::is_directory(beside, error)) return beside;
+  return fs::path(DRIVECHECK_VECTORS_DIR) / "drives";
+}
+
+// The profile of kPersonalities[row] (null: the standard drive, or the profile could not be
+// read), loaded once per process.
+const profile::DriveProfile* personality_profile(std::size_t row) {
+  static const auto profiles = [] {
+    std::array<std::optional<profile::DriveProfile>, fuzz::kPersonalities.size()> loaded;
+    const std::filesystem::path dir = drives_dir();
+    for (std::size_t i = 1; i < loaded.size(); ++i) {
+      auto found = profile::find_profile(fuzz::kPersonalities[i], dir);
+      if (found) {
+        loaded[i] = std::move(*found);
+      } else {
+        std::fprintf(stderr, "cia402_fuzzer: %s: %s; its inputs run the standard drive\n",
+                     std::string(fuzz::kPersonalities[i]).c_str(),
+                     found.error().to_string().c_str());
+      }
+    }
+    return loaded;
+  }();
+  return row < profiles.size() && profiles[row] ? &*profiles[row] : nullptr;
+}
+
 class Harness {
  public:
-  Harness()
+  explicit Harness(std::size_t personality)
       : bus_(can::SimBusConfig{.bitrate = 1'000'000}),
         drive_port_(bus_.attach("drive")),
-        tester_(bus_.attach("tester")) {
+        tester_(bus_.attach("tester")),
+        personality_(personality) {
     reference_drive::ServoDriveOptions options;
     options.node = kNode;
+    options.profile = personality_profile(personality);
+    if (options.profile == nullptr) personality_ = 0;
     // The oracles' own check (CTest fuzz.cia402-catches-deviation): a named deviation of
     // reference_drive/deviations.inc makes the drive wrong on purpose.
     if (const char* deviation = std::getenv("DRIVECHECK_FUZZ_CIA402_DEVIATION")) {
@@ -176,8 +223,12 @@ class Harness {
           value = op.value % 2;
         }
         const auto done = drive_->simulate(input.name, value);
+        const bool documented =
+            input.personality.empty() || input.personality == fuzz::kPersonalities[personality_];
         DRIVECHECK_FUZZ_CHECK_DETAIL(
-            done.has_value(), "a documented simulated input was refused",
+            done.has_value() == documented,
+            documented ? "a documented simulated input was refused"
+                       : "a drive accepted another personality's simulated input",
             fmt::format("{} := {}: {}", input.name, value, done ? std::string() : done.error()));
         if (input.one) coasted_to_rest();
         break;
@@ -195,6 +246,8 @@ class Harness {
         for (std::uint32_t ms = op.value % 256; ms > 0 && !out_of_time(); --ms)
           step(1ms);
         break;
+      case Cia402OpKind::personality:
+        break;  // chosen by the first record only (LLVMFuzzerTestOneInput)
       case Cia402OpKind::sdo_write: {
         const auto index = static_cast<std::uint16_t>(0x6000 + ((op.value >> 16) & 0xFF));
         static constexpr std::array<std::size_t, 4> kSizes{1, 2, 4, 4};
@@ -340,7 +393,17 @@ class Harness {
     // 4. No motion outside OPERATION ENABLED, QUICK STOP ACTIVE, FAULT REACTION ACTIVE.
     const bool outside = !motion_allowed(after.state) && before.shown &&
                          !motion_allowed(*before.shown) && !motion_allowed(before.state);
-    if (outside) {
+    // A personality whose power stage stays on in SWITCHED ON (Kollmorgen:
+    // power_stage_in_switched_on) stops the axis there and holds it: the motor has torque,
+    // but the axis only ever slows down.
+    const bool held = after.state == State::switched_on &&
+                      after.control != reference_drive::AxisControl::free &&
+                      drive_->application().pds().config().power_stage_in_switched_on;
+    if (outside && held) {
+      DRIVECHECK_FUZZ_CHECK_DETAIL(
+          std::abs(after.velocity) <= std::abs(before.velocity) + tolerance,
+          "an axis held in SWITCHED ON got faster", where());
+    } else if (outside) {
       if (before.velocity == 0.0) {
         DRIVECHECK_FUZZ_CHECK_DETAIL(after.velocity == 0.0 && after.position == before.position,
                                      "an axis at rest moved outside the motion states", where());
@@ -369,6 +432,7 @@ class Harness {
   can::SimBus bus_;
   std::unique_ptr<can::SimPort> drive_port_;
   std::unique_ptr<can::SimPort> tester_;
+  std::size_t personality_;  // kPersonalities row of the drive
   std::unique_ptr<reference_drive::ServoDrive> drive_;
   const cia301::Entry* statusword_ = nullptr;  // 6041h, found at the first observation
   can::TimePoint start_{};
@@ -382,8 +446,11 @@ class Harness {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   fuzz::FuzzInput in(data, size);
-  Harness harness;
-  for (int operations = 0; !in.empty() && operations < kMaxOperations && !harness.out_of_time();
+  const Cia402Op first = fuzz::decode_cia402_op(in);
+  const bool chosen = first.kind == Cia402OpKind::personality;
+  Harness harness(chosen ? first.selector % fuzz::kPersonalities.size() : 0);
+  if (!chosen && size > 0) harness.apply(first);
+  for (int operations = 1; !in.empty() && operations < kMaxOperations && !harness.out_of_time();
        ++operations) {
     harness.apply(fuzz::decode_cia402_op(in));
   }

@@ -1336,6 +1336,18 @@ void cia402_corpus(Output& out, const fs::path& root) {
       if (!ops) continue;
       std::string name = vector.id;
       std::replace(name.begin(), name.end(), '/', '-');
+      // A vector for one drive's profile runs on that personality (its first one listed).
+      for (const std::string& profile : vector.profiles) {
+        const auto row =
+            std::find(fuzz::kPersonalities.begin() + 1, fuzz::kPersonalities.end(), profile);
+        if (row == fuzz::kPersonalities.end()) continue;
+        Bytes seed;
+        add(seed, {Cia402OpKind::personality,
+                   static_cast<std::uint8_t>(row - fuzz::kPersonalities.begin()), 0});
+        seed.insert(seed.end(), ops->begin(), ops->end());
+        *ops = std::move(seed);
+        break;
+      }
       out.seed("cia402", name, *ops);
     }
   }
@@ -1557,6 +1569,12 @@ void vector_profile_cia402_dictionaries(Output& out, const fs::path& root) {
       for (const std::uint32_t value : {0u, 1u, 2u})
         record(fmt::format("input_{}_{}", i, value),
                {Cia402OpKind::simulate, static_cast<std::uint8_t>(i), value});
+    }
+    text += comment("personalities (first record only; vectors/drives/<name>.yaml)");
+    for (std::size_t i = 1; i < fuzz::kPersonalities.size(); ++i) {
+      std::string name(fuzz::kPersonalities[i]);
+      std::replace(name.begin(), name.end(), '-', '_');
+      record("personality_" + name, {Cia402OpKind::personality, static_cast<std::uint8_t>(i), 0});
     }
     text += comment("SYNC (CiA 301 §7.2.5), NMT (CiA 301 §7.2.8.3.1), time");
     record("sync", {Cia402OpKind::sync, 0, 0});

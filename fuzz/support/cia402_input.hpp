@@ -17,6 +17,10 @@
 //   time         value % 256 ms of time (one cycle per ms)
 //   sdo_write    any CiA 402 object 6000h..60FFh (+ value bits 16..23 of the index), sub =
 //                selector % 4, size 1/2/4 by value bits 30..31 (an expedited SDO download)
+//   personality  as the FIRST record only: the drive impersonates kPersonalities[selector %
+//                size] (vectors/drives/<name>.yaml; row 0 the standard drive, which is also
+//                the drive of an input that starts with any other record); later: a drive
+//                cycle only
 // decode_cia402_op() never fails (FuzzInput reads past the end as zeros); encode_cia402_op()
 // is its inverse, for the corpus generator.
 #pragma once
@@ -42,8 +46,14 @@ enum class Cia402OpKind : std::uint8_t {
   nmt,
   time,
   sdo_write,
+  personality,
 };
-inline constexpr std::uint8_t kCia402OpKinds = 10;
+inline constexpr std::uint8_t kCia402OpKinds = 11;
+
+// The drives a cia402 input can start as: the standard reference drive, then the manuals'
+// personalities (reference_drive/personality.hpp), by profile name.
+inline constexpr std::array<std::string_view, 5> kPersonalities{
+    "", "festo-cmmp", "kollmorgen-s300-s700", "irtsa-drive-fb", "esr-triodrive"};
 
 struct Cia402Op {
   Cia402OpKind kind = Cia402OpKind::time;
@@ -69,8 +79,10 @@ inline constexpr std::array<std::uint16_t, 14> kControlwords{
     0x000E,  // shutdown with bit 3
 };
 
-// 6060h values (CiA 402-2 §6.3.1): pp vl pv hm ip csp csv cst tq, 0 none, and a negative one.
-inline constexpr std::array<std::int8_t, 11> kModes{1, 2, 3, 6, 7, 8, 9, 10, 4, 0, -1};
+// 6060h values (CiA 402-2 §6.3.1): pp vl pv hm ip csp csv cst tq, 0 none, negative ones
+// (-1 Festo's display, -127 IRTSA mpp / Kollmorgen analogue speed, -128 Kollmorgen digital
+// speed).
+inline constexpr std::array<std::int8_t, 13> kModes{1, 2, 3, 6, 7, 8, 9, 10, 4, 0, -1, -127, -128};
 
 struct Cia402Object {
   std::uint16_t index;
@@ -125,13 +137,16 @@ inline constexpr std::array<Cia402Object, 14> kFactors{{
 // The mechanical end stops (stop-negative-at, stop-positive-at) stop an axis dead, and
 // axis-coast-to-rest puts an unpowered axis at rest: the target's physics oracle knows both
 // (cia402_fuzzer.cpp).
+// sample-input exists only in the Festo personality (position sampling, §5.15); any other
+// drive refuses it.
 struct Cia402Input {
   std::string_view name;
   bool position;  // the value is a position (INTEGER32); else 0/1 or -1/0/1 (switches)
   bool tristate;  // -1 layout, 0 off, 1 on
   bool one;       // the value is always 1 (an act, not a level)
+  std::string_view personality = {};  // only this kPersonalities row has it ("": all)
 };
-inline constexpr std::array<Cia402Input, 15> kInputs{{
+inline constexpr std::array<Cia402Input, 16> kInputs{{
     {"hardware-enable", false, false, false},
     {"limit-positive", false, true, false},
     {"limit-negative", false, true, false},
@@ -147,6 +162,7 @@ inline constexpr std::array<Cia402Input, 15> kInputs{{
     {"stop-negative-at", true, false, false},
     {"stop-positive-at", true, false, false},
     {"axis-coast-to-rest", false, false, true},
+    {"sample-input", false, false, false, "festo-cmmp"},
 }};
 
 // NMT command specifiers (CiA 301 §7.2.8.3.1): start, pre-operational, stop, reset node,

@@ -32,6 +32,7 @@ AxisModel::AxisModel(AxisConfig config)
 
 void AxisModel::disable_power() {
   ++commands_;
+  torque_ = 0.0;  // the power stage is off from now: 6077h shows no torque
   control_ = AxisControl::free;
   following_ = false;
   holding_ = false;

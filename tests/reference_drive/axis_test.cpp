@@ -68,6 +68,24 @@ TEST(AxisModel, FreeAxisCoastsOnFriction) {
   EXPECT_TRUE(axis.is_stopped());
 }
 
+TEST(AxisModel, RemovingThePowerTakesTheTorqueAtOnce) {
+  // Given an axis braking on a stop ramp (the motor gives torque)
+  AxisModel axis;
+  axis.follow_set_points();
+  for (int i = 0; i < 10; ++i) {
+    axis.command_velocity(1000.0);
+    axis.advance(1ms);
+  }
+  axis.ramp_to_stop(100000);
+  axis.advance(1ms);
+  ASSERT_NE(axis.torque(), 0.0);
+  // When the power is removed, before the next step
+  axis.disable_power();
+  // Then the motor torque (6077h) is 0 already
+  EXPECT_EQ(axis.torque(), 0.0);
+  EXPECT_EQ(axis.control(), AxisControl::free);
+}
+
 TEST(AxisModel, IndexPulseIsReportedWhereCrossed) {
   // Given an index every 1000 increments from 250
   AxisConfig config;
