@@ -276,7 +276,7 @@ class Harness {
   // axis-coast-to-rest, an outside act at this instant (no time passed since last_): a powered
   // axis is left alone, an unpowered one stands still where it is. The next window starts
   // after the act (its velocity step is the operator's, not the drive's).
-  void coasted_to_rest() {
+  DRIVECHECK_FUZZ_ORACLE_CODE void coasted_to_rest() {
     const Observation now = observe();
     // The message is built only when a check fails (every step would pay for it).
     const auto where = [&] { return context(last_, now); };
@@ -290,7 +290,7 @@ class Harness {
     last_ = now;
   }
 
-  Observation observe() {
+  DRIVECHECK_FUZZ_ORACLE_CODE Observation observe() {
     const auto& axis = drive_->application().axis();
     const auto& pds = drive_->application().pds();
     Observation o;
@@ -336,7 +336,7 @@ class Harness {
     last_ = now;
   }
 
-  void check(const Observation& before, const Observation& after) {
+  DRIVECHECK_FUZZ_ORACLE_CODE void check(const Observation& before, const Observation& after) {
     // The message is built only when a check fails (every step would pay for it).
     const auto where = [&] { return context(before, after); };
     // 1. The statusword shows a valid state, the one the drive is in.

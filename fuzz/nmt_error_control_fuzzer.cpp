@@ -263,7 +263,7 @@ class Harness {
     }
   }
 
-  void on_frame(const can::TimedFrame& seen) {
+  DRIVECHECK_FUZZ_ORACLE_CODE void on_frame(const can::TimedFrame& seen) {
     if (recent_.size() == 12) recent_.erase(recent_.begin());
     recent_.push_back(seen);
     const can::Frame& frame = seen.frame;

@@ -208,7 +208,7 @@ class Harness {
 
   // End of input: the values the oracle last took (by the dictionary's revision) are the
   // dictionary's, and every valid PDO is consistent, checked without the revision shortcut.
-  void verify() {
+  DRIVECHECK_FUZZ_ORACLE_CODE void verify() {
     DRIVECHECK_FUZZ_CHECK(od().revision() != current_.revision ||
                               (app_values() == current_.app && rpdo_mapped() == current_.rpdo),
                           "the dictionary changed without its revision()");
@@ -266,7 +266,7 @@ class Harness {
  private:
   using Key = std::pair<std::uint16_t, std::uint8_t>;
 
-  std::vector<std::uint64_t> app_values() {
+  DRIVECHECK_FUZZ_ORACLE_CODE std::vector<std::uint64_t> app_values() {
     std::vector<std::uint64_t> out;
     for (const cia301::Entry* entry : slot_.app_entries)
       out.push_back(entry != nullptr ? entry->as_unsigned() : 0);
@@ -274,8 +274,9 @@ class Harness {
   }
 
   // The mapping of PDO `mapping_index`, or empty when its COB-ID is not valid.
-  std::vector<Mapped> mapping_of(std::uint16_t comm_index, std::uint16_t mapping_index,
-                                 bool* valid = nullptr) {
+  DRIVECHECK_FUZZ_ORACLE_CODE std::vector<Mapped> mapping_of(std::uint16_t comm_index,
+                                                             std::uint16_t mapping_index,
+                                                             bool* valid = nullptr) {
     std::vector<Mapped> out;
     const bool is_valid = (cob_id(comm_index) & 0x80000000u) == 0;
     if (valid != nullptr) *valid = is_valid;
@@ -292,7 +293,7 @@ class Harness {
     return out;
   }
 
-  std::set<Key> rpdo_mapped() {
+  DRIVECHECK_FUZZ_ORACLE_CODE std::set<Key> rpdo_mapped() {
     std::set<Key> out;
     for (std::uint16_t n = 0; n < 4; ++n) {
       bool valid = false;
@@ -303,7 +304,8 @@ class Harness {
     return out;
   }
 
-  void check_consistent(std::uint16_t comm_index, std::uint16_t mapping_index, bool tpdo) {
+  DRIVECHECK_FUZZ_ORACLE_CODE void check_consistent(std::uint16_t comm_index,
+                                                    std::uint16_t mapping_index, bool tpdo) {
     bool valid = false;
     const std::vector<Mapped> mapping = mapping_of(comm_index, mapping_index, &valid);
     if (!valid) return;
@@ -351,7 +353,7 @@ class Harness {
     std::set<Key> rpdo;
   };
 
-  void observe() {
+  DRIVECHECK_FUZZ_ORACLE_CODE void observe() {
     if (current_.taken && current_.revision == od().revision()) return;
     current_.revision = od().revision();
     current_.taken = true;
@@ -359,7 +361,7 @@ class Harness {
     current_.rpdo = rpdo_mapped();
   }
 
-  void after_step(std::set<Key> may_change) {
+  DRIVECHECK_FUZZ_ORACLE_CODE void after_step(std::set<Key> may_change) {
     // No value changed in this step: the PDOs are as consistent as after the last check and
     // no object changed (the first step is always checked).
     if (checked_ && od().revision() == current_.revision) return;
@@ -387,7 +389,7 @@ class Harness {
     }
   }
 
-  void on_wire(const can::TimedFrame& seen) {
+  DRIVECHECK_FUZZ_ORACLE_CODE void on_wire(const can::TimedFrame& seen) {
     const can::Frame& frame = seen.frame;
     if (seen.own || frame.is_remote() || frame.is_error()) return;
     if (seen.timestamp - last_config_change_ < kQuiet ||

@@ -131,9 +131,10 @@ class Shadow {
 
   // Puts `od` (which this shadow follows) back to `pristine_od`, and the shadow to `pristine`
   // (that dictionary's shadow), in every entry that changed since the last reset; then takes
-  // over `od`'s revisions.
-  void reset(ObjectDictionary& od, const ObjectDictionary& pristine_od, const Shadow& pristine,
-             const std::vector<EntryRef>& entries) {
+  // over `od`'s revisions. Harness work between inputs: not instrumented.
+  DRIVECHECK_FUZZ_ORACLE_CODE void reset(ObjectDictionary& od, const ObjectDictionary& pristine_od,
+                                         const Shadow& pristine,
+                                         const std::vector<EntryRef>& entries) {
     for (const std::size_t at : dirty_) {
       Entry* entry = od.find(entries[at].index, entries[at].sub);
       const Entry* original = pristine_od.find(entries[at].index, entries[at].sub);

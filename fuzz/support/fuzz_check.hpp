@@ -32,9 +32,10 @@ namespace drivecheck::fuzz {
 // Marks a hot oracle helper (e.g. comparing a whole dictionary after every frame) as not
 // instrumented for coverage: the oracle is not the code under test, its branches give the
 // engine no signal, and the per-comparison callbacks cost more than the target itself.
-// ASan and UBSan stay on.
+// ASan and UBSan stay on. Not inlined: inlined into an instrumented caller, its loops would
+// be instrumented there after all.
 #if defined(__clang__)
-#define DRIVECHECK_FUZZ_ORACLE_CODE __attribute__((no_sanitize("coverage")))
+#define DRIVECHECK_FUZZ_ORACLE_CODE __attribute__((no_sanitize("coverage"), noinline))
 #else
 #define DRIVECHECK_FUZZ_ORACLE_CODE
 #endif
