@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
@@ -30,6 +31,7 @@
 #include "conformance/od_checks.hpp"
 #include "conformance/sha256.hpp"
 #include "conformance/vector_file.hpp"
+#include "conformance/vector_order.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/can/socketcan_bus.hpp"
 #include "protocol/can/trace_recorder.hpp"
@@ -56,6 +58,7 @@ struct RunOptions {
   bool strict = false;
   bool allow_motion = false;
   std::uint64_t seed = 1;
+  std::string order = "file";
   std::string junit;
   std::string html;
   std::string json;
@@ -95,6 +98,13 @@ void run(const RunOptions& options) {
   const auto spec = parse_bus_spec(options.bus);
   if (!spec) usage_error("run", spec.error());
   const bool sim = spec->kind == BusSpec::Kind::sim;
+  auto order = conformance::parse_vector_order(options.order);
+  if (!order) usage_error("run", order.error());
+  // `shuffle` alone: a seed drawn here, recorded in the reports so that the run can be repeated.
+  if (order->kind == conformance::VectorOrder::Kind::shuffle && !order->seed) {
+    std::random_device entropy;
+    order->seed = (std::uint64_t{entropy()} << 32) | entropy();
+  }
   if (!sim && !options.deviations.empty())
     usage_error("run", "--deviation injects faults into the embedded drive: only with --bus sim");
 
@@ -179,11 +189,17 @@ void run(const RunOptions& options) {
       conformance::generate_od_vectors(eds_od ? &*eds_od : nullptr, options.eds, *profile);
   for (auto& vector : od_vectors)
     vectors.vectors.push_back(std::move(vector));
-
-  std::size_t total = 0;
-  for (const auto& vector : vectors.vectors) {
-    if (options.filter.empty() || profile::glob_match(options.filter, vector.id)) ++total;
+  // The selection first, then its order: a shuffle depends on the seed and the selection only.
+  if (!options.filter.empty()) {
+    std::erase_if(vectors.vectors, [&options](const conformance::Vector& vector) {
+      return !profile::glob_match(options.filter, vector.id);
+    });
   }
+  conformance::apply_order(vectors.vectors, *order);
+  if (order->kind != conformance::VectorOrder::Kind::file)
+    fmt::print("drivecheck run: vectors in {} order (repeat with --order {})\n",
+               conformance::to_string(*order), conformance::to_string(*order));
+  const std::size_t total = vectors.vectors.size();
   reports::ConsoleReporter console(stdout, reports::ConsoleOptions::detect(stdout, total));
 
   conformance::EngineOptions engine_options;
@@ -209,6 +225,7 @@ void run(const RunOptions& options) {
   info.eds_file = options.eds;
   info.eds_sha256 = eds_sha256;
   info.seed = options.seed;
+  info.order = conformance::to_string(*order);
   if (drive) {
     info.personality = drive->personality();
     info.deviations = drive->deviations();
@@ -312,6 +329,16 @@ void add_run_command(CLI::App& app) {
                 "Allow vectors that move the motor (needed on a real bus)");
   cmd->add_option("--seed", options->seed, "Seed of the simulated bus and faults")
       ->check(seed_validator())
+      ->capture_default_str();
+  cmd->add_option("--order", options->order,
+                  "Run order of the selected vectors: file, reverse, shuffle:SEED (shuffle alone "
+                  "draws a seed; the reports record it)")
+      ->check(CLI::Validator(
+          [](std::string& value) -> std::string {
+            const auto parsed = conformance::parse_vector_order(value);
+            return parsed ? std::string() : parsed.error();
+          },
+          "file|reverse|shuffle[:SEED]"))
       ->capture_default_str();
   cmd->add_option("--junit", options->junit, "Write a JUnit XML report")->type_name("FILE");
   cmd->add_option("--html", options->html, "Write an HTML report")->type_name("FILE");

@@ -144,6 +144,9 @@ struct RunInfo {
   std::string personality;              // embedded default: the personality the drive took
   std::vector<std::string> deviations;  // embedded default: deviations injected into the drive
   std::uint64_t seed = 0;
+  // The order the vectors ran in (conformance/vector_order.hpp): "file", "reverse",
+  // "shuffle:SEED".
+  std::string order = "file";
   bool strict = false;
   bool allow_motion = false;
   std::string filter;

@@ -563,9 +563,11 @@ void render_run_info(std::string& out, const RunResult& result) {
       list += (list.empty() ? "" : ", ") + deviation;
     row("Injected deviations", list);
   }
-  row("Options", fmt::format("seed {}{}{}{}", info.seed, info.strict ? ", --strict" : "",
-                             info.allow_motion ? ", --allow-motion" : "",
-                             info.filter.empty() ? "" : ", --filter " + info.filter));
+  row("Options",
+      fmt::format("seed {}{}{}{}{}", info.seed,
+                  info.order == "file" ? "" : ", --order " + info.order,
+                  info.strict ? ", --strict" : "", info.allow_motion ? ", --allow-motion" : "",
+                  info.filter.empty() ? "" : ", --filter " + info.filter));
   row("Duration",
       fmt::format("{:.3f} s bus time, {:.3f} s wall",
                   static_cast<double>(result.simulated.count()) / 1e9, result.wall_seconds));

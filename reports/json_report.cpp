@@ -392,6 +392,8 @@ RunResult read_run(Reader& reader, const json& document) {
       }
     }
     info.seed = reader.unsigned_integer(run, "seed");
+    // Optional: older reports ran in file order and do not say so.
+    info.order = reader.optional_string(run, "order").value_or("file");
     info.strict = reader.boolean(run, "strict");
     info.allow_motion = reader.boolean(run, "allow_motion");
     info.filter = reader.string(run, "filter");
@@ -446,6 +448,7 @@ std::string render_json(const RunResult& result) {
   run["personality"] = info.personality;
   run["deviations"] = info.deviations;
   run["seed"] = info.seed;
+  run["order"] = info.order;
   run["strict"] = info.strict;
   run["allow_motion"] = info.allow_motion;
   run["filter"] = info.filter;

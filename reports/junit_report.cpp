@@ -221,6 +221,7 @@ std::string render_junit(const RunResult& result) {
     add_property(properties, "bus", result.info.bus);
     add_property(properties, "node", std::to_string(result.info.node));
     add_property(properties, "seed", std::to_string(result.info.seed));
+    add_property(properties, "order", result.info.order);
     add_property(properties, "strict", result.info.strict ? "true" : "false");
     if (result.interrupted) add_property(properties, "interrupted", "true");
     if (result.dut_lost) add_property(properties, "dut_lost", "true");

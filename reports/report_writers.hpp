@@ -34,9 +34,11 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 //
 //   { "schema_version": 1, "generator": "drivecheck <version>",
 //     "run": { tool_version, started_utc, bus, node, profile: {name,title,file},
-//              eds: {file,sha256}, personality, deviations: [..], seed, strict, allow_motion,
-//              filter, dut: {device_type, device_name, hardware_version, software_version,
-//              vendor_id, product_code, revision, serial} (absent = not readable),
+//              eds: {file,sha256}, personality, deviations: [..], seed,
+//              order ("file" | "reverse" | "shuffle:SEED"; absent in older reports: file),
+//              strict, allow_motion, filter, dut: {device_type, device_name, hardware_version,
+//              software_version, vendor_id, product_code, revision, serial} (absent = not
+//              readable),
 //              interrupted, dut_lost, simulated_ns, simulated_s, wall_s },
 //     "counts": { pass, fail, deviation, not-applicable, error, warnings, total },
 //     "exit_code": 0|1|3|130,

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "tests/support/run_command.hpp"
 
@@ -66,6 +67,82 @@ TEST_F(CliRun, EmbeddedRunWritesReportsAndFailsOnAFailure) {
   const std::string report = text.str();
   EXPECT_NE(report.find("\"t/pass\""), std::string::npos);
   EXPECT_NE(report.find("\"t/fail\""), std::string::npos);
+}
+
+// The ids of the vectors in a JSON report, in report order.
+std::vector<std::string> report_ids(const std::filesystem::path& json) {
+  std::ifstream in(json);
+  std::ostringstream text;
+  text << in.rdbuf();
+  const std::string report = text.str();
+  std::vector<std::string> ids;
+  const std::string key = "\"id\": \"t/";
+  for (auto at = report.find(key); at != std::string::npos; at = report.find(key, at + 1)) {
+    const auto begin = at + key.size() - 2;
+    ids.push_back(report.substr(begin, report.find('"', begin) - begin));
+  }
+  return ids;
+}
+
+class CliRunOrder : public CliRun {
+ protected:
+  void SetUp() override {
+    CliRun::SetUp();
+    std::string text;
+    for (const char* name : {"a", "b", "c", "d", "e", "f"}) {
+      text += std::string("- id: t/") + name +
+              "\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n    - sdo_read: {index: "
+              "0x1000, sub: 0}\n";
+    }
+    write(text);
+  }
+  drivecheck::test_support::CommandResult run(const std::string& order, const std::string& json) {
+    return run_command({DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(), "--order",
+                        order, "--json", (dir_ / json).string()});
+  }
+};
+
+TEST_F(CliRunOrder, ReverseRunsTheVectorsBackwards) {
+  // Given vectors t/a..t/f / When run with --order reverse
+  const auto result = run("reverse", "r.json");
+  // Then they ran f..a, and the report and the console say so
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(report_ids(dir_ / "r.json"),
+            (std::vector<std::string>{"t/f", "t/e", "t/d", "t/c", "t/b", "t/a"}));
+  EXPECT_NE(result.out.find("--order reverse"), std::string::npos) << result.out;
+  std::ifstream in(dir_ / "r.json");
+  std::ostringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("\"order\": \"reverse\""), std::string::npos);
+}
+
+TEST_F(CliRunOrder, SameShuffleSeedRepeatsTheOrder) {
+  // Given vectors t/a..t/f / When run twice with --order shuffle:11 and once with shuffle
+  const auto first = run("shuffle:11", "1.json");
+  const auto second = run("shuffle:11", "2.json");
+  const auto drawn = run("shuffle", "3.json");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  ASSERT_EQ(drawn.exit_code, 0) << drawn.err;
+  // Then both seeded runs have the same order, not the file order, and each run records
+  // the seed it used
+  const auto ids = report_ids(dir_ / "1.json");
+  EXPECT_EQ(ids.size(), 6U);
+  EXPECT_EQ(ids, report_ids(dir_ / "2.json"));
+  EXPECT_NE(ids, (std::vector<std::string>{"t/a", "t/b", "t/c", "t/d", "t/e", "t/f"}));
+  EXPECT_NE(first.out.find("--order shuffle:11"), std::string::npos) << first.out;
+  EXPECT_NE(drawn.out.find("--order shuffle:"), std::string::npos) << drawn.out;
+  std::ifstream in(dir_ / "3.json");
+  std::ostringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("\"order\": \"shuffle:"), std::string::npos);
+}
+
+TEST_F(CliRunOrder, BadOrderIsExit2) {
+  // Given --order sideways / When run / Then exit 2 with a message naming it
+  const auto result = run("sideways", "x.json");
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("sideways"), std::string::npos) << result.err;
 }
 
 }  // namespace

@@ -104,6 +104,26 @@ TEST(JsonReport, CommissioningIsListedUnderTheProfileAndReadBack) {
       json::parse(render_json(valid_utf8_run()))["run"]["profile"].contains("commissioning"));
 }
 
+TEST(JsonReport, RunOrderIsWrittenAndReadBackAndDefaultsToFile) {
+  // Given a run made with --order shuffle:7
+  TempDir dir;
+  auto run = valid_utf8_run();
+  run.info.order = "shuffle:7";
+  // When written as JSON and read back
+  ASSERT_TRUE(write_json_report(dir / "run.json", run));
+  const auto read = read_json_report(dir / "run.json");
+  ASSERT_TRUE(read) << read.error().to_string();
+  // Then run.order holds it; a report without the key (older drivecheck) reads as file order
+  EXPECT_EQ(json::parse(render_json(run))["run"]["order"], "shuffle:7");
+  EXPECT_EQ(read->info.order, "shuffle:7");
+  json older = json::parse(render_json(run));
+  older["run"].erase("order");
+  ASSERT_TRUE(write_file_atomically(dir / "older.json", older.dump()));
+  const auto read_older = read_json_report(dir / "older.json");
+  ASSERT_TRUE(read_older) << read_older.error().to_string();
+  EXPECT_EQ(read_older->info.order, "file");
+}
+
 TEST(JsonReport, InvalidUtf8IsWrittenAsReplacementCharacter) {
   // Given a device name with invalid UTF-8 bytes
   // When written as JSON
