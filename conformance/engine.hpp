@@ -7,9 +7,10 @@
 //      `requires:` feature must be supported by the profile (`simulation`: a SimulationControl
 //      is present; `motion`: the bus is simulated or --allow-motion was given). Else N/A.
 //   2. setup (setup.cpp): reset-node / reset-communication (boot-up awaited within
-//      $timing.bootup) / restore-defaults (1011h sub 1 "load", then reset node) / none; then
-//      the profile's commissioning writes (FORMAT.md "Commissioning"; not after setup none),
-//      the NMT state (`nmt:`), then the CiA 402 state (`drive_state:`) by the standard path.
+//      $timing.bootup) / restore-defaults (reset communication, 1011h sub 1 "load", then
+//      reset node) / none; then the profile's commissioning writes (FORMAT.md
+//      "Commissioning"; not after setup none), the NMT state (`nmt:`), then the CiA 402 state
+//      (`drive_state:`) by the standard path.
 //   3. steps, in order, each with its own deadline (`within:` etc.) and the vector's `timeout:`
 //      over all; the first failed check ends the steps.
 //   4. teardown (always): with CiA 402, after a motion vector or when the last statusword read

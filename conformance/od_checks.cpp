@@ -58,8 +58,11 @@ Vector make(const OdObject& object, std::string check, std::string title, Step s
   vector.title = std::move(title);
   vector.sources.push_back(Source{object.source, "", "", 0, 0, 0});
   vector.level = Level::must;
-  vector.setup = Setup::none;
-  vector.nmt.reset();
+  // Every check establishes its own state (FORMAT.md "Isolation"): reset node, so that
+  // `default` reads the value a reset gives and no NMT state, half-done SDO transfer or value
+  // left by the vector before (in whatever order they run) decides the verdict.
+  vector.setup = Setup::reset_node;
+  vector.nmt = cia301::NmtState::pre_operational;
   vector.timeout = DurationSpec{std::chrono::seconds(5), {}};
   vector.file = "(generated)";
   vector.steps.push_back(std::move(step));
@@ -177,8 +180,6 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
         limit_vector(*object.max + 1, "above-max", "max + 1");
     }
   }
-  if (!vectors.empty()) vectors.front().setup = Setup::reset_node;
-  if (!vectors.empty()) vectors.front().nmt = cia301::NmtState::pre_operational;
   return vectors;
 }
 

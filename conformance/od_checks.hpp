@@ -10,8 +10,9 @@
 // 00h of a PDO mapping record also the mapping procedure's 06040042h, 06010000h, 06040043h,
 // 08000022h: CiA 301 §7.5.2.36/38, see protocol/cia301/pdo_service.hpp.)
 // 1003h sub 1..254 (present only while errors are recorded) get no read check.
-// Only fixed-size integer types get the size/limit/default checks. The first vector resets
-// the node; the others run without setup (they change nothing when the DUT is right).
+// Only fixed-size integer types get the size/limit/default checks. Every vector resets the node
+// and runs in Pre-operational, so its verdict does not depend on the vectors run before it
+// (`drivecheck run --order`); `default` is the value after a reset node.
 //
 // Not built yet: probing for objects the device has but the EDS lacks (1000h-1FFFh,
 // 6000h-67FFh).

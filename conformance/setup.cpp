@@ -121,6 +121,11 @@ StepStatus VectorRun::setup() {
     case Setup::none:
       break;
     case Setup::restore_defaults: {
+      // The SDO server in a known state first, whatever the vector before left (NMT Stopped,
+      // where SDO is not served; a transfer it did not finish; SDO COB-IDs it changed): reset
+      // communication, boot-up awaited.
+      if (auto s = command(cia301::NmtCommand::reset_communication); s != StepStatus::ok) return s;
+      if (auto s = await_bootup("setup restore-defaults"); s != StepStatus::ok) return s;
       // 1011h sub 1 := "load" (6C 6F 61 64), then reset node (CiA 301 §7.5.2.14).
       const std::array<std::uint8_t, 4> load{0x6C, 0x6F, 0x61, 0x64};
       const auto outcome = sdo_download({0x1011, 1}, load);

@@ -613,8 +613,16 @@ TEST_F(EngineTest, OdChecksCatchAWrongAccessType) {
   ASSERT_EQ(vectors.size(), 2U);
   EXPECT_EQ(vectors[0].id, "eds/od/6041-00/read");
   EXPECT_EQ(vectors[1].id, "eds/od/6041-00/write-ro");
+  // Then each check resets the node and runs in Pre-operational: none relies on the vector
+  // before it (FORMAT.md "Isolation")
+  for (const auto& vector : vectors) {
+    EXPECT_EQ(vector.setup, Setup::reset_node) << vector.id;
+    EXPECT_EQ(vector.nmt, cia301::NmtState::pre_operational) << vector.id;
+  }
   test_support::ScriptedPeer peer(*peer_port_);
-  peer.expect("601#2B41600000000000")  // ccs=1 n=2 e=1 s=1, 6041h sub 0, data 0000h
+  peer.expect("000#8101")              // NMT reset node, node 1
+      .reply("701#00")                 // boot-up
+      .expect("601#2B41600000000000")  // ccs=1 n=2 e=1 s=1, 6041h sub 0, data 0000h
       .reply("581#6041600000000000");  // scs=3: download confirmed (wrong: 6041h is ro)
   // When the write-ro check runs against that DUT
   Engine engine(*harness_, *parsed, {});

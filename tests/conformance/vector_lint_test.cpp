@@ -3,9 +3,11 @@
 #include "conformance/vector_lint.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
+#include <string>
 
 #include "conformance/sha256.hpp"
 #include "conformance/vector_file.hpp"
@@ -27,7 +29,9 @@ TEST(Sha256, KnownDigests) {
 class LintTree : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = std::filesystem::temp_directory_path() / "drivecheck_lint_test";
+    // One directory per process: CTest runs these tests in parallel, one process each.
+    root_ = std::filesystem::temp_directory_path() /
+            ("drivecheck_lint_test_" + std::to_string(::getpid()));
     std::filesystem::remove_all(root_);
     std::filesystem::create_directories(root_ / "vectors");
     std::filesystem::create_directories(root_ / "manuals");
