@@ -493,6 +493,10 @@ ObjectRule read_object_rule(const Reader& r, const YAML::Node& node) {
   return o;
 }
 
+// Features of the hardware enable input (FORMAT.md "Features").
+constexpr std::string_view kHardwareEnableT2 = "hardware-enable.transition-2";
+constexpr std::string_view kHardwareEnableT3 = "hardware-enable.transition-3";
+
 Personality read_personality(const Reader& r, const YAML::Node& node) {
   const MapView map(r, node, "personality",
                     {"identity",
@@ -867,6 +871,16 @@ DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOp
     p.features.insert(f);
   }
   p.features.insert(implied.begin(), implied.end());
+  // Which transition waits for the hardware enable: one of them, and it implies the input.
+  if (p.features.contains(std::string(kHardwareEnableT2)) &&
+      p.features.contains(std::string(kHardwareEnableT3))) {
+    r.fail(features, fmt::format("features: {} and {} exclude each other", kHardwareEnableT2,
+                                 kHardwareEnableT3));
+  }
+  if (p.features.contains(std::string(kHardwareEnableT2)) ||
+      p.features.contains(std::string(kHardwareEnableT3))) {
+    p.features.insert("hardware-enable");
+  }
 
   if (auto v = map.get("timing")) {
     const YAML::Node& timing = *v;
@@ -923,6 +937,18 @@ DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOp
   if (auto v = map.get("commissioning")) p.commissioning = read_commissioning(r, *v);
   if (auto v = map.get("personality")) {
     p.personality = read_personality(r, *v);
+    // The transition the personality's hardware enable holds is the profile's feature too.
+    if (p.personality.hardware_enable != HardwareEnable::none) {
+      const bool t2 = p.personality.hardware_enable == HardwareEnable::transition_2;
+      const std::string_view own = t2 ? kHardwareEnableT2 : kHardwareEnableT3;
+      const std::string_view other = t2 ? kHardwareEnableT3 : kHardwareEnableT2;
+      if (p.features.contains(std::string(other))) {
+        r.fail(*v, fmt::format("personality.hardware_enable: {} contradicts the feature {}",
+                               to_string(p.personality.hardware_enable), other));
+      }
+      p.features.emplace(own);
+      p.features.insert("hardware-enable");
+    }
     // The personality must be able to do what it says with the profile's lists.
     const Personality effective = p.effective_personality();
     const std::vector<int>& modes = *effective.modes;

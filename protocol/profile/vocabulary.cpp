@@ -23,7 +23,7 @@ constexpr std::array<OptionCodeInfo, kOptionCodeCount> kOptionCodes{{
     {OptionCode::abort_connection, "abort-connection", 0x6007},
 }};
 
-constexpr std::array<std::string_view, 35> kFixedFeatures{
+constexpr std::array<std::string_view, 37> kFixedFeatures{
     "sdo.segmented",
     "sdo.block",
     "sdo.expedited",
@@ -47,6 +47,8 @@ constexpr std::array<std::string_view, 35> kFixedFeatures{
     "restore",
     "cia402",
     "hardware-enable",
+    "hardware-enable.transition-2",
+    "hardware-enable.transition-3",
     "mode.pp",
     "mode.vl",
     "mode.pv",

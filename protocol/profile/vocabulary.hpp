@@ -6,10 +6,11 @@
 //   sdo.segmented sdo.block sdo.expedited nmt.guarding heartbeat.producer heartbeat.consumer
 //   emcy emcy.inhibit emcy.history sync sync.producer sync.counter time pdo
 //   pdo.dynamic-mapping pdo.rtr pdo.event-timer pdo.inhibit pdo.sync-window store restore
-//   cia402 hardware-enable mode.pp mode.vl mode.pv mode.tq mode.hm mode.ip mode.csp mode.csv
-//   mode.cst transition.16 simulation motion
-//   homing.method.<n>            n: decimal integer -128..127 (CiA 402 or manufacturer method)
-//   option.<object>.<value>      object: an option-code name below; value: decimal -32768..32767
+//   cia402 hardware-enable hardware-enable.transition-2 hardware-enable.transition-3 mode.pp
+//   mode.vl mode.pv mode.tq mode.hm mode.ip mode.csp mode.csv mode.cst transition.16 simulation
+//   motion homing.method.<n>            n: decimal integer -128..127 (CiA 402 or manufacturer
+//   method) option.<object>.<value>      object: an option-code name below; value: decimal
+//   -32768..32767
 //
 // Option-code objects (CiA 402-2 §8.4, INTEGER16 each):
 //   quick-stop 605Ah   shutdown 605Bh   disable-operation 605Ch   halt 605Dh

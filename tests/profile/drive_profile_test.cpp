@@ -62,6 +62,23 @@ TEST(DriveProfileLoad, ListsImplyTheirFeatures) {
   EXPECT_TRUE(p->supports("emcy"));
 }
 
+TEST(DriveProfileLoad, TheHardwareEnableTransitionImpliesTheInput) {
+  // Given a personality whose transition 2 waits for the hardware enable
+  auto p = parse(std::string(kMinimal) + "personality:\n  hardware_enable: transition-2\n");
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  // Then the profile supports that transition's feature and the input, not the other one
+  EXPECT_TRUE(p->supports("hardware-enable.transition-2"));
+  EXPECT_TRUE(p->supports("hardware-enable"));
+  EXPECT_FALSE(p->supports("hardware-enable.transition-3"));
+  // And a listed transition feature alone implies the input too
+  auto listed = parse(R"(name: test-drive
+title: "A test drive"
+features: [cia402, hardware-enable.transition-3]
+)");
+  ASSERT_TRUE(listed.has_value()) << listed.error().to_string();
+  EXPECT_TRUE(listed->supports("hardware-enable"));
+}
+
 TEST(DriveProfileLoad, TimingOverridesAndDefaults) {
   // Given a timing override / When looked up / Then the override wins, others keep defaults
   auto p = parse(std::string(kMinimal) + "timing: {ack_latency: 4ms, homing: 1min}\n");
@@ -205,6 +222,14 @@ INSTANTIATE_TEST_SUITE_P(
         ErrorCase{"ManufacturerModeBadBehaviour",
                   with("personality:\n  manufacturer_modes: [{value: -3, behaves_as: 5}]\n"), 8,
                   "not a CiA 402 mode"},
+        ErrorCase{"HardwareEnableContradiction",
+                  "name: test-drive\ntitle: T\nfeatures: [cia402, hardware-enable.transition-3]\n"
+                  "personality:\n  hardware_enable: transition-2\n",
+                  5, "contradicts the feature hardware-enable.transition-3"},
+        ErrorCase{"HardwareEnableBothTransitions",
+                  "name: test-drive\ntitle: T\nfeatures: [hardware-enable.transition-2, "
+                  "hardware-enable.transition-3]\n",
+                  3, "exclude each other"},
         ErrorCase{"ManufacturerModeBadLogic",
                   with("personality:\n  manufacturer_modes: [{value: -3, logic: jog}]\n"), 8,
                   "manufacturer_modes.logic: 'jog' is not one of behaves-as, irtsa-mpp"},
