@@ -62,18 +62,24 @@ void ManualProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) 
   trajectory_.set_smoothing(
       ctx.read_signed(cia402::kMotionProfileType) != 0 ? ctx.jerk_smoothing_cycles : 0);
   const bool bounded = ctx.min_position <= ctx.max_position;
-  if (direction_ == 0) {
+  const double end = direction_ > 0 ? ctx.max_position : ctx.min_position;
+  // At or beyond the software limit in the jog's direction: no further (and never back).
+  const bool at_limit =
+      bounded && direction_ != 0 &&
+      (direction_ > 0 ? trajectory_.position() >= end : trajectory_.position() <= end);
+  if (direction_ == 0 || at_limit) {
     trajectory_.stop(limits.deceleration);
   } else if (bounded) {
     // Toward the software limit as a positioning: it brakes in time and stands there.
-    const double end = direction_ > 0 ? ctx.max_position : ctx.min_position;
     trajectory_.move_to(end, limits);
   } else {
     trajectory_.run_at(direction_ * limits.velocity, limits);
   }
   trajectory_.step(std::chrono::duration<double>(cycle.period).count());
   ctx.axis.command_position(trajectory_.position());
-  if (bounded && direction_ != 0 && trajectory_.profile_done()) ctx.position_limited = true;
+  if (at_limit || (bounded && direction_ != 0 && trajectory_.profile_done())) {
+    ctx.position_limited = true;
+  }
   if (ctx.following_error) bits_ |= kFollowingError;
 }
 

@@ -1032,6 +1032,26 @@ TEST(IrtsaManualPositioning, TheDirectionSetFirstWinsWhileBothBitsAreSet) {
   EXPECT_EQ(d.value(0x606C), 0);
 }
 
+TEST(IrtsaManualPositioning, BeyondASoftwareLimitItDoesNotJogBack) {
+  // Given IRTSA mpp at rest at 6064h = 1000 and a software limit max 500 set afterwards
+  Cia402Drive d(irtsa_mpp());
+  ASSERT_TRUE(d.app().simulate("axis-position", 1000));
+  d.enable(-127);
+  d.write(0x607D, 1, -500, 4);
+  d.write(0x607D, 2, 500, 4);
+  d.write(0x6081, 0, 2000, 4);
+  // When bit 5 (positive) is set for 500 ms
+  d.controlword(0x002F);
+  d.rig().run(500ms);
+  // Then the axis stays where it is (bit 11), it is not pulled back to the limit
+  EXPECT_NEAR(d.value(0x6064), 1000, 5);
+  EXPECT_NE(d.statusword() & kInternalLimit, 0);
+  // And bit 6 (negative, back inside) jogs
+  d.controlword(0x004F);
+  d.rig().run(300ms);
+  EXPECT_LT(d.value(0x606C), -1900);
+}
+
 TEST(IrtsaManualPositioning, StopsAtTheSoftwareLimitAndHalts) {
   // Given IRTSA mpp with software limits -1000..3000
   Cia402Drive d(irtsa_mpp());
