@@ -222,6 +222,12 @@ INSTANTIATE_TEST_SUITE_P(
         ErrorCase{"ManufacturerModeBadBehaviour",
                   with("personality:\n  manufacturer_modes: [{value: -3, behaves_as: 5}]\n"), 8,
                   "not a CiA 402 mode"},
+        ErrorCase{"ManufacturerObjectsBadChoice",
+                  with("personality:\n  manufacturer_objects: festo\n"), 8,
+                  "personality.manufacturer_objects: 'festo' is not one of none, kollmorgen"},
+        ErrorCase{"PositionSamplingBadChoice",
+                  with("personality:\n  position_sampling: kollmorgen\n"), 8,
+                  "personality.position_sampling: 'kollmorgen' is not one of none, festo"},
         ErrorCase{"HardwareEnableContradiction",
                   "name: test-drive\ntitle: T\nfeatures: [cia402, hardware-enable.transition-3]\n"
                   "personality:\n  hardware_enable: transition-2\n",
@@ -390,6 +396,8 @@ personality:
   ip_submode: -2
   power_stage_in_switched_on: true
   nmt_min_spacing: 1ms
+  manufacturer_objects: kollmorgen
+  position_sampling: festo
   note: "why"
 commissioning:
   vectors: ["cia402/*"]

@@ -222,42 +222,5 @@ TEST(KollmorgenObjects, StandardDriveHasNone) {
   EXPECT_EQ(channel, kNoObject);
 }
 
-constexpr std::string_view kProfile = R"(name: test-drive
-title: "A test drive"
-features: [cia402]
-modes: [1]
-personality:
-  manufacturer_objects: kollmorgen
-)";
-
-TEST(ManufacturerObjectsKey, ParsesAndRoundTrips) {
-  // Given a profile whose personality asks for the Kollmorgen objects
-  profile::ParseOptions options;
-  options.check_name = false;
-  // When it is parsed, written with to_yaml and parsed again
-  auto parsed = profile::parse_profile(kProfile, options);
-  ASSERT_TRUE(parsed.has_value()) << parsed.error().to_string();
-  auto again = profile::parse_profile(profile::to_yaml(*parsed), options);
-  // Then the key reads kollmorgen both times
-  ASSERT_TRUE(again.has_value()) << again.error().to_string();
-  EXPECT_EQ(parsed->personality.manufacturer_objects, profile::ManufacturerObjects::kollmorgen);
-  EXPECT_EQ(*again, *parsed);
-}
-
-TEST(ManufacturerObjectsKey, UnknownValueIsAnError) {
-  // Given the key with a value that is not in its vocabulary
-  std::string text(kProfile);
-  text.replace(text.find("kollmorgen"), 10, "festo");
-  profile::ParseOptions options;
-  options.check_name = false;
-  // When it is parsed
-  auto parsed = profile::parse_profile(text, options);
-  // Then it fails at the key's line, naming the accepted values
-  ASSERT_FALSE(parsed.has_value());
-  EXPECT_NE(parsed.error().to_string().find("manufacturer_objects"), std::string::npos);
-  EXPECT_NE(parsed.error().to_string().find("none, kollmorgen"), std::string::npos);
-  EXPECT_EQ(parsed.error().line, 6);
-}
-
 }  // namespace
 }  // namespace drivecheck::reference_drive
