@@ -56,6 +56,16 @@ Frame request(std::uint32_t id, std::uint32_t sequence) {
            static_cast<std::uint8_t>(sequence)});
 }
 
+// request() as the kernel's struct, for the raw sockets.
+can_frame kernel_request(std::uint32_t id, std::uint32_t sequence) {
+  const Frame sent = request(id, sequence);
+  can_frame out{};
+  out.can_id = id;
+  out.len = 8;
+  std::memcpy(out.data, sent.data.data(), 8);
+  return out;
+}
+
 // One round trip of each kind; false (with a message) when the answer is missing or wrong.
 bool bus_trip(SocketCanBus& bus, std::uint32_t sequence) {
   const Frame sent = request(kBusRequest, sequence);
@@ -72,11 +82,7 @@ bool bus_trip(SocketCanBus& bus, std::uint32_t sequence) {
 }
 
 bool raw_trip(int fd, std::uint32_t sequence) {
-  const Frame sent = request(kRawRequest, sequence);
-  can_frame out{};
-  out.can_id = kRawRequest;
-  out.len = 8;
-  std::memcpy(out.data, sent.data.data(), 8);
+  const can_frame out = kernel_request(kRawRequest, sequence);
   can_frame in{};
   if (::write(fd, &out, sizeof out) != static_cast<ssize_t>(sizeof out) ||
       ::read(fd, &in, sizeof in) != static_cast<ssize_t>(sizeof in) ||
@@ -89,11 +95,7 @@ bool raw_trip(int fd, std::uint32_t sequence) {
 }
 
 bool stamped_trip(drivecheck::vm::StampedRawSocket& socket, std::uint32_t sequence) {
-  const Frame sent = request(kStampedRequest, sequence);
-  can_frame out{};
-  out.can_id = kStampedRequest;
-  out.len = 8;
-  std::memcpy(out.data, sent.data.data(), 8);
+  const can_frame out = kernel_request(kStampedRequest, sequence);
   can_frame in{};
   if (!socket.send(out) || !socket.receive(in) || in.can_id != kStampedRequest + 1 ||
       std::memcmp(in.data, out.data, 8) != 0) {
