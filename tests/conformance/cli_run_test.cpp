@@ -3,15 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "tests/support/run_command.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace {
 
+using drivecheck::test_support::read_file;
 using drivecheck::test_support::run_command;
 
 class CliRun : public ::testing::Test {
@@ -61,20 +61,14 @@ TEST_F(CliRun, EmbeddedRunWritesReportsAndFailsOnAFailure) {
       {DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(), "--json", json});
   // Then exit 1, the JSON report exists and names both vectors
   EXPECT_EQ(run.exit_code, 1) << run.err;
-  std::ifstream in(json);
-  std::ostringstream text;
-  text << in.rdbuf();
-  const std::string report = text.str();
+  const std::string report = read_file(json);
   EXPECT_NE(report.find("\"t/pass\""), std::string::npos);
   EXPECT_NE(report.find("\"t/fail\""), std::string::npos);
 }
 
 // The ids of the vectors in a JSON report, in report order.
 std::vector<std::string> report_ids(const std::filesystem::path& json) {
-  std::ifstream in(json);
-  std::ostringstream text;
-  text << in.rdbuf();
-  const std::string report = text.str();
+  const std::string report = read_file(json);
   std::vector<std::string> ids;
   const std::string key = "\"id\": \"t/";
   for (auto at = report.find(key); at != std::string::npos; at = report.find(key, at + 1)) {
@@ -110,10 +104,7 @@ TEST_F(CliRunOrder, ReverseRunsTheVectorsBackwards) {
   EXPECT_EQ(report_ids(dir_ / "r.json"),
             (std::vector<std::string>{"t/f", "t/e", "t/d", "t/c", "t/b", "t/a"}));
   EXPECT_NE(result.out.find("--order reverse"), std::string::npos) << result.out;
-  std::ifstream in(dir_ / "r.json");
-  std::ostringstream text;
-  text << in.rdbuf();
-  EXPECT_NE(text.str().find("\"order\": \"reverse\""), std::string::npos);
+  EXPECT_NE(read_file(dir_ / "r.json").find("\"order\": \"reverse\""), std::string::npos);
 }
 
 TEST_F(CliRunOrder, SameShuffleSeedRepeatsTheOrder) {
@@ -132,10 +123,7 @@ TEST_F(CliRunOrder, SameShuffleSeedRepeatsTheOrder) {
   EXPECT_NE(ids, (std::vector<std::string>{"t/a", "t/b", "t/c", "t/d", "t/e", "t/f"}));
   EXPECT_NE(first.out.find("--order shuffle:11"), std::string::npos) << first.out;
   EXPECT_NE(drawn.out.find("--order shuffle:"), std::string::npos) << drawn.out;
-  std::ifstream in(dir_ / "3.json");
-  std::ostringstream text;
-  text << in.rdbuf();
-  EXPECT_NE(text.str().find("\"order\": \"shuffle:"), std::string::npos);
+  EXPECT_NE(read_file(dir_ / "3.json").find("\"order\": \"shuffle:"), std::string::npos);
 }
 
 TEST_F(CliRunOrder, BadOrderIsExit2) {

@@ -16,6 +16,17 @@ namespace {
 
 using namespace std::chrono_literals;
 
+// A powered axis following set-points, commanded to `velocity` for `cycles` steps of 1 ms.
+AxisModel axis_running_at(double velocity, int cycles) {
+  AxisModel axis;
+  axis.follow_set_points();
+  for (int i = 0; i < cycles; ++i) {
+    axis.command_velocity(velocity);
+    axis.advance(1ms);
+  }
+  return axis;
+}
+
 TEST(AxisModel, PositionControlHoldsTheDemand) {
   // Given a powered axis following set-points
   AxisModel axis;
@@ -33,12 +44,7 @@ TEST(AxisModel, PositionControlHoldsTheDemand) {
 
 TEST(AxisModel, RampToStopUsesTheDecelerationGiven) {
   // Given an axis running at 10000 increments/s
-  AxisModel axis;
-  axis.follow_set_points();
-  for (int i = 0; i < 50; ++i) {
-    axis.command_velocity(10000.0);
-    axis.advance(1ms);
-  }
+  AxisModel axis = axis_running_at(10000.0, 50);
   ASSERT_NEAR(axis.velocity(), 10000.0, 1e-6);
   // When it is stopped at 100000 increments/s²
   axis.ramp_to_stop(100000);
@@ -54,12 +60,7 @@ TEST(AxisModel, RampToStopUsesTheDecelerationGiven) {
 
 TEST(AxisModel, FreeAxisCoastsOnFriction) {
   // Given an axis at 1000 increments/s with 5 ‰ friction (20000 increments/s²)
-  AxisModel axis;
-  axis.follow_set_points();
-  for (int i = 0; i < 10; ++i) {
-    axis.command_velocity(1000.0);
-    axis.advance(1ms);
-  }
+  AxisModel axis = axis_running_at(1000.0, 10);
   // When the power is removed
   axis.disable_power();
   // Then it coasts to rest within 50 ms + a cycle
@@ -70,12 +71,7 @@ TEST(AxisModel, FreeAxisCoastsOnFriction) {
 
 TEST(AxisModel, RemovingThePowerTakesTheTorqueAtOnce) {
   // Given an axis braking on a stop ramp (the motor gives torque)
-  AxisModel axis;
-  axis.follow_set_points();
-  for (int i = 0; i < 10; ++i) {
-    axis.command_velocity(1000.0);
-    axis.advance(1ms);
-  }
+  AxisModel axis = axis_running_at(1000.0, 10);
   axis.ramp_to_stop(100000);
   axis.advance(1ms);
   ASSERT_NE(axis.torque(), 0.0);
