@@ -180,7 +180,8 @@ TEST(DetectedFeatures, StaticMappingRefusedAndTpdo1PutBack) {
   ASSERT_EQ(device.downloads.size(), 3U);
   EXPECT_EQ(device.downloads[0].second, (std::vector<std::uint8_t>{0x81, 0x01, 0x00, 0xC0}));
   EXPECT_EQ(device.downloads.back().second, (std::vector<std::uint8_t>{0x81, 0x01, 0x00, 0x40}));
-  EXPECT_EQ(device.objects[{0x1800, 1}], (std::vector<std::uint8_t>{0x81, 0x01, 0x00, 0x40}));
+  const auto& tpdo1_cob = device.objects[{0x1800, 1}];
+  EXPECT_EQ(tpdo1_cob, (std::vector<std::uint8_t>{0x81, 0x01, 0x00, 0x40}));
 }
 
 TEST(DetectedFeatures, DynamicMappingAccepted) {
