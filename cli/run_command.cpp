@@ -27,6 +27,7 @@
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
+#include "conformance/capabilities.hpp"
 #include "conformance/engine.hpp"
 #include "conformance/od_checks.hpp"
 #include "conformance/sha256.hpp"
@@ -35,6 +36,7 @@
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/can/socketcan_bus.hpp"
 #include "protocol/can/trace_recorder.hpp"
+#include "protocol/cia301/nmt_master.hpp"
 #include "protocol/cia306/eds.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
@@ -52,7 +54,7 @@ namespace {
 struct RunOptions {
   std::string bus = "sim";
   int node = 1;
-  std::string profile = "cia402-reference";
+  std::string profile;  // empty: chosen (cia402-reference on sim, from 1000h on a real bus)
   std::string eds;
   std::string filter;
   bool strict = false;
@@ -120,8 +122,19 @@ void run(const RunOptions& options) {
     exit_with(kExitUsage);
     return;
   }
-  auto profile = profile::find_profile(options.profile, vectors_dir / "drives");
+  // The profile: as given; else the embedded default on the simulated bus; else chosen from the
+  // DUT's 1000h once the bus is open (choose_generic_profile, below).
+  const std::string first_profile = !options.profile.empty() ? options.profile
+                                    : sim                    ? "cia402-reference"
+                                                             : "cia301-device";
+  auto profile = profile::find_profile(first_profile, vectors_dir / "drives");
   if (!profile) bad_input(profile.error().to_string());
+  std::string profile_choice =
+      !options.profile.empty() ? fmt::format("--profile {}", options.profile)
+      : sim                    ? std::string(
+                                     "the embedded default (--bus sim without --profile): the reference "
+                                                        "drive's own profile")
+            : std::string();
 
   std::optional<cia301::ObjectDictionary> eds_od;
   std::string eds_sha256;
@@ -184,6 +197,28 @@ void run(const RunOptions& options) {
     }
   }
 
+  // A real bus without --profile: 1000h says what the DUT is (CiA 301 §7.5.2.1: bits 0..15 the
+  // device profile number).
+  if (options.profile.empty() && !sim) {
+    (void)port->send(cia301::NmtMaster().command(cia301::NmtCommand::enter_pre_operational,
+                                                 static_cast<std::uint8_t>(options.node)));
+    conformance::EngineOptions probe_options;
+    probe_options.node = static_cast<std::uint8_t>(options.node);
+    probe_options.real_bus = true;
+    std::optional<std::uint32_t> device_type;
+    {
+      conformance::Engine probe(*port, *profile, probe_options);
+      device_type = probe.read_device_type();
+    }
+    const auto choice = conformance::choose_generic_profile(device_type);
+    if (choice.name != profile->name) {
+      profile = profile::find_profile(choice.name, vectors_dir / "drives");
+      if (!profile) bad_input(profile.error().to_string());
+    }
+    profile_choice = choice.why;
+  }
+  fmt::print("drivecheck run: profile {} ({})\n", profile->name, profile_choice);
+
   // EDS-driven object dictionary checks (family eds/od) from the EDS and the profile's objects.
   auto od_vectors =
       conformance::generate_od_vectors(eds_od ? &*eds_od : nullptr, options.eds, *profile);
@@ -222,6 +257,7 @@ void run(const RunOptions& options) {
   info.started_utc = utc_now();
   info.bus = options.bus;
   info.profile_file = profile->path.string();
+  info.profile_choice = profile_choice;
   info.eds_file = options.eds;
   info.eds_sha256 = eds_sha256;
   info.seed = options.seed;
@@ -315,9 +351,10 @@ void add_run_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--profile", options->profile,
                   "Drive profile: a vectors/drives/*.yaml file or its name (e.g. festo-cmmp); "
-                  "on the simulated bus also the reference drive's personality")
-      ->type_name("FILE|NAME")
-      ->capture_default_str();
+                  "on the simulated bus also the reference drive's personality. Default: "
+                  "cia402-reference on --bus sim; on a real bus chosen from the drive's 1000h "
+                  "(device profile 402: cia402-device, else cia301-device)")
+      ->type_name("FILE|NAME");
   cmd->add_option("--eds", options->eds, "The drive's EDS/DCF file")
       ->check(CLI::ExistingFile)
       ->type_name("FILE");

@@ -3,7 +3,8 @@
 #   drivecheck_add_conformance_test(<name>
 #       [BUS sim|socketcan:<if>|socketcan:@<resource>]   default sim (the embedded drive)
 #       [NODE <1..127>]                                   default 1
-#       [PROFILE <file|name>]                             default cia402-reference
+#       [PROFILE <file|name>]                             default drivecheck run's: cia402-reference on
+#                                                         sim, chosen from 1000h on a real bus
 #       [EDS <file>]
 #       [FILTER <glob>]                                   e.g. "cia402/homing/*"
 #       [DEVIATIONS <name>...]                            embedded drive only

@@ -5,7 +5,9 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <set>
 
+#include "conformance/capabilities.hpp"
 #include "conformance/pdo_tracker.hpp"
 #include "conformance/samples.hpp"
 #include "conformance/vector_run.hpp"
@@ -40,6 +42,38 @@ void keep_head_and_tail(VectorResult& result) {
   result.frames_elided_at = kHeadFrames;
 }
 
+// The capability probes (capabilities.hpp) through one harness VectorRun: SDO transfers and, on
+// CAN, a node guarding request (a remote frame on 700h+N).
+class RunProbe final : public DeviceProbe {
+ public:
+  explicit RunProbe(VectorRun& run) : run_(run) {}
+  Answer upload(std::uint16_t index, std::uint8_t sub) override {
+    return answer(run_.sdo_upload({index, sub}));
+  }
+  Answer block_upload(std::uint16_t index, std::uint8_t sub) override {
+    return answer(run_.sdo_upload({index, sub}, Transfer::block));
+  }
+  Answer download(std::uint16_t index, std::uint8_t sub,
+                  std::span<const std::uint8_t> data) override {
+    return answer(run_.sdo_download({index, sub}, data));
+  }
+  std::optional<bool> guarding_answered() override {
+    const std::uint32_t cob = 0x700U + run_.node();
+    if (run_.send(can::Frame::remote(cob, 1))) return false;
+    const auto deadline = run_.now() + run_.resolve({{}, "response"});
+    while (auto frame = run_.pump(deadline)) {
+      if (frame->frame.id == cob && !frame->frame.is_remote()) return true;
+    }
+    return false;
+  }
+
+ private:
+  static Answer answer(const SdoOutcome& outcome) {
+    return {outcome.ok, outcome.data, outcome.abort};
+  }
+  VectorRun& run_;
+};
+
 }  // namespace
 
 class Engine::Impl {
@@ -52,6 +86,7 @@ class Engine::Impl {
         options_(std::move(options)),
         dissector_(dissector_options(options_)),
         pdo_(profile_, options_.node),
+        capabilities_(options_.eds),
         context_{bus_,    profile_, options_, dissector_,   interrupted,
                  stalled, progress, pdo_,     std::nullopt, false} {
     bus_.set_frame_handler({});
@@ -91,7 +126,8 @@ class Engine::Impl {
 
     const ApplicabilityContext applicability{
         options_.simulation != nullptr, !options_.real_bus || options_.allow_motion,
-        !options_.real_bus && options_.simulation != nullptr && options_.simulation->can_bus_off()};
+        !options_.real_bus && options_.simulation != nullptr && options_.simulation->can_bus_off(),
+        &capabilities_};
     if (auto reason = not_applicable_reason(vector, profile_, applicability); !reason.empty()) {
       result.verdict = Verdict::not_applicable;
       result.message = std::move(reason);
@@ -256,11 +292,32 @@ class Engine::Impl {
     return identity;
   }
 
+  // Once per run, before the first vector: the object needs of the selected vectors and the
+  // profile's `detect:` features (capabilities.hpp), with the DUT in pre-operational.
+  void probe_capabilities(const std::vector<const Vector*>& selected,
+                          std::optional<std::uint32_t> device_type) {
+    std::set<profile::ObjectNeed> needs;
+    for (const auto* vector : selected)
+      for (const auto& need : object_needs(*vector))
+        needs.insert(need);
+    if (needs.empty() && profile_.detect.empty()) return;
+    Vector probe;
+    probe.id = "harness/capabilities";
+    probe.setup = Setup::none;
+    probe.nmt.reset();
+    probe.timeout = DurationSpec{std::chrono::minutes(10), {}};
+    VectorResult scratch;
+    VectorRun run(context_, probe, scratch);
+    RunProbe device(run);
+    capabilities_.probe(device, needs, profile_.detect, device_type);
+  }
+
   can::Bus& bus_;
   const profile::DriveProfile& profile_;
   EngineOptions options_;
   cia301::Dissector dissector_;
   PdoTracker pdo_;  // the DUT's PDO configuration over the whole run (it outlives vectors)
+  Capabilities capabilities_;  // what the DUT has, probed once per run
   EngineContext context_;
   bool motion_prepared_ = false;
   std::optional<std::vector<std::uint8_t>> original_consumer_;  // 1016h sub 1 before the run
@@ -286,6 +343,18 @@ void Engine::interrupt() {
 
 DutIdentity Engine::read_identity() {
   return impl_->read_identity();
+}
+
+std::optional<std::uint32_t> Engine::read_device_type() {
+  Vector probe;
+  probe.id = "harness/device-type";
+  probe.setup = Setup::none;
+  probe.nmt.reset();
+  VectorResult scratch;
+  VectorRun run(impl_->context_, probe, scratch);
+  const auto outcome = run.sdo_upload({0x1000, 0});
+  if (!outcome.ok || outcome.data.size() != 4) return std::nullopt;
+  return static_cast<std::uint32_t>(cia301::load_unsigned(outcome.data));
 }
 
 VectorResult Engine::run_vector(const Vector& vector) {
@@ -387,6 +456,14 @@ RunResult Engine::run(const std::vector<Vector>& vectors, RunInfo info) {
     result.dut_lost = true;
     return finish();
   }
+  {
+    std::vector<const Vector*> selected;
+    for (const auto& vector : vectors)
+      if (options.filter.empty() || profile::glob_match(options.filter, vector.id))
+        selected.push_back(&vector);
+    impl_->probe_capabilities(selected, result.info.dut.device_type);
+    result.info.capabilities = impl_->capabilities_.describe();
+  }
   std::size_t silent = 0;
   for (const auto& vector : vectors) {
     if (!options.filter.empty() && !profile::glob_match(options.filter, vector.id)) continue;
@@ -414,6 +491,8 @@ RunResult Engine::run(const std::vector<Vector>& vectors, RunInfo info) {
     }
   }
   impl_->restore_heartbeat_consumer(result);
+  for (auto& note : impl_->capabilities_.notes())
+    result.harness_notes.push_back(std::move(note));
   return finish();
 }
 

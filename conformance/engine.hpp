@@ -93,6 +93,8 @@ class Engine {
   VectorResult run_vector(const Vector& vector);
   // Reads the DUT's identity objects (absent: not readable).
   DutIdentity read_identity();
+  // Reads 1000h only (nullopt: no answer or an abort), e.g. to choose a profile.
+  std::optional<std::uint32_t> read_device_type();
   // `eds/od/undocumented-objects`: reads sub 0 of every index in 1000h-1FFFh and 6000h-67FFh
   // for which `documented(index)` is false; any answer but abort 06020000h (object does not
   // exist) is an object the description lacks (fail, listed). Evidence keeps the frames of the

@@ -134,6 +134,9 @@ struct RunInfo {
   std::string bus;           // "sim" or "socketcan:can0"
   int node = 0;
   std::string profile_name;  // e.g. "festo-cmmp"
+  // Why this profile: "--profile festo-cmmp", "embedded default (--bus sim without --profile)",
+  // "1000h = 00020192h: device profile 402, a CiA 402 drive (no --profile)".
+  std::string profile_choice;
   std::string profile_title;
   std::string profile_file;
   // The profile's commissioning, one line each: first the vectors it applies to, then each
@@ -151,6 +154,10 @@ struct RunInfo {
   bool allow_motion = false;
   std::string filter;
   DutIdentity dut;
+  // What the DUT has, probed once at the start of the run (conformance/capabilities.hpp): one
+  // line per feature of the profile's `detect:` and per object need of the selected vectors,
+  // "heartbeat.producer: present (1017h read 0 ms, written back)". Empty: nothing probed.
+  std::vector<std::string> capabilities;
 };
 
 struct VerdictCounts {

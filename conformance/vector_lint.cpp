@@ -8,6 +8,8 @@
 
 #include "conformance/sha256.hpp"
 #include "conformance/vector_file.hpp"
+#include "protocol/cia301/object_requirements.hpp"
+#include "protocol/cia402/object_requirements.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
@@ -32,7 +34,137 @@ bool matches_od_check(const std::string& glob, const std::vector<profile::Object
   });
 }
 
+// An object a step touches.
+struct Touch {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::size_t line = 0;
+  std::string_view how;
+};
+
+bool expects_absence(const SdoExpect& expect) {
+  if (expect.kind != SdoExpect::Kind::abort) return false;
+  return std::any_of(expect.aborts.begin(), expect.aborts.end(),
+                     [](std::uint32_t code) { return code == 0x06020000 || code == 0x06090011; });
+}
+
+std::vector<Touch> touches(const Vector& vector) {
+  std::vector<Touch> found;
+  for (const auto& step : vector.steps) {
+    if (const auto* write = std::get_if<SdoWriteStep>(&step.action)) {
+      if (!expects_absence(write->expect))
+        found.push_back({write->index, write->sub, step.line, "sdo_write"});
+    } else if (const auto* read = std::get_if<SdoReadStep>(&step.action)) {
+      if (!expects_absence(read->expect))
+        found.push_back({read->index, read->sub, step.line, "sdo_read"});
+    } else if (const auto* poll = std::get_if<PollStep>(&step.action)) {
+      found.push_back({poll->index, poll->sub, step.line, "poll"});
+    } else if (std::holds_alternative<ControlwordStep>(step.action)) {
+      found.push_back({0x6040, 0, step.line, "controlword"});
+    } else if (std::holds_alternative<ExpectStateStep>(step.action) ||
+               std::holds_alternative<ExpectStatuswordStep>(step.action)) {
+      found.push_back({0x6041, 0, step.line, "statusword poll"});
+    } else if (const auto* send = std::get_if<SendStep>(&step.action)) {
+      // An SDO request to the DUT's default server (CiA 301 §7.2.4.3): initiate download
+      // (ccs 1), initiate upload (ccs 2), block upload (ccs 5, cs 0), block download (ccs 6,
+      // cs 0) carry the multiplexer in bytes 1..3.
+      const auto& frame = send->frame;
+      if (frame.remote || !frame.cob.plus_node || frame.cob.base != 0x600 || frame.bytes.size() < 4)
+        continue;
+      if (!frame.bytes[0] || !frame.bytes[1] || !frame.bytes[2] || !frame.bytes[3]) continue;
+      const unsigned b0 = *frame.bytes[0];
+      const unsigned ccs = b0 >> 5;
+      const bool initiate =
+          ccs == 1 || ccs == 2 || (ccs == 5 && (b0 & 0x03) == 0) || (ccs == 6 && (b0 & 0x01) == 0);
+      if (!initiate) continue;
+      found.push_back({static_cast<std::uint16_t>(*frame.bytes[1] | *frame.bytes[2] << 8),
+                       *frame.bytes[3], step.line, "SDO request in send"});
+    }
+  }
+  return found;
+}
+
+// An option.<object>.<value> feature claims that the option-code object takes the value, so the
+// object is there (605Ah for option.quick-stop.6).
+bool implied_by_option_feature(std::uint16_t index, const Vector& vector) {
+  for (const auto& row : profile::option_code_table()) {
+    if (row.index != index) continue;
+    const std::string prefix = fmt::format("option.{}.", row.name);
+    for (const auto& r : vector.requires_features)
+      if (r.starts_with(prefix)) return true;
+  }
+  return false;
+}
+
+// Whether `requires` (with the vector's drive_state) satisfies one of the '|' alternatives.
+bool condition_met(std::string_view condition, const Vector& vector) {
+  const auto& required = vector.requires_features;
+  const auto met = [&](std::string_view feature) {
+    for (const auto& r : required) {
+      if (r == feature) return true;
+      // A sub-feature implies its family: pdo.dynamic-mapping -> pdo, emcy.history -> emcy.
+      if (r.size() > feature.size() && std::string_view(r).starts_with(feature) &&
+          r[feature.size()] == '.')
+        return true;
+      if (feature == "cia402" && (r.starts_with("mode.") || r.starts_with("homing.method.")))
+        return true;
+      if (feature == "mode.hm" && r.starts_with("homing.method.")) return true;
+    }
+    return feature == "cia402" && vector.drive_state.has_value();
+  };
+  while (!condition.empty()) {
+    const auto bar = condition.find('|');
+    if (met(condition.substr(0, bar))) return true;
+    if (bar == std::string_view::npos) break;
+    condition.remove_prefix(bar + 1);
+  }
+  return false;
+}
+
 }  // namespace
+
+std::vector<TextError> check_object_needs(const Vector& vector) {
+  std::vector<TextError> errors;
+  std::set<std::pair<std::uint16_t, std::uint8_t>> reported;
+  const auto needs = [&] {
+    std::vector<profile::ObjectNeed> list;
+    for (const auto& r : vector.requires_features)
+      if (auto need = profile::parse_object_need(r)) list.push_back(*need);
+    return list;
+  }();
+  for (const auto& touch : touches(vector)) {
+    const auto row = touch.index >= 0x6000 && touch.index <= 0x67FF
+                         ? cia402::find_object_requirement(touch.index, touch.sub)
+                         : cia301::find_object_requirement(touch.index, touch.sub);
+    if (!row || row->kind == cia301::ObjectClass::mandatory) continue;
+    const bool declared = std::any_of(needs.begin(), needs.end(),
+                                      [&](const auto& need) {
+                                        if (need.index != touch.index) return false;
+                                        if (need.sub) return *need.sub == touch.sub;
+                                        return row->whole_object();
+                                      }) ||
+                          implied_by_option_feature(touch.index, vector);
+    if (declared) continue;
+    if (row->kind == cia301::ObjectClass::conditional && condition_met(row->condition, vector))
+      continue;
+    if (!reported.insert({touch.index, touch.sub}).second) continue;
+    const std::string token = profile::object_need_feature(
+        row->whole_object() ? profile::ObjectNeed{touch.index, std::nullopt}
+                            : profile::ObjectNeed{touch.index, touch.sub});
+    const std::string what =
+        row->kind == cia301::ObjectClass::optional
+            ? fmt::format("optional ({})", row->clause)
+            : fmt::format("conditional on {} ({})", row->condition, row->clause);
+    const std::string fix = row->kind == cia301::ObjectClass::optional
+                                ? fmt::format("declare {} in requires", token)
+                                : fmt::format("require {} or declare {}", row->condition, token);
+    errors.push_back(
+        {vector.file, static_cast<int>(touch.line),
+         fmt::format("vector {}: {} touches {:04X}h sub {} ({}), which is {}: {}", vector.id,
+                     touch.how, touch.index, touch.sub, row->name, what, fix)});
+  }
+  return errors;
+}
 
 Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
     const std::filesystem::path& path) {
@@ -159,6 +291,8 @@ LintReport lint_vector_tree(const LintOptions& options) {
     }
   }
   for (const auto& vector : set.vectors) {
+    for (auto& error : check_object_needs(vector))
+      report.errors.push_back(std::move(error));
     for (const auto& source : vector.sources) {
       if (auto message = check_citation(source, manuals); !message.empty() && loaded)
         report.errors.push_back({vector.file, static_cast<int>(source.line), message});

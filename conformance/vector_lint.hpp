@@ -11,7 +11,15 @@
 //  - a profile's commissioning writes cite listed manuals within range, write no object its
 //    `objects:` list read-only, and its globs match vectors (a warning otherwise);
 //  - every `profiles:` name of a vector is a profile in <dir>/drives/;
-//  - a `bus_off` step is shorter than its vector's timeout.
+//  - a `bus_off` step is shorter than its vector's timeout;
+//  - every object a vector touches (sdo_read, sdo_write, poll, controlword (6040h),
+//    expect_state/expect_statusword (6041h), and SDO requests in raw `send:` frames to 600+N)
+//    that the object requirement tables (protocol/cia301/object_requirements.inc,
+//    protocol/cia402/object_requirements.inc) class optional is declared in `requires:`
+//    (object.IIII, or object.IIII.SS where the table classes single sub-indices), and one they
+//    class conditional on a feature is declared or the feature is required (a required
+//    `pdo.dynamic-mapping` counts for `pdo`, a mode or `drive_state:` for `cia402`). A step that
+//    expects the abort "object/sub-index does not exist" tests absence and needs nothing.
 // Findings are file:line messages; errors make the lint fail (exit 2), warnings do not.
 #pragma once
 
@@ -55,6 +63,9 @@ struct LintReport {
 };
 
 LintReport lint_vector_tree(const LintOptions& options);
+
+// The object-need findings of one vector (see above): file:line errors, empty when fine.
+std::vector<TextError> check_object_needs(const Vector& vector);
 
 // Checks a source citation against the manual list ("" when fine).
 std::string check_citation(const Source& source, const std::vector<ManualEntry>& manuals);

@@ -6,6 +6,30 @@
 
 namespace drivecheck::conformance {
 
+namespace {
+
+// "" when the profile claims the feature or detected it (or could not tell); else why not.
+std::string missing_feature(std::string_view feature, const profile::DriveProfile& profile,
+                            const ApplicabilityContext& context) {
+  if (profile.supports(feature)) return {};
+  if (profile.detects(feature)) {
+    if (context.capabilities == nullptr) return {};
+    const Finding finding = context.capabilities->feature(feature);
+    if (finding.presence != Presence::absent) return {};
+    return fmt::format("requires {} (probed: absent, {})", feature, finding.how);
+  }
+  return fmt::format("requires {} (profile {} lacks it)", feature, profile.name);
+}
+
+}  // namespace
+
+std::vector<profile::ObjectNeed> object_needs(const Vector& vector) {
+  std::vector<profile::ObjectNeed> needs;
+  for (const auto& feature : vector.requires_features)
+    if (auto need = profile::parse_object_need(feature)) needs.push_back(*need);
+  return needs;
+}
+
 std::string not_applicable_reason(const Vector& vector, const profile::DriveProfile& profile,
                                   const ApplicabilityContext& context) {
   if (!vector.profiles.empty() && std::find(vector.profiles.begin(), vector.profiles.end(),
@@ -18,16 +42,25 @@ std::string not_applicable_reason(const Vector& vector, const profile::DriveProf
       if (!context.simulation) return "requires simulation (only the embedded drive has it)";
     } else if (feature == "motion") {
       if (!context.motion_allowed) return "moves the motor: needs --allow-motion on a real bus";
-    } else if (!profile.supports(feature)) {
-      return fmt::format("requires {} (profile {} lacks it)", feature, profile.name);
+    } else if (const auto need = profile::parse_object_need(feature)) {
+      if (context.capabilities == nullptr) continue;
+      const Finding finding = context.capabilities->object(*need);
+      if (finding.presence == Presence::absent)
+        return fmt::format("needs object {}: absent ({})", profile::describe(*need), finding.how);
+    } else if (auto missing = missing_feature(feature, profile, context); !missing.empty()) {
+      return missing;
     }
   }
   if (vector.has_bus_off_step() && !context.bus_off)
     return "the bus_off step needs the DUT's CAN controller on the simulated bus (embedded drive)";
-  if (vector.drive_state && !profile.supports("cia402"))
-    return fmt::format("drive_state needs cia402 (profile {} lacks it)", profile.name);
-  if (vector.setup == Setup::restore_defaults && !profile.supports("restore"))
-    return fmt::format("setup restore-defaults needs restore (profile {} lacks it)", profile.name);
+  if (vector.drive_state) {
+    if (auto missing = missing_feature("cia402", profile, context); !missing.empty())
+      return "drive_state: " + missing;
+  }
+  if (vector.setup == Setup::restore_defaults) {
+    if (auto missing = missing_feature("restore", profile, context); !missing.empty())
+      return "setup restore-defaults: " + missing;
+  }
   return {};
 }
 

@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "conformance/capabilities.hpp"
 #include "conformance/result.hpp"
 #include "conformance/vector.hpp"
 #include "protocol/profile/drive_profile.hpp"
@@ -15,12 +16,22 @@ struct ApplicabilityContext {
   bool simulation = false;      // a SimulationControl is present (embedded drive)
   bool motion_allowed = false;  // simulated bus, or --allow-motion on a real bus
   bool bus_off = false;         // the DUT's controller can be put bus-off (simulated bus)
+  // What the DUT has (object needs, detected features); null: nothing probed, so object needs
+  // count as met and detected features as unknown (present).
+  const Capabilities* capabilities = nullptr;
 };
 
 // "" when the vector applies; else the reason it is not applicable, e.g.
-// "requires mode.hm (the profile lacks it)", "only for profiles festo-cmmp".
+// "requires mode.hm (profile festo-cmmp lacks it)", "only for profile festo-cmmp",
+// "needs object 1029h: absent (upload answered 06020000h)",
+// "requires heartbeat.producer (probed: absent, 1017h: upload answered 06020000h)".
+// A feature the profile detects (`detect:`) is supported unless the probe found it absent; an
+// object need is met unless the EDS or the probe found the object absent.
 std::string not_applicable_reason(const Vector& vector, const profile::DriveProfile& profile,
                                   const ApplicabilityContext& context);
+
+// The object needs of a vector's `requires:` (object.IIII / object.IIII.SS).
+std::vector<profile::ObjectNeed> object_needs(const Vector& vector);
 
 // What running the steps gave.
 enum class Outcome : std::uint8_t { pass, fail, harness_error };

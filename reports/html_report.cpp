@@ -545,6 +545,14 @@ void render_run_info(std::string& out, const RunResult& result) {
   if (dut.software_version) row("Software version (100Ah)", *dut.software_version);
   row("Profile", info.profile_title.empty() ? info.profile_name
                                             : info.profile_name + " — " + info.profile_title);
+  if (!info.profile_choice.empty()) row("Profile chosen by", info.profile_choice);
+  if (!info.capabilities.empty()) {
+    // What the device showed it has, probed once at the start (conformance/capabilities.hpp).
+    fmt::format_to(std::back_inserter(out), "<dt>Capabilities</dt><dd><ul class=\"capabilities\">");
+    for (const auto& line : info.capabilities)
+      fmt::format_to(std::back_inserter(out), "<li>{}</li>", esc(line));
+    out += "</ul></dd>";
+  }
   if (!info.commissioning.empty()) {
     // The SDO writes the engine made after each setup: the drive's units as the vectors assume.
     fmt::format_to(std::back_inserter(out),

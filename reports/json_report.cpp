@@ -373,6 +373,17 @@ RunResult read_run(Reader& reader, const json& document) {
           ++i;
         }
       }
+      if (profile.contains("choice")) info.profile_choice = reader.string(profile, "choice");
+    }
+    if (run.contains("capabilities")) {  // optional: nothing probed
+      Scope list(reader, "capabilities");
+      std::size_t i = 0;
+      for (const json& item : reader.array(run, "capabilities")) {
+        if (!item.is_string())
+          throw ReadError{reader.where(fmt::format("[{}]", i)) + ": expected a string"};
+        info.capabilities.push_back(item.get<std::string>());
+        ++i;
+      }
     }
     {
       Scope inner(reader, "eds");
@@ -444,6 +455,8 @@ std::string render_json(const RunResult& result) {
   run["profile"] = {
       {"name", info.profile_name}, {"title", info.profile_title}, {"file", info.profile_file}};
   if (!info.commissioning.empty()) run["profile"]["commissioning"] = info.commissioning;
+  if (!info.profile_choice.empty()) run["profile"]["choice"] = info.profile_choice;
+  if (!info.capabilities.empty()) run["capabilities"] = info.capabilities;
   run["eds"] = {{"file", info.eds_file}, {"sha256", info.eds_sha256}};
   run["personality"] = info.personality;
   run["deviations"] = info.deviations;

@@ -58,6 +58,9 @@ void add_run_properties(pugi::xml_node properties, const RunResult& result) {
   if (!info.eds_file.empty()) add_property(properties, "eds.file", info.eds_file);
   if (!info.eds_sha256.empty()) add_property(properties, "eds.sha256", info.eds_sha256);
   add_property(properties, "profile", info.profile_name);
+  if (!info.profile_choice.empty()) add_property(properties, "profile.choice", info.profile_choice);
+  for (std::size_t i = 0; i < info.capabilities.size(); ++i)
+    add_property(properties, fmt::format("capability.{}", i + 1), info.capabilities[i]);
 }
 
 // The failure body: the requirement, then the message (the first failing check's

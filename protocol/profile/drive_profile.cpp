@@ -819,9 +819,9 @@ std::vector<Item> unique_items(std::vector<Located<Item>> located, std::string_v
 DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOptions& options) {
   if (!root.IsDefined() || root.IsNull()) r.fail_at(0, "the profile is empty");
   const MapView map(r, root, "profile",
-                    {"name", "title", "manual", "identity", "features", "modes", "homing_methods",
-                     "option_codes", "timing", "objects", "emcy_codes", "pdo_defaults",
-                     "deviations", "commissioning", "personality"});
+                    {"name", "title", "manual", "identity", "features", "detect", "modes",
+                     "homing_methods", "option_codes", "timing", "objects", "emcy_codes",
+                     "pdo_defaults", "deviations", "commissioning", "personality"});
   DriveProfile p;
   const YAML::Node name_node = map.require("name", "profile");
   p.name = scalar(r, name_node, "name");
@@ -861,6 +861,11 @@ DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOp
              fmt::format("features: unknown feature '{}' (vectors/FORMAT.md \"Features\")", f));
     }
     if (p.features.contains(f)) r.fail(item, fmt::format("features: '{}' is listed twice", f));
+    if (parse_object_need(f)) {
+      r.fail(item, fmt::format("features: '{}' is an object need (vectors only): the device's "
+                               "objects come from its EDS or a probe",
+                               f));
+    }
     const bool family =
         f.starts_with("mode.") || f.starts_with("homing.method.") || f.starts_with("option.");
     if (family && !implied.contains(f)) {
@@ -871,6 +876,22 @@ DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOp
     p.features.insert(f);
   }
   p.features.insert(implied.begin(), implied.end());
+  if (auto v = map.get("detect")) {
+    require_sequence(r, *v, "detect");
+    for (const auto& item : *v) {
+      const std::string f = scalar(r, item, "detect");
+      if (!is_detectable_feature(f)) {
+        r.fail(item, fmt::format("detect: '{}' cannot be probed (detectable: {})", f,
+                                 fmt::join(detectable_features(), " ")));
+      }
+      if (p.features.contains(f)) {
+        r.fail(item, fmt::format("detect: '{}' is also claimed in features (a feature is either "
+                                 "claimed or detected)",
+                                 f));
+      }
+      if (!p.detect.insert(f).second) r.fail(item, fmt::format("detect: '{}' is listed twice", f));
+    }
+  }
   // Which transition waits for the hardware enable: one of them, and it implies the input.
   if (p.features.contains(std::string(kHardwareEnableT2)) &&
       p.features.contains(std::string(kHardwareEnableT3))) {
@@ -1409,6 +1430,12 @@ std::string to_yaml(const DriveProfile& p) {
   for (const auto& f : p.features)
     out << f;
   out << YAML::EndSeq;
+  if (!p.detect.empty()) {
+    out << YAML::Key << "detect" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const auto& f : p.detect)
+      out << f;
+    out << YAML::EndSeq;
+  }
   out << YAML::Key << "modes" << YAML::Value;
   emit_int_list(out, p.modes);
   out << YAML::Key << "homing_methods" << YAML::Value;

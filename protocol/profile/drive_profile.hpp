@@ -12,6 +12,10 @@
 //                                          `homing_methods` and option.<object>.<v> of
 //                                          `option_codes`; a listed mode.*, homing.method.* or
 //                                          option.* feature that those lists lack is an error
+//   detect: [...]                          features decided by probing the device once per run
+//                                          (generic profiles: cia301-device, cia402-device);
+//                                          vocabulary.hpp detectable_features(); none may also be
+//                                          in `features` (those are claims, tested as claimed)
 //   modes: [1, 3, 6, -1]                   6060h values, -128..127, no duplicates
 //   homing_methods: [1, 2, 35, -1]         -128..127, no duplicates
 //   option_codes: {quick-stop: [0, 1, 2]}  object name -> accepted values (-32768..32767)
@@ -150,6 +154,7 @@ struct DriveProfile {
   std::string manual;
   Identity identity;
   std::set<std::string> features;  // with the features implied by modes/homing/option codes
+  std::set<std::string> detect;    // features the engine decides by probing (`detect:`)
   std::vector<int> modes;
   std::vector<int> homing_methods;
   std::map<OptionCode, std::vector<int>> option_codes;
@@ -164,7 +169,9 @@ struct DriveProfile {
   // The file it was loaded from (empty for parsed text; not serialised, not compared).
   std::filesystem::path path;
 
+  // Claimed (features:). A detected feature is not claimed: see conformance/capabilities.hpp.
   bool supports(std::string_view feature) const { return features.contains(std::string(feature)); }
+  bool detects(std::string_view feature) const { return detect.contains(std::string(feature)); }
   // The profile's value of a timing name, else its default; nullopt for an unknown name.
   std::optional<can::Duration> timing_value(std::string_view name) const;
   // The first deviation with a glob matching `vector_id`; nullptr if none.
@@ -174,11 +181,12 @@ struct DriveProfile {
 
   friend bool operator==(const DriveProfile& a, const DriveProfile& b) {
     return a.name == b.name && a.title == b.title && a.manual == b.manual &&
-           a.identity == b.identity && a.features == b.features && a.modes == b.modes &&
-           a.homing_methods == b.homing_methods && a.option_codes == b.option_codes &&
-           a.timing == b.timing && a.objects == b.objects && a.emcy_codes == b.emcy_codes &&
-           a.pdo_defaults == b.pdo_defaults && a.deviations == b.deviations &&
-           a.commissioning == b.commissioning && a.personality == b.personality;
+           a.identity == b.identity && a.features == b.features && a.detect == b.detect &&
+           a.modes == b.modes && a.homing_methods == b.homing_methods &&
+           a.option_codes == b.option_codes && a.timing == b.timing && a.objects == b.objects &&
+           a.emcy_codes == b.emcy_codes && a.pdo_defaults == b.pdo_defaults &&
+           a.deviations == b.deviations && a.commissioning == b.commissioning &&
+           a.personality == b.personality;
   }
 };
 

@@ -63,6 +63,40 @@ constexpr std::array<std::string_view, 37> kFixedFeatures{
     "motion",
 };
 
+// conformance/capabilities.cpp probes each (a test checks that every one has its probe).
+constexpr std::array<std::string_view, 30> kDetectableFeatures{
+    "sdo.segmented",
+    "sdo.block",
+    "nmt.guarding",
+    "heartbeat.producer",
+    "heartbeat.consumer",
+    "emcy",
+    "emcy.inhibit",
+    "emcy.history",
+    "sync",
+    "sync.producer",
+    "sync.counter",
+    "time",
+    "pdo",
+    "pdo.dynamic-mapping",
+    "pdo.rtr",
+    "pdo.event-timer",
+    "pdo.inhibit",
+    "pdo.sync-window",
+    "store",
+    "restore",
+    "cia402",
+    "mode.pp",
+    "mode.vl",
+    "mode.pv",
+    "mode.tq",
+    "mode.hm",
+    "mode.ip",
+    "mode.csp",
+    "mode.csv",
+    "mode.cst",
+};
+
 // FORMAT.md "Timing names".
 const std::array<TimingName, 10> kTimings{{
     {"response", 100ms, "SDO/NMT reaction of any frame the vector waits for"},
@@ -106,6 +140,14 @@ std::optional<OptionCode> parse_option_code(std::string_view name) {
   return std::nullopt;
 }
 
+std::span<const std::string_view> detectable_features() {
+  return kDetectableFeatures;
+}
+bool is_detectable_feature(std::string_view name) {
+  return std::find(kDetectableFeatures.begin(), kDetectableFeatures.end(), name) !=
+         kDetectableFeatures.end();
+}
+
 std::span<const std::string_view> fixed_features() {
   return kFixedFeatures;
 }
@@ -129,7 +171,46 @@ bool is_known_feature(std::string_view name) {
     return code && value && *value >= -32768 && *value <= 32767 &&
            option_feature(*code, *value) == name;
   }
-  return false;
+  return parse_object_need(name).has_value();
+}
+
+std::optional<ObjectNeed> parse_object_need(std::string_view token) {
+  constexpr std::string_view kObject = "object.";
+  if (!token.starts_with(kObject)) return std::nullopt;
+  const std::string_view rest = token.substr(kObject.size());
+  const auto hex = [](std::string_view digits) -> std::optional<unsigned> {
+    unsigned value = 0;
+    for (char c : digits) {
+      if (c >= '0' && c <= '9') {
+        value = value * 16 + static_cast<unsigned>(c - '0');
+      } else if (c >= 'A' && c <= 'F') {
+        value = value * 16 + static_cast<unsigned>(c - 'A' + 10);
+      } else {
+        return std::nullopt;  // upper-case only: one spelling per need
+      }
+    }
+    return value;
+  };
+  if (rest.size() != 4 && !(rest.size() == 7 && rest[4] == '.')) return std::nullopt;
+  const auto index = hex(rest.substr(0, 4));
+  if (!index || *index == 0) return std::nullopt;
+  ObjectNeed need{static_cast<std::uint16_t>(*index), std::nullopt};
+  if (rest.size() == 7) {
+    const auto sub = hex(rest.substr(5, 2));
+    if (!sub) return std::nullopt;
+    need.sub = static_cast<std::uint8_t>(*sub);
+  }
+  return need;
+}
+
+std::string object_need_feature(const ObjectNeed& need) {
+  return need.sub ? fmt::format("object.{:04X}.{:02X}", need.index, *need.sub)
+                  : fmt::format("object.{:04X}", need.index);
+}
+
+std::string describe(const ObjectNeed& need) {
+  return need.sub ? fmt::format("{:04X}h sub {}", need.index, *need.sub)
+                  : fmt::format("{:04X}h", need.index);
 }
 
 std::optional<std::string_view> mode_feature(int mode) {

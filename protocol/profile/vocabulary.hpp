@@ -11,6 +11,10 @@
 //   motion homing.method.<n>            n: decimal integer -128..127 (CiA 402 or manufacturer
 //   method) option.<object>.<value>      object: an option-code name below; value: decimal
 //   -32768..32767
+//   object.IIII object.IIII.SS          an object need (vectors only): index IIII, sub-index SS,
+//                                       upper-case hex, 4 and 2 digits ("object.1029",
+//                                       "object.1018.02"). The vector is N/A where the device
+//                                       lacks it (EDS or SDO probe, conformance/capabilities.hpp)
 //
 // Option-code objects (CiA 402-2 §8.4, INTEGER16 each):
 //   quick-stop 605Ah   shutdown 605Bh   disable-operation 605Ch   halt 605Dh
@@ -62,10 +66,27 @@ std::optional<OptionCode> parse_option_code(std::string_view name);
 std::span<const std::string_view> fixed_features();
 // Whether `name` belongs to the closed vocabulary (fixed names and the two families).
 bool is_known_feature(std::string_view name);
+// The features a generic profile may leave to probing (`detect:`): each has a probe in
+// conformance/capabilities.cpp (present, absent or unknown, decided once per run).
+std::span<const std::string_view> detectable_features();
+bool is_detectable_feature(std::string_view name);
 // The feature name of a mode of operation (1 -> "mode.pp"); nullopt for values without one.
 std::optional<std::string_view> mode_feature(int mode);
 std::string homing_method_feature(int method);           // "homing.method.35"
 std::string option_feature(OptionCode code, int value);  // "option.quick-stop.6"
+
+// An object need of a vector's `requires:` ("object.1029", "object.1018.02").
+struct ObjectNeed {
+  std::uint16_t index = 0;
+  std::optional<std::uint8_t> sub;  // nullopt: the object (probed and looked up at sub 0)
+  friend bool operator==(const ObjectNeed&, const ObjectNeed&) = default;
+  friend auto operator<=>(const ObjectNeed&, const ObjectNeed&) = default;
+};
+// The need a token names, in its canonical spelling only; nullopt for anything else.
+std::optional<ObjectNeed> parse_object_need(std::string_view token);
+std::string object_need_feature(const ObjectNeed& need);  // "object.1018.02"
+// "1029h", "1018h sub 2": for messages.
+std::string describe(const ObjectNeed& need);
 
 // --- timing ------------------------------------------------------------------------------------
 

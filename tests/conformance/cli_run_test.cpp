@@ -134,3 +134,65 @@ TEST_F(CliRunOrder, BadOrderIsExit2) {
 }
 
 }  // namespace
+
+namespace {
+
+// The JSON object of vector `id` in a report (from its "id" to the next vector), for finds.
+std::string vector_json(const std::string& report, const std::string& id) {
+  const auto at = report.find("\"id\": \"" + id + "\"");
+  if (at == std::string::npos) return {};
+  const auto next = report.find("\"id\": \"t/", at + 1);
+  return report.substr(at, next == std::string::npos ? std::string::npos : next - at);
+}
+
+class CliRunNeeds : public CliRun {
+ protected:
+  void SetUp() override {
+    CliRun::SetUp();
+    // One vector per kind of need: an object the reference drive has (1029h), one it lacks
+    // (2FFFh: manufacturer range, never in the reference dictionary).
+    write(
+        "- id: t/needs-1029\n  title: t\n  source: \"CiA 301 §7.5.2.32\"\n"
+        "  requires: [object.1029]\n  steps:\n    - sdo_read: {index: 0x1029, sub: 0}\n"
+        "- id: t/needs-2fff\n  title: t\n  source: \"CiA 301 §1\"\n"
+        "  requires: [object.2FFF]\n  steps:\n    - sdo_read: {index: 0x2FFF, sub: 0}\n");
+  }
+};
+
+}  // namespace
+
+TEST_F(CliRunNeeds, AnObjectTheDriveLacksIsNotApplicableWithTheProbesAnswer) {
+  // Given the embedded drive, which has 1029h and no 2FFFh
+  const auto json = (dir_ / "r.json").string();
+  // When run without an EDS
+  const auto run = run_command(
+      {DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(), "--json", json});
+  // Then 1029h's vector passes, 2FFFh's is not applicable with the upload's answer, exit 0, and
+  // the report records the probe and the profile choice
+  EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+  const std::string report = read_file(json);
+  EXPECT_NE(vector_json(report, "t/needs-1029").find("\"verdict\": \"pass\""), std::string::npos)
+      << report;
+  EXPECT_NE(vector_json(report, "t/needs-2fff")
+                .find("needs object 2FFFh: absent (upload answered 06020000h)"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("\"capabilities\""), std::string::npos);
+  EXPECT_NE(report.find("\"choice\": \"the embedded default"), std::string::npos);
+}
+
+TEST_F(CliRunNeeds, TheEdsDecidesWhichObjectsThereAre) {
+  // Given an EDS of the reference drive without 1029h
+  const auto json = (dir_ / "r.json").string();
+  const std::string eds = std::string(DRIVECHECK_SOURCE_DIR) +
+                          "/tests/conformance/data/reference-drive-without-1029.eds";
+  // When run with it (only the t/ vectors: the drive has 1029h, which the EDS check would catch)
+  const auto run = run_command({DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(),
+                                "--eds", eds, "--filter", "t/*", "--json", json});
+  // Then the vector needing 1029h is not applicable "(not in the EDS)"
+  EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+  const std::string report = read_file(json);
+  EXPECT_NE(vector_json(report, "t/needs-1029").find("needs object 1029h: absent (not in the EDS)"),
+            std::string::npos)
+      << report;
+}

@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "conformance/capabilities.hpp"
 #include "conformance/od_checks.hpp"
 #include "conformance/vector_file.hpp"
 #include "protocol/can/sim_bus.hpp"
@@ -415,6 +416,53 @@ TEST_F(EngineDriveTest, BusOffStepOnARealBusIsNotApplicable) {
   const auto result = run(set.vectors.front(), options);
   EXPECT_EQ(result.verdict, Verdict::not_applicable);
   EXPECT_NE(result.message.find("bus_off step"), std::string::npos) << result.message;
+}
+
+TEST_F(EngineDriveTest, DetectedFeaturesAndObjectNeedsAreProbedOnceAndDecideApplicability) {
+  // Given a generic profile that detects time and heartbeat.producer, and vectors needing time
+  // (the reference drive has no 1012h), heartbeat.producer, object 1029h and object 2FFFh
+  auto parsed = profile::parse_profile(
+      "name: g\ntitle: G\nfeatures: [sdo.expedited]\ndetect: [time, heartbeat.producer]\n",
+      {.file_name = "g.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  profile_ = *parsed;
+  const auto set = parse_vectors(
+      "- id: t/time\n  title: t\n  source: \"CiA 301 §1\"\n  requires: [time]\n  steps:\n"
+      "    - wait: 1ms\n"
+      "- id: t/heartbeat\n  title: t\n  source: \"CiA 301 §1\"\n"
+      "  requires: [heartbeat.producer]\n  steps:\n    - sdo_read: {index: 0x1017, sub: 0}\n"
+      "- id: t/error-behavior\n  title: t\n  source: \"CiA 301 §1\"\n"
+      "  requires: [object.1029]\n  steps:\n    - sdo_read: {index: 0x1029, sub: 1}\n"
+      "- id: t/manufacturer\n  title: t\n  source: \"CiA 301 §1\"\n"
+      "  requires: [object.2FFF]\n  steps:\n    - sdo_read: {index: 0x2FFF, sub: 0}\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  // When the run probes the drive and runs them
+  Engine engine(*harness_, profile_, {});
+  const RunResult result = engine.run(set.vectors);
+  // Then what the drive lacks is not applicable with the probe's answer, the rest passes, and
+  // the report info lists what was probed
+  ASSERT_EQ(result.vectors.size(), 4U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::not_applicable);
+  EXPECT_EQ(result.vectors[0].message,
+            "requires time (probed: absent, 1012h: upload answered 06020000h)");
+  EXPECT_EQ(result.vectors[1].verdict, Verdict::pass) << result.vectors[1].message;
+  EXPECT_EQ(result.vectors[2].verdict, Verdict::pass) << result.vectors[2].message;
+  EXPECT_EQ(result.vectors[3].verdict, Verdict::not_applicable);
+  EXPECT_EQ(result.vectors[3].message, "needs object 2FFFh: absent (upload answered 06020000h)");
+  EXPECT_FALSE(result.info.capabilities.empty());
+  EXPECT_TRUE(result.harness_notes.empty());
+}
+
+TEST_F(EngineDriveTest, DeviceTypeChoosesTheGenericProfile) {
+  // Given the reference drive (1000h: a CiA 402 drive)
+  Engine engine(*harness_, profile_, {});
+  // When 1000h is read and a generic profile chosen from it
+  const auto device_type = engine.read_device_type();
+  // Then the drive's profile number is 402 and cia402-device is chosen
+  ASSERT_TRUE(device_type);
+  EXPECT_EQ(*device_type & 0xFFFF, 402U);
+  EXPECT_EQ(choose_generic_profile(device_type).name, "cia402-device");
 }
 
 TEST_F(EngineDriveTest, ResetNodeSetupAndBootup) {

@@ -79,6 +79,27 @@ features: [cia402, hardware-enable.transition-3]
   EXPECT_TRUE(listed->supports("hardware-enable"));
 }
 
+TEST(DriveProfileLoad, DetectIsNotAClaim) {
+  // Given a profile that detects heartbeat.producer and mode.pp (no modes list)
+  auto p = parse(
+      "name: test-drive\ntitle: T\nfeatures: [sdo.expedited]\n"
+      "detect: [heartbeat.producer, mode.pp]\n");
+  // When parsed; Then the features are detected, not claimed, and survive to_yaml
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_TRUE(p->detects("mode.pp"));
+  EXPECT_FALSE(p->supports("mode.pp"));
+  auto again = parse(to_yaml(*p));
+  ASSERT_TRUE(again.has_value()) << again.error().to_string();
+  EXPECT_EQ(*again, *p);
+}
+
+TEST(DriveProfileLoad, ObjectNeedIsNotAFeatureClaim) {
+  // Given a profile listing an object need as a feature; When parsed; Then refused
+  const TextError e =
+      error_of("name: test-drive\ntitle: T\nfeatures: [sdo.expedited, object.1029]\n");
+  EXPECT_NE(e.message.find("object need"), std::string::npos) << e.to_string();
+}
+
 TEST(DriveProfileLoad, TimingOverridesAndDefaults) {
   // Given a timing override / When looked up / Then the override wins, others keep defaults
   auto p = parse(std::string(kMinimal) + "timing: {ack_latency: 4ms, homing: 1min}\n");
@@ -132,6 +153,9 @@ INSTANTIATE_TEST_SUITE_P(
         ErrorCase{"YamlSyntax", with("modes: [1, 2\n"), 8, ""},
         ErrorCase{"NotAMap", "- a\n- b\n", 1, "must be a map"}, ErrorCase{"Empty", "", 0, "empty"},
         ErrorCase{"UnknownTopKey", with("featurez: []\n"), 7, "unknown key 'featurez'"},
+        ErrorCase{"DetectUnprobeable", with("detect: [transition.16]\n"), 7, "cannot be probed"},
+        ErrorCase{"DetectAndClaim", with("detect: [emcy]\n"), 7, "also claimed in features"},
+        ErrorCase{"DetectTwice", with("detect: [store, store]\n"), 7, "listed twice"},
         ErrorCase{"DuplicateKey", with("title: again\n"), 7, "duplicate key 'title'"},
         ErrorCase{"MissingFeatures", "name: test-drive\ntitle: t\n", 1,
                   "missing required key 'features'"},

@@ -60,6 +60,18 @@ TEST(HtmlReport, CommissioningIsShownUnderTheProfile) {
   EXPECT_EQ(render_html(synthetic_run()).find("<dt>Commissioning</dt>"), std::string::npos);
 }
 
+TEST(HtmlReport, ProfileChoiceAndCapabilitiesAreShown) {
+  // Given a run with a chosen profile and probed capabilities, one line hostile
+  auto run = synthetic_run();
+  run.info.profile_choice = "no --profile; 1000h = 00000191h: device profile 401";
+  run.info.capabilities = {"pdo.rtr: absent (<b>bit 30</b>)"};
+  // When written as HTML; Then both are shown, escaped
+  const std::string html = render_html(run);
+  EXPECT_NE(html.find("<dt>Profile chosen by</dt>"), std::string::npos);
+  EXPECT_NE(html.find("<dt>Capabilities</dt>"), std::string::npos);
+  EXPECT_NE(html.find("pdo.rtr: absent (&lt;b&gt;bit 30&lt;/b&gt;)"), std::string::npos);
+}
+
 TEST(HtmlReport, ShowsCountsMatrixAndEveryVector) {
   // Given the synthetic run (pass 2, fail 2 of which 1 warning, deviation 1, n/a 1, error 1)
   // When written as HTML

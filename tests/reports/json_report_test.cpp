@@ -104,6 +104,25 @@ TEST(JsonReport, CommissioningIsListedUnderTheProfileAndReadBack) {
       json::parse(render_json(valid_utf8_run()))["run"]["profile"].contains("commissioning"));
 }
 
+TEST(JsonReport, ProfileChoiceAndCapabilitiesAreWrittenAndReadBack) {
+  // Given a run whose profile was chosen from 1000h and whose DUT was probed
+  TempDir dir;
+  auto run = valid_utf8_run();
+  run.info.profile_choice = "no --profile; 1000h = 00020192h: device profile 402, a CiA 402 drive";
+  run.info.capabilities = {"heartbeat.producer: present (1017h read 0 ms, written back)",
+                           "object 1029h: absent (upload answered 06020000h)"};
+  // When written as JSON and read back
+  const json document = json::parse(render_json(run));
+  ASSERT_TRUE(write_json_report(dir / "run.json", run));
+  const auto read = read_json_report(dir / "run.json");
+  // Then run.profile.choice and run.capabilities hold them; a run without them has no keys
+  EXPECT_EQ(document["run"]["capabilities"][1], "object 1029h: absent (upload answered 06020000h)");
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(read->info.profile_choice, run.info.profile_choice);
+  EXPECT_EQ(read->info.capabilities, run.info.capabilities);
+  EXPECT_FALSE(json::parse(render_json(valid_utf8_run()))["run"].contains("capabilities"));
+}
+
 TEST(JsonReport, RunOrderIsWrittenAndReadBackAndDefaultsToFile) {
   // Given a run made with --order shuffle:7
   TempDir dir;

@@ -18,7 +18,9 @@ if ! kill -0 "$drive" 2>/dev/null; then
   echo "conformance_in_vm: drivecheck drive did not start:"; cat "$out/drive.log"; exit 1
 fi
 
-drivecheck run --bus socketcan:vcan0 --node 1 --allow-motion --filter "$filter" \
+# The same profile as the embedded run (without --profile a real bus chooses from 1000h).
+drivecheck run --bus socketcan:vcan0 --node 1 --profile cia402-reference --allow-motion \
+  --filter "$filter" \
   --json "$out/socketcan.json" --junit "$out/socketcan.xml" --html "$out/socketcan.html" \
   --trace "$out/socketcan.log" > "$out/socketcan.txt" 2>&1
 socketcan_status=$?
