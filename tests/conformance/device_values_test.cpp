@@ -102,5 +102,36 @@ TEST_F(DeviceValuesEngine, TpdoObjectComesFromTheDefaultMapping) {
   EXPECT_TRUE(peer_.finished());
 }
 
+TEST_F(DeviceValuesEngine, SilencePatternAllowsAnEmptyFrameButNotData) {
+  // Given a device that sends an empty frame on 1A0h, and one that sends a data byte there
+  peer_.expect("123#01").reply_after(std::chrono::milliseconds(5), "1A0#");
+  const auto empty =
+      run("    - send: \"123#01\"\n    - expect_silence: [\"1A0#..*\"]\n      for: 20ms\n");
+  peer_.expect("123#01").reply_after(std::chrono::milliseconds(5), "1A0#00");
+  const auto data =
+      run("    - send: \"123#01\"\n    - expect_silence: [\"1A0#..*\"]\n      for: 20ms\n");
+  // When the vector wants no frame with data on 1A0h / Then the empty frame passes, data fails
+  EXPECT_EQ(empty.verdict, Verdict::pass) << empty.message;
+  EXPECT_EQ(data.verdict, Verdict::fail);
+  EXPECT_NE(data.message.find("1A0#00"), std::string::npos) << data.message;
+}
+
+TEST_F(DeviceValuesEngine, OkOrAbortTakesEitherAnswerButNotSilence) {
+  // Given a device that refuses the write, one that confirms it, and one that does not answer
+  const std::string write =
+      "    - sdo_write: {index: 0x1800, sub: 1, value: 0x1A0, size: 4}\n      expect: "
+      "ok-or-abort\n";
+  peer_.expect("601#23001801A0010000").reply("581#8000180102000106");
+  const auto refused = run(write);
+  peer_.expect("601#23001801A0010000").reply("581#6000180100000000");
+  const auto accepted = run(write);
+  peer_.expect("601#23001801A0010000");
+  const auto silent = run(write);
+  // When the vector accepts either answer / Then both pass, no answer fails
+  EXPECT_EQ(refused.verdict, Verdict::pass) << refused.message;
+  EXPECT_EQ(accepted.verdict, Verdict::pass) << accepted.message;
+  EXPECT_EQ(silent.verdict, Verdict::fail);
+}
+
 }  // namespace
 }  // namespace drivecheck::conformance
