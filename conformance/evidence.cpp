@@ -224,6 +224,12 @@ StepStatus VectorRun::run_steps() {
   if (const auto status = setup(); status != StepStatus::ok) return status;
   if (const auto status = resolve_device_values(); status != StepStatus::ok) return status;
   can::TimePoint previous_end = now();
+  // An SDO stimulus (sdo_write, sdo_read, controlword) is a request: the DUT may react to it
+  // before its SDO answer (an EMCY before the confirmation), so a frame expectation right
+  // after it watches from the request, not from the answer.
+  bool previous_request = false;
+  std::size_t request_from = 0;
+  can::TimePoint request_start{};
   for (step_index_ = 0; step_index_ < vector_.steps.size(); ++step_index_) {
     const Step& step = vector_.steps[step_index_];
     action_ = std::string(action_name(step.action));
@@ -241,6 +247,18 @@ StepStatus VectorRun::run_steps() {
         ++step_from_;
     }
     resume_from_.reset();
+    const bool reacts = std::holds_alternative<ExpectFrameStep>(step.action) ||
+                        std::holds_alternative<ExpectEmcyStep>(step.action) ||
+                        std::holds_alternative<ExpectHeartbeatStep>(step.action);
+    if (previous_request && reacts) {
+      step_from_ = std::min(step_from_, request_from);
+      step_started_ = request_start;
+    }
+    previous_request = std::holds_alternative<SdoWriteStep>(step.action) ||
+                       std::holds_alternative<SdoReadStep>(step.action) ||
+                       std::holds_alternative<ControlwordStep>(step.action);
+    request_from = step_from_;
+    request_start = step_started_;
     StepStatus status = run_stimulus(step);
     if (status == StepStatus::ok) status = run_expectation(step);
     if (status != StepStatus::ok) return status;

@@ -25,9 +25,9 @@ TEST(DeviceValues, UnsupportedModeIsTheLowestStandardModeNotListed) {
   EXPECT_FALSE(is_device_value("dut.nothing"));
 }
 
-class DeviceValuesEngine : public ::testing::Test {
+class PeerEngine : public ::testing::Test {
  protected:
-  DeviceValuesEngine()
+  PeerEngine()
       : harness_(bus_.attach("harness")), peer_port_(bus_.attach("peer")), peer_(*peer_port_) {
     auto parsed = profile::parse_profile(
         "name: t\ntitle: T\nfeatures: [cia402]\n",
@@ -56,7 +56,7 @@ const std::string kRefusedMode =
     "    - sdo_write: {index: 0x6060, sub: 0, value: $dut.unsupported_mode, size: 1}\n"
     "      expect: {abort: [0x06090030]}\n";
 
-TEST_F(DeviceValuesEngine, UnsupportedModeComesFromTheDevices6502h) {
+TEST_F(PeerEngine, UnsupportedModeComesFromTheDevices6502h) {
   // Given a drive whose 6502h lists every standard mode but vl, and that refuses vl in 6060h
   peer_
       .expect("601#4002650000000000")  // ccs=2 upload, 6502h sub 0
@@ -71,7 +71,7 @@ TEST_F(DeviceValuesEngine, UnsupportedModeComesFromTheDevices6502h) {
   EXPECT_TRUE(peer_.finished());
 }
 
-TEST_F(DeviceValuesEngine, DriveWithEveryModeHasNoUnsupportedModeToTry) {
+TEST_F(PeerEngine, DriveWithEveryModeHasNoUnsupportedModeToTry) {
   // Given a drive whose 6502h lists every standard mode
   peer_
       .expect("601#4002650000000000")  // ccs=2 upload, 6502h sub 0
@@ -83,7 +83,7 @@ TEST_F(DeviceValuesEngine, DriveWithEveryModeHasNoUnsupportedModeToTry) {
   EXPECT_NE(result.message.find("every mode"), std::string::npos) << result.message;
 }
 
-TEST_F(DeviceValuesEngine, TpdoObjectComesFromTheDefaultMapping) {
+TEST_F(PeerEngine, TpdoObjectComesFromTheDefaultMapping) {
   // Given a device without EDS whose TPDO1 maps 6041h (16 bits) by default
   peer_
       .expect("601#40001A0000000000")  // ccs=2 upload, 1A00h sub 0
@@ -102,7 +102,7 @@ TEST_F(DeviceValuesEngine, TpdoObjectComesFromTheDefaultMapping) {
   EXPECT_TRUE(peer_.finished());
 }
 
-TEST_F(DeviceValuesEngine, SilencePatternAllowsAnEmptyFrameButNotData) {
+TEST_F(PeerEngine, SilencePatternAllowsAnEmptyFrameButNotData) {
   // Given a device that sends an empty frame on 1A0h, and one that sends a data byte there
   peer_.expect("123#01").reply_after(std::chrono::milliseconds(5), "1A0#");
   const auto empty =
@@ -116,7 +116,7 @@ TEST_F(DeviceValuesEngine, SilencePatternAllowsAnEmptyFrameButNotData) {
   EXPECT_NE(data.message.find("1A0#00"), std::string::npos) << data.message;
 }
 
-TEST_F(DeviceValuesEngine, OkOrAbortTakesEitherAnswerButNotSilence) {
+TEST_F(PeerEngine, OkOrAbortTakesEitherAnswerButNotSilence) {
   // Given a device that refuses the write, one that confirms it, and one that does not answer
   const std::string write =
       "    - sdo_write: {index: 0x1800, sub: 1, value: 0x1A0, size: 4}\n      expect: "
@@ -131,6 +131,20 @@ TEST_F(DeviceValuesEngine, OkOrAbortTakesEitherAnswerButNotSilence) {
   EXPECT_EQ(refused.verdict, Verdict::pass) << refused.message;
   EXPECT_EQ(accepted.verdict, Verdict::pass) << accepted.message;
   EXPECT_EQ(silent.verdict, Verdict::fail);
+}
+
+TEST_F(PeerEngine, ReactionBeforeTheSdoAnswerCountsFromTheRequest) {
+  // Given a drive that sends its error-reset EMCY at once on a controlword write but confirms
+  // the write only 30 ms later (a late SDO server)
+  peer_
+      .expect("601#2B40600080000000")  // ccs=1 n=2 e=1 s=1, 6040h sub 0 := 0080h
+      .reply("081#0000000000000000")   // EMCY 0000h: error reset
+      .reply_after(std::chrono::milliseconds(30), "581#6040600000000000");  // confirmed
+  // When the vector expects the EMCY within 20 ms after the controlword
+  const auto result =
+      run("    - controlword: 0x0080\n    - expect_emcy: {code: 0x0000}\n      within: 20ms\n");
+  // Then it passes: the EMCY came right after the request, before the SDO answer
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
 }
 
 }  // namespace
