@@ -87,8 +87,8 @@ class Engine::Impl {
         dissector_(dissector_options(options_)),
         pdo_(profile_, options_.node),
         capabilities_(options_.eds),
-        context_{bus_,    profile_, options_, dissector_,   interrupted,
-                 stalled, progress, pdo_,     std::nullopt, false} {
+        context_{bus_,     profile_, options_,     dissector_, interrupted, stalled,
+                 progress, pdo_,     std::nullopt, false,      {}} {
     bus_.set_frame_handler({});
     bus_.set_loopback(true);
     if (options_.harness_node == options_.node)
@@ -147,6 +147,14 @@ class Engine::Impl {
                      options_.strict);
       result.finished = bus_.now();
       if (dut_spoke != nullptr) *dut_spoke = false;
+      return result;
+    }
+    if (status == StepStatus::not_applicable) {
+      // A value the vector takes from the device does not exist on it (device_values.hpp).
+      result.verdict = Verdict::not_applicable;
+      result.message = run.message();
+      result.finished = bus_.now();
+      if (dut_spoke != nullptr) *dut_spoke = run.dut_spoke();
       return result;
     }
     const Outcome outcome = status == StepStatus::ok       ? Outcome::pass

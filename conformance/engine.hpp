@@ -16,12 +16,17 @@
 //   4. teardown (always): with CiA 402, after a motion vector or when the last statusword read
 //      showed OPERATION ENABLED: quick stop (0002h) then disable voltage (0000h).
 //   5. verdict (verdict.hpp): pass / fail / deviation (a profile deviation's glob matches) /
+//      not applicable (also when a `$dut.<name>` value does not exist on the DUT) /
 //      error (harness error: an unknown mark, a simulate input the drive does not know, a send
 //      the bus refused); should/may failures are warnings unless strict.
 //
 // Time: waiting is receive(deadline) on the port, so on the simulated bus it advances simulated
 // time and runs the drive; on SocketCAN it blocks in poll(). The engine turns loopback on and
 // records its own frames from their echo, so every evidence frame carries its wire time.
+// Timing is judged from those timestamps (FORMAT.md "Timing"): a window runs from the request's
+// echo, a frame read late counts by its timestamp, and a timing check that fails after the
+// harness itself was late (a `send:` frame or a wait later than $timing.harness_slack) is a
+// harness error ("error: harness late"), not a failure.
 //
 // A DUT that sends nothing at all during `max_silent_vectors` consecutive applicable vectors
 // (or does not answer the identity reads at the start) is lost: the run stops, dut_lost is set

@@ -10,6 +10,13 @@
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
+namespace {
+
+std::string format_ms(can::Duration duration) {
+  return fmt::format("{:.3f} ms", std::chrono::duration<double, std::milli>(duration).count());
+}
+
+}  // namespace
 
 VectorRun::VectorRun(EngineContext& context, const Vector& vector, VectorResult& result)
     : context_(context), vector_(vector), result_(result) {
@@ -24,10 +31,15 @@ can::Duration VectorRun::resolve(const DurationSpec& spec) const {
 std::optional<can::TimedFrame> VectorRun::pump(can::TimePoint deadline) {
   deadline = std::min(deadline, deadline_);
   while (true) {
-    if (context_.bus.now() > deadline || context_.stalled.load()) return std::nullopt;
+    if (context_.stalled.load()) return std::nullopt;
+    // Past the deadline the harness still takes a frame already waiting in the port (a busy
+    // host reads late), but only one whose timestamp is within the deadline counts as
+    // received by then; a later one is recorded and ends the wait (so a flood ends it too).
+    const bool late = context_.bus.now() > deadline;
     auto frame = context_.bus.receive(deadline);
     context_.progress.fetch_add(1, std::memory_order_relaxed);
     if (!frame) return std::nullopt;
+    const bool in_time = !late || frame->timestamp <= deadline;
     EvidenceFrame evidence;
     evidence.at = frame->timestamp;
     evidence.frame = frame->frame;
@@ -41,11 +53,33 @@ std::optional<can::TimedFrame> VectorRun::pump(can::TimePoint deadline) {
       if (pdo_sample.origin == SampleOrigin::tpdo && pdo_sample.signal == "statusword")
         last_statusword_ = static_cast<std::uint16_t>(pdo_sample.value);
     }
-    if (frame->own) continue;
+    if (frame->own) {
+      on_echo(frame->timestamp);
+      if (!in_time || until_echo_) return std::nullopt;
+      continue;
+    }
     ++dut_frames_;
     received_.push_back(*frame);
+    if (!in_time) return std::nullopt;
     return frame;
   }
+}
+
+void VectorRun::on_echo(can::TimePoint at) {
+  last_echo_ = at;
+  if (echoes_.empty()) return;
+  const PendingEcho echo = std::move(echoes_.front());
+  echoes_.pop_front();
+  const auto slack = resolve({{}, "harness_slack"});
+  if (echo.asked && at > *echo.asked + slack) {
+    note_harness_late(
+        fmt::format("{} went out {} after the step asked for it ($timing.harness_slack {})",
+                    echo.what, format_ms(at - *echo.asked), profile::format_duration(slack)));
+  }
+}
+
+void VectorRun::note_harness_late(std::string why) {
+  if (harness_late_.empty()) harness_late_ = fmt::format("step {}: {}", step_index_ + 1, why);
 }
 
 void VectorRun::drain() {
@@ -63,10 +97,53 @@ void VectorRun::wait_until(can::TimePoint deadline) {
         return;
     }
   }
+  // The harness woke up late (a busy host): what it sends next goes out late.
+  const auto slack = resolve({{}, "harness_slack"});
+  if (!vector_timed_out() && now() > deadline + slack)
+    note_harness_late(fmt::format("a wait ended {} late ($timing.harness_slack {})",
+                                  format_ms(now() - deadline), profile::format_duration(slack)));
 }
 
 std::error_code VectorRun::send(const can::Frame& frame) {
-  return context_.bus.send(frame);
+  last_send_call_ = now();
+  const std::error_code error = context_.bus.send(frame);
+  if (!error) {
+    PendingEcho echo;
+    if (send_asked_) {
+      // A frame of a `send:` step may not go out before the harness's previous frame did.
+      echo.asked =
+          last_echo_ && echoes_.empty() ? std::max(*send_asked_, *last_echo_) : *send_asked_;
+      echo.what = fmt::format("frame {}", frame);
+    }
+    echoes_.push_back(std::move(echo));
+  }
+  return error;
+}
+
+can::TimePoint VectorRun::request_time() {
+  // Wait for the echo of what the harness sent last (its actual send time); a port without
+  // loopback echoes nothing, and then the step's start is the best the harness knows.
+  const auto limit = now() + resolve({{}, "response"});
+  until_echo_ = true;
+  while (!echoes_.empty() && now() < limit && !vector_timed_out()) {
+    if (!pump(limit) && (context_.interrupted.load() || context_.stalled.load())) break;
+  }
+  until_echo_ = false;
+  if (!echoes_.empty()) echoes_.clear();
+  return last_echo_ ? std::max(step_started_, *last_echo_) : step_started_;
+}
+
+StepStatus VectorRun::fail_timed(std::string action, std::string expected, std::string actual) {
+  if (harness_late_.empty()) return fail(std::move(action), std::move(expected), std::move(actual));
+  message_ = fmt::format(
+      "error: harness late in step {} {} (line {}): {}; the check is not charged to the device:\n"
+      "  Expected: {}\n  Actual:   {}",
+      step_index_ + 1, action,
+      step_index_ < vector_.steps.size() ? vector_.steps[step_index_].line : vector_.line,
+      harness_late_, expected, actual);
+  check(std::move(action), std::move(expected),
+        fmt::format("error: harness late ({}); saw: {}", harness_late_, actual), false);
+  return StepStatus::harness_error;
 }
 
 std::error_code VectorRun::send_nmt(const can::Frame& frame, bool raw) {
@@ -145,14 +222,52 @@ std::string SdoOutcome::describe() const {
 StepStatus VectorRun::run_steps() {
   result_.started = now();
   if (const auto status = setup(); status != StepStatus::ok) return status;
+  if (const auto status = resolve_device_values(); status != StepStatus::ok) return status;
+  can::TimePoint previous_end = now();
+  // An SDO stimulus (sdo_write, sdo_read, controlword) is a request: the DUT may react to it
+  // before its SDO answer (an EMCY before the confirmation), so a frame expectation right
+  // after it watches from the request, not from the answer.
+  bool previous_request = false;
+  std::size_t request_from = 0;
+  can::TimePoint request_start{};
   for (step_index_ = 0; step_index_ < vector_.steps.size(); ++step_index_) {
     const Step& step = vector_.steps[step_index_];
     action_ = std::string(action_name(step.action));
+    // The step watches the frames that arrived after the previous step ended, judged by their
+    // timestamps, not by when the harness got to read them: those read late by the previous
+    // step (resume_from_) and those already queued now with a later timestamp.
+    const std::size_t queued = received_.size();
+    step_started_ = previous_end;
     drain();
+    if (resume_from_) {
+      step_from_ = std::min(*resume_from_, queued);
+    } else {
+      step_from_ = queued;
+      while (step_from_ < received_.size() && received_[step_from_].timestamp <= previous_end)
+        ++step_from_;
+    }
+    resume_from_.reset();
+    const bool reacts = std::holds_alternative<ExpectFrameStep>(step.action) ||
+                        std::holds_alternative<ExpectEmcyStep>(step.action) ||
+                        std::holds_alternative<ExpectHeartbeatStep>(step.action);
+    if (previous_request && reacts) {
+      step_from_ = std::min(step_from_, request_from);
+      step_started_ = request_start;
+    }
+    previous_request = std::holds_alternative<SdoWriteStep>(step.action) ||
+                       std::holds_alternative<SdoReadStep>(step.action) ||
+                       std::holds_alternative<ControlwordStep>(step.action);
+    request_from = step_from_;
+    request_start = step_started_;
     StepStatus status = run_stimulus(step);
     if (status == StepStatus::ok) status = run_expectation(step);
     if (status != StepStatus::ok) return status;
     if (context_.interrupted.load()) return harness_error(action_, "interrupted by the user");
+    // A step that ends with a send ends when it handed the frame over (the harness may be
+    // descheduled right after); any other step ends now.
+    const bool sends = std::holds_alternative<SendStep>(step.action) ||
+                       std::holds_alternative<NmtStep>(step.action);
+    previous_end = sends && last_send_call_ >= step_started_ ? last_send_call_ : now();
     if (vector_timed_out())
       return fail(action_,
                   fmt::format("the vector to end within {}",

@@ -28,15 +28,19 @@ void VectorRun::set_mark(const std::string& name, can::TimePoint at, std::size_t
 }
 
 std::size_t VectorRun::watch_start(const std::string& since) const {
-  if (since.empty()) return received_.size();
+  if (since.empty()) return step_from_;
   const auto it = marks_.find(since);
   return it == marks_.end() ? received_.size() : it->second.index;
 }
 
 std::optional<std::size_t> VectorRun::watch(std::size_t from, can::TimePoint deadline,
                                             const std::function<bool(const can::Frame&)>& match) {
+  // Judged by the frame's timestamp (its wire time), never by when the harness read it.
+  const auto on_time = [&](std::size_t i) {
+    return received_[i].timestamp <= deadline && match(received_[i].frame);
+  };
   for (std::size_t i = from; i < received_.size(); ++i) {
-    if (match(received_[i].frame)) return i;
+    if (on_time(i)) return i;
   }
   while (now() < deadline && !vector_timed_out()) {
     auto frame = pump(deadline);
@@ -44,8 +48,20 @@ std::optional<std::size_t> VectorRun::watch(std::size_t from, can::TimePoint dea
       if (context_.interrupted.load()) return std::nullopt;
       continue;
     }
-    if (match(frame->frame)) return received_.size() - 1;
+    if (on_time(received_.size() - 1)) return received_.size() - 1;
   }
+  // The deadline has passed for the harness. Frames already waiting in the port may still
+  // have arrived in time (a busy host reads them late): take them by their timestamps. Those
+  // read here that do not match belong to the next step.
+  const std::size_t late_from = received_.size();
+  while (pump(now())) {
+    const std::size_t i = received_.size() - 1;
+    if (on_time(i)) {
+      resume_from_ = i + 1;
+      return i;
+    }
+  }
+  if (late_from < received_.size()) resume_from_ = late_from;
   return std::nullopt;
 }
 
@@ -70,25 +86,27 @@ StepStatus VectorRun::poll_statusword(std::string action, std::uint16_t mask, st
     if (now() >= deadline || vector_timed_out() || context_.interrupted.load()) break;
     wait_until(std::min(deadline, std::max(now(), started + every)));
   }
-  return fail(std::move(action), std::move(expected), fmt::format("{} at the deadline", last));
+  return fail_timed(std::move(action), std::move(expected),
+                    fmt::format("{} at the deadline", last));
 }
 
 StepStatus VectorRun::run_expectation(const Step& step) {
   const auto& action = step.action;
   const std::string name(action_name(action));
-  const auto start = now();
+  // Bus time when the previous step ended: a late harness does not shift the windows.
+  const auto start = step_started_;
   if (const auto* e = std::get_if<ExpectFrameStep>(&action)) {
     const auto within = resolve(e->within);
     const auto from = watch_start(e->since);
-    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    const auto base = e->since.empty() ? request_time() : marks_.at(e->since).at;
     const auto expected = fmt::format("a frame matching {} within {}", e->pattern.text,
                                       profile::format_duration(within));
     const auto hit = watch(from, base + within,
                            [&](const can::Frame& f) { return e->pattern.matches(f, node()); });
     if (!hit)
-      return fail(name, expected,
-                  fmt::format("nothing matching within {}; {}", profile::format_duration(within),
-                              recent_frames(from)));
+      return fail_timed(name, expected,
+                        fmt::format("nothing matching within {}; {}",
+                                    profile::format_duration(within), recent_frames(from)));
     const auto& frame = received_[*hit];
     if (!e->mark.empty()) set_mark(e->mark, frame.timestamp, *hit + 1);
     check(name, expected, fmt::format("{} after {}", frame.frame, ms(frame.timestamp - base)),
@@ -102,18 +120,23 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     std::vector<std::string> cobs;
     for (const auto& cob : e->cob_ids)
       cobs.push_back(cob_text(cob, node()));
+    for (const auto& pattern : e->patterns)
+      cobs.push_back(pattern.text);
     const auto expected =
         e->any ? fmt::format("no frame at all for {}", profile::format_duration(duration))
                : fmt::format("no frame on {} for {}", fmt::join(cobs, ", "),
                              profile::format_duration(duration));
     const auto hit = watch(from, base + duration, [&](const can::Frame& f) {
       if (e->any) return true;
+      if (std::any_of(e->patterns.begin(), e->patterns.end(),
+                      [&](const FrameSpec& pattern) { return pattern.matches(f, node()); }))
+        return true;
       return std::any_of(e->cob_ids.begin(), e->cob_ids.end(), [&](const CobIdSpec& cob) {
         return !f.is_error() && f.id == cob.resolve(node()) && f.is_extended() == cob.extended;
       });
     });
     if (hit)
-      return fail(
+      return fail_timed(
           name, expected,
           fmt::format("{} after {}", received_[*hit].frame, ms(received_[*hit].timestamp - base)));
     check(name, expected, "silence", true);
@@ -122,14 +145,14 @@ StepStatus VectorRun::run_expectation(const Step& step) {
   if (const auto* e = std::get_if<ExpectBootupStep>(&action)) {
     const auto within = resolve(e->within);
     const auto from = watch_start(e->since);
-    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    const auto base = e->since.empty() ? request_time() : marks_.at(e->since).at;
     const auto expected = fmt::format("boot-up {:03X}#00 within {}", 0x700 + node(),
                                       profile::format_duration(within));
     const auto hit = watch(from, base + within, [&](const can::Frame& f) {
       return !f.is_extended() && !f.is_remote() && f.id == 0x700U + node() && f.length() == 1 &&
              f.data[0] == 0;
     });
-    if (!hit) return fail(name, expected, fmt::format("no boot-up; {}", recent_frames(from)));
+    if (!hit) return fail_timed(name, expected, fmt::format("no boot-up; {}", recent_frames(from)));
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected, fmt::format("after {}", ms(received_[*hit].timestamp - base)), true);
     return StepStatus::ok;
@@ -144,7 +167,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
                                                                : resolve({{}, "response"});
     }
     const auto from = e->since.empty() ? watch_start({}) : watch_start(e->since);
-    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    const auto base = e->since.empty() ? request_time() : marks_.at(e->since).at;
     const auto state = static_cast<std::uint8_t>(e->state);
     const auto expected =
         fmt::format("heartbeat {:03X}#{:02X} ({}) within {}", 0x700 + node(), state,
@@ -154,7 +177,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
           return !f.is_extended() && !f.is_remote() && f.id == 0x700U + node() && f.length() == 1 &&
                  (f.data[0] & 0x7F) == state;
         });
-    if (!hit) return fail(name, expected, fmt::format("none; {}", recent_frames(from)));
+    if (!hit) return fail_timed(name, expected, fmt::format("none; {}", recent_frames(from)));
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected, fmt::format("after {}", ms(received_[*hit].timestamp - base)), true);
     return StepStatus::ok;
@@ -162,7 +185,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
   if (const auto* e = std::get_if<ExpectEmcyStep>(&action)) {
     const auto within = resolve(e->within);
     const auto from = watch_start(e->since);
-    const auto base = e->since.empty() ? start : marks_.at(e->since).at;
+    const auto base = e->since.empty() ? request_time() : marks_.at(e->since).at;
     auto expected =
         fmt::format("EMCY {:03X} with code {{{:04X}h}}", 0x80 + node(), fmt::join(e->codes, "h, "));
     if (e->register_mask)
@@ -180,7 +203,8 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       }
       return true;
     });
-    if (!hit) return fail(name, expected, fmt::format("no such EMCY; {}", recent_frames(from)));
+    if (!hit)
+      return fail_timed(name, expected, fmt::format("no such EMCY; {}", recent_frames(from)));
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected,
           fmt::format("{} after {}", received_[*hit].frame, ms(received_[*hit].timestamp - base)),
@@ -227,7 +251,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       if (now() >= deadline || vector_timed_out() || context_.interrupted.load()) break;
       wait_until(std::min(deadline, std::max(now(), started + every)));
     }
-    return fail(name, expected, fmt::format("last read: {}", last));
+    return fail_timed(name, expected, fmt::format("last read: {}", last));
   }
   if (const auto* e = std::get_if<MeasureStep>(&action)) {
     const auto from = marks_.find(e->from);
@@ -245,7 +269,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     const auto expected = fmt::format("{} → {} in [{}, {}]", e->from, e->to,
                                       timing.min ? profile::format_duration(*timing.min) : "-",
                                       timing.max ? profile::format_duration(*timing.max) : "-");
-    if (!timing.ok) return fail(name, expected, ms(interval));
+    if (!timing.ok) return fail_timed(name, expected, ms(interval));
     check(name, expected, ms(interval), true);
     return StepStatus::ok;
   }
@@ -258,16 +282,16 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     const auto matches = [&](const can::Frame& f) {
       return !f.is_error() && f.id == e->cob.resolve(node()) && f.is_extended() == e->cob.extended;
     };
-    std::size_t from = received_.size();
+    std::size_t from = step_from_;
     std::optional<can::TimePoint> previous;
     for (std::size_t n = 0; n < e->count; ++n) {
       const auto deadline = (previous ? *previous : start) + period + tolerance;
       const auto hit = watch(from, deadline, matches);
       if (!hit)
-        return fail(name, expected,
-                    fmt::format("frame {} of {} missing within {}{}", n + 1, e->count,
-                                profile::format_duration(period + tolerance),
-                                previous ? " of the previous one" : " of the step start"));
+        return fail_timed(name, expected,
+                          fmt::format("frame {} of {} missing within {}{}", n + 1, e->count,
+                                      profile::format_duration(period + tolerance),
+                                      previous ? " of the previous one" : " of the step start"));
       const auto at = received_[*hit].timestamp;
       if (previous) {
         const auto interval = at - *previous;
@@ -276,8 +300,9 @@ StepStatus VectorRun::run_expectation(const Step& step) {
         timing.ok = interval >= *timing.min && interval <= *timing.max;
         result_.timings.push_back(timing);
         if (!timing.ok)
-          return fail(name, expected,
-                      fmt::format("interval {} between frames {} and {}", ms(interval), n, n + 1));
+          return fail_timed(
+              name, expected,
+              fmt::format("interval {} between frames {} and {}", ms(interval), n, n + 1));
       } else if (!e->mark.empty()) {
         set_mark(e->mark, at, *hit + 1);
       }

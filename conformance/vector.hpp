@@ -71,7 +71,9 @@ enum class Transfer : std::uint8_t { automatic, expedited, segmented, block };
 
 // What an SDO step accepts as the answer.
 struct SdoExpect {
-  enum class Kind : std::uint8_t { ok, value, range, size, data, abort };
+  // ok_or_abort: the DUT confirms or aborts, either passes (CiA 301 leaves it the choice: a
+  // refusal meets the requirement); only no answer fails. Later steps judge the effect.
+  enum class Kind : std::uint8_t { ok, value, range, size, data, abort, ok_or_abort };
   Kind kind = Kind::ok;
   ValueSpec value;
   std::optional<std::uint64_t> mask;
@@ -147,6 +149,9 @@ struct ExpectFrameStep {
 struct ExpectSilenceStep {
   bool any = false;
   std::vector<CobIdSpec> cob_ids;
+  // Frame patterns (`1A0#..*`: a frame on 1A0h with at least one data byte): no frame that
+  // matches one may come. Lets a vector allow what the standard allows on the same COB-ID.
+  std::vector<FrameSpec> patterns;
   DurationSpec duration;  // `for:`
   std::string since;
   friend bool operator==(const ExpectSilenceStep&, const ExpectSilenceStep&) = default;

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <utility>
 
+#include "conformance/device_values.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
@@ -486,6 +487,7 @@ class Parser {
     if (!text) return std::nullopt;
     if (text->starts_with("$")) {
       const auto saved = text->substr(1);
+      if (is_device_value(saved)) return ValueSpec{0, saved};  // device_values.hpp
       if (saves_.count(saved) == 0) {
         error(node, fmt::format("{}: '{}' names no value saved earlier in this vector (save: {})",
                                 what, *text, saved));
@@ -561,8 +563,11 @@ class Parser {
   SdoExpect sdo_expect(const YAML::Node& node, bool read) {
     SdoExpect expect;
     if (node.IsScalar()) {
-      if (node.Scalar() != "ok")
-        error(node, fmt::format("expect: '{}' is not 'ok' or a map", node.Scalar()));
+      if (node.Scalar() == "ok-or-abort") {
+        expect.kind = SdoExpect::Kind::ok_or_abort;
+      } else if (node.Scalar() != "ok") {
+        error(node, fmt::format("expect: '{}' is not 'ok', 'ok-or-abort' or a map", node.Scalar()));
+      }
       return expect;
     }
     const std::vector<std::string_view> keys =
@@ -808,6 +813,15 @@ class Parser {
         for (const auto& item : value) {
           auto text = scalar(item, "expect_silence");
           if (!text) continue;
+          if (text->find('#') != std::string::npos) {
+            auto pattern = parse_frame_spec(*text, true);
+            if (!pattern) {
+              error(item, fmt::format("expect_silence: {}", pattern.error()));
+              continue;
+            }
+            step.patterns.push_back(*pattern);
+            continue;
+          }
           auto cob = parse_cob_id(*text);
           if (!cob) {
             error(item, fmt::format("expect_silence: {}", cob.error()));
@@ -816,7 +830,9 @@ class Parser {
           step.cob_ids.push_back(*cob);
         }
       } else {
-        error(value, "expect_silence: expected 'any' or a list of COB-IDs ([180+N, 080])");
+        error(value,
+              "expect_silence: expected 'any' or a list of COB-IDs or frame patterns ([180+N, "
+              "080, \"1A0#..*\"])");
         return std::nullopt;
       }
       const auto node = modifier("for");

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <optional>
@@ -42,9 +43,13 @@ struct EngineContext {
   // $timing.nmt_spacing (VectorRun::send_nmt).
   std::optional<can::TimePoint> last_nmt;
   bool last_nmt_raw = false;
+  // `$dut.<name>` values found on the DUT in this run (device_values.hpp).
+  std::map<std::string, std::int64_t> device_values;
 };
 
-enum class StepStatus : std::uint8_t { ok, failed, harness_error };
+// not_applicable: a value the vector takes from the device does not exist on it
+// (device_values.hpp); the message says why.
+enum class StepStatus : std::uint8_t { ok, failed, harness_error, not_applicable };
 
 struct SdoOutcome {
   bool ok = false;
@@ -82,6 +87,17 @@ class VectorRun {
   // Fails with `expected`/`actual` (sets the failure message).
   StepStatus fail(std::string action, std::string expected, std::string actual);
   StepStatus harness_error(std::string action, std::string message);
+  // A timing check failed: when the harness was late in this vector (harness_late() says
+  // why), the check is not charged to the device: `error: harness late` (a harness error);
+  // otherwise fail(). FORMAT.md "Timing".
+  StepStatus fail_timed(std::string action, std::string expected, std::string actual);
+  // Why the harness was late in this vector so far ("" = it never was): a `send:` frame or a
+  // poll that went out later than the step asked by more than $timing.harness_slack, or a
+  // wait that ended that much late.
+  const std::string& harness_late() const { return harness_late_; }
+  void note_harness_late(std::string why);
+  // The loopback echo of one of the harness's frames (its wire time) came in.
+  void on_echo(can::TimePoint at);
 
   // ---- sdo_steps.cpp ----
   SdoOutcome sdo_upload(cia301::Multiplexer mux, Transfer transfer = Transfer::automatic);
@@ -94,6 +110,10 @@ class VectorRun {
   // A 402 state or statusword pattern polled through 6041h until `deadline`.
   StepStatus poll_statusword(std::string action, std::uint16_t mask, std::uint16_t value,
                              std::string expected, can::TimePoint deadline);
+
+  // ---- device_values.cpp ----
+  // Finds the `$dut.<name>` values the vector's steps use (once per run) and saves them.
+  StepStatus resolve_device_values();
 
   // ---- setup.cpp ----
   StepStatus setup();
@@ -117,6 +137,10 @@ class VectorRun {
   StepStatus reach_drive_state(cia402::State target);
   StepStatus await_bootup(std::string action);
   std::size_t watch_start(const std::string& since) const;
+  // The time a watching expectation measures `within:` from when it has no `since:`: the
+  // later of the step's start and the wire time (loopback echo) of the harness's latest
+  // frame, waiting for that echo first (up to $timing.response) when it is not in yet.
+  can::TimePoint request_time();
   std::optional<std::size_t> watch(std::size_t from, can::TimePoint deadline,
                                    const std::function<bool(const can::Frame&)>& match);
   void set_mark(const std::string& name, can::TimePoint at, std::size_t index);
@@ -134,6 +158,23 @@ class VectorRun {
   std::optional<std::uint16_t> last_statusword_;
   std::optional<can::Duration> heartbeat_time_;  // 1017h as written or read in this vector
   std::size_t step_index_ = 0;
+  // Fair timing (FORMAT.md "Timing"): frames are judged by their timestamps, not by when the
+  // harness got to read them.
+  std::size_t step_from_ = 0;      // received_.size() when the current step began
+  can::TimePoint step_started_{};  // bus time when the current step began
+  struct PendingEcho {
+    std::optional<can::TimePoint> asked;  // a `send:` step's frame: when the step asked for it
+    std::string what;
+  };
+  std::deque<PendingEcho> echoes_;            // own frames sent whose loopback echo is not in yet
+  std::optional<can::TimePoint> last_echo_;   // wire time of the harness's latest frame
+  std::optional<can::TimePoint> send_asked_;  // set by a `send:` step around its send()
+  can::TimePoint last_send_call_{};           // when send() was last called
+  bool until_echo_ = false;                   // pump() returns after an echo (request_time)
+  std::string harness_late_;
+  // Frames an expectation read after its deadline (a late harness) that it did not take: the
+  // next step watches them too.
+  std::optional<std::size_t> resume_from_;
   std::string action_;  // current step's action
   std::string message_;
 };

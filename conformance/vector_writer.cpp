@@ -238,9 +238,14 @@ class Writer {
       plain("ok");
       return;
     }
+    if (expect.kind == SdoExpect::Kind::ok_or_abort) {
+      plain("ok-or-abort");
+      return;
+    }
     out_ << YAML::Flow << YAML::BeginMap;
     switch (expect.kind) {
       case SdoExpect::Kind::ok:
+      case SdoExpect::Kind::ok_or_abort:
         break;
       case SdoExpect::Kind::value:
         key("value");
@@ -361,6 +366,8 @@ class Writer {
       out_ << YAML::Flow << YAML::BeginSeq;
       for (const CobIdSpec& cob : s.cob_ids)
         quoted(cob_id_text(cob));
+      for (const FrameSpec& pattern : s.patterns)
+        quoted(pattern.text);
       out_ << YAML::EndSeq;
     }
     duration_key("for", s.duration);

@@ -374,6 +374,10 @@ void ReferenceDrive::on_sync(const cia301::SyncConsumerEvent& event) {
   // Deviation sync-counter-ignored: the PDOs never see the counter.
   handle(pdos_->on_sync(has(Deviation::sync_counter_ignored) ? std::nullopt : event.counter,
                         event.time));
+  // Deviation sync-counted-twice: the PDOs see every SYNC twice.
+  if (has(Deviation::sync_counted_twice))
+    handle(pdos_->on_sync(has(Deviation::sync_counter_ignored) ? std::nullopt : event.counter,
+                          event.time));
   if (config_.application != nullptr) config_.application->on_sync(*this, event.time);
   rearm();
 }

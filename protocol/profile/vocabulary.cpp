@@ -97,19 +97,12 @@ constexpr std::array<std::string_view, 30> kDetectableFeatures{
     "mode.cst",
 };
 
-// FORMAT.md "Timing names".
-const std::array<TimingName, 10> kTimings{{
-    {"response", 100ms, "SDO/NMT reaction of any frame the vector waits for"},
-    {"sdo_response", 100ms, "SDO response after the request"},
-    {"bootup", 2s, "reset command to boot-up message"},
-    {"state_change", 200ms, "402 command to the new state shown in 6041h"},
-    {"poll", 5ms, "polling period for expect_state, expect_statusword, poll"},
-    {"ack_latency", 10ms, "pp: new set-point edge to set-point acknowledge"},
-    {"heartbeat_tolerance", 10ms, "heartbeat period accuracy"},
-    {"sync_response", 5ms, "SYNC to synchronous TPDO"},
-    {"homing", 30s, "homing start to attained/error"},
-    {"nmt_spacing", 0s, "least time between two NMT frames (not two send: steps in a row)"},
-}};
+// FORMAT.md "Timing names": timing_defaults.inc.
+const std::array kTimings{
+#define DRIVECHECK_TIMING(key, value, meaning, basis) TimingName{#key, value, meaning, basis},
+#include "protocol/profile/timing_defaults.inc"
+#undef DRIVECHECK_TIMING
+};
 
 template <class T>
 std::optional<T> parse_decimal(std::string_view text) {

@@ -94,6 +94,9 @@ struct TimingName {
   std::string_view name;  // "sdo_response"
   can::Duration default_value;
   std::string_view meaning;
+  // The clause that gives the bound, or why it is a timeout / tolerance / harness value
+  // (timing_defaults.inc).
+  std::string_view basis;
 };
 std::span<const TimingName> timing_table();
 const TimingName* find_timing(std::string_view name);

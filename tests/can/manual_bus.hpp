@@ -46,7 +46,11 @@ class ManualBus final : public Bus {
       return failure_;
     }
     sent_.push_back({frame, now_});
-    if (loopback_) schedule(now_, TimedFrame{frame, now_, true});
+    if (loopback_) {
+      const TimePoint wire = now_ + echo_delay_;
+      schedule(wire, TimedFrame{frame, wire, true});
+    }
+    now_ += send_lag_;
     return {};
   }
 
@@ -94,6 +98,16 @@ class ManualBus final : public Bus {
 
   // A frame arriving from the bus at `at`.
   void inject(const Frame& frame, TimePoint at) { schedule(at, TimedFrame{frame, at, false}); }
+  // A frame that went on the wire at `stamp` but reaches the port's queue only at `deliver`
+  // (a busy host: the kernel timestamp is on time, the read is late).
+  void inject_late(const Frame& frame, TimePoint stamp, TimePoint deliver) {
+    schedule(deliver, TimedFrame{frame, stamp, false});
+  }
+  // Each sent frame goes on the wire (its echo's timestamp) `delay` after send() was called:
+  // a transmit queue that holds it back.
+  void set_echo_delay(Duration delay) { echo_delay_ = delay; }
+  // Each send() returns `lag` later than it was called: the sender is descheduled.
+  void set_send_lag(Duration lag) { send_lag_ = lag; }
   // The next `count` sends fail with `error`.
   void fail_sends(int count, BusError error) {
     failures_left_ = count;
@@ -151,6 +165,8 @@ class ManualBus final : public Bus {
   std::error_code failure_;
   bool loopback_ = false;
   bool stopped_ = false;
+  Duration echo_delay_{0};
+  Duration send_lag_{0};
 };
 
 }  // namespace drivecheck::test_support

@@ -184,6 +184,41 @@ TEST(VectorFile, UnknownMarkAndSavedValue) {
             std::string::npos);
 }
 
+TEST(VectorFile, DeviceValuesOkOrAbortAndSilencePatterns) {
+  // Given $dut values, ok-or-abort and a frame pattern in expect_silence
+  const auto set = parse_vectors(
+      std::string(kHead) +
+          "  steps:\n"
+          "    - sdo_write: {index: 0x1A00, sub: 1, value: $dut.tpdo_object, size: 4}\n"
+          "      expect: ok-or-abort\n"
+          "    - sdo_read: {index: 0x6060, sub: 0}\n"
+          "      expect: {value: $dut.unsupported_mode}\n"
+          "    - expect_silence: [\"1A0#..*\", \"080\"]\n"
+          "      for: 10ms\n",
+      "v.yaml");
+  // When parsed / Then they load as device values, the kind and a pattern beside a COB-ID
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& steps = set.vectors.at(0).steps;
+  const auto& write = std::get<SdoWriteStep>(steps.at(0).action);
+  EXPECT_EQ(write.value->saved, "dut.tpdo_object");
+  EXPECT_EQ(write.expect.kind, SdoExpect::Kind::ok_or_abort);
+  EXPECT_EQ(std::get<SdoReadStep>(steps.at(1).action).expect.value.saved, "dut.unsupported_mode");
+  const auto& silence = std::get<ExpectSilenceStep>(steps.at(2).action);
+  EXPECT_EQ(silence.patterns.size(), 1U);
+  EXPECT_EQ(silence.cob_ids.size(), 1U);
+  // And an unknown $dut value or expect keyword is an error naming the line
+  EXPECT_NE(only_error(std::string(kHead) +
+                       "  steps:\n    - sdo_write: {index: 0x6060, sub: 0, value: $dut.nope, "
+                       "size: 1}\n")
+                .find("v.yaml:6: value: '$dut.nope' names no value saved"),
+            std::string::npos);
+  EXPECT_NE(only_error(std::string(kHead) +
+                       "  steps:\n    - sdo_write: {index: 0x6060, sub: 0, value: 1, size: 1}\n"
+                       "      expect: maybe\n")
+                .find("'ok-or-abort'"),
+            std::string::npos);
+}
+
 TEST(VectorFile, MissingRequiredKeys) {
   // Given a vector without title and steps; When parsed; Then one error per key at its line
   const auto set = parse_vectors("- id: a/b\n  source: \"CiA 301 §1\"\n", "v.yaml");

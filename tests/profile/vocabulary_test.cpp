@@ -107,9 +107,20 @@ TEST(OptionCodes, TableNamesTheCia402Objects) {
 TEST(Timing, DefaultsAreFormatMdTable) {
   // Given the timing table / When looked up / Then FORMAT.md's defaults come back
   ASSERT_NE(find_timing("ack_latency"), nullptr);
-  EXPECT_EQ(find_timing("ack_latency")->default_value, 10ms);
+  EXPECT_EQ(find_timing("ack_latency")->default_value, 100ms);
   EXPECT_EQ(find_timing("homing")->default_value, 30s);
   EXPECT_EQ(find_timing("nope"), nullptr);
+}
+
+TEST(Timing, EveryKeyStatesItsBasis) {
+  // Given the timing table / When each row is read / Then it says what gives the bound: a
+  // clause, or that it is a timeout, a tolerance or a harness value (timing_defaults.inc)
+  for (const auto& row : timing_table()) {
+    const bool named = row.basis.starts_with("timeout:") || row.basis.starts_with("tolerance:") ||
+                       row.basis.starts_with("harness:") || row.basis.starts_with("CiA ");
+    EXPECT_TRUE(named) << row.name << ": " << row.basis;
+  }
+  ASSERT_NE(find_timing("harness_slack"), nullptr);
 }
 
 }  // namespace
