@@ -340,6 +340,7 @@ void Cia402Application::bind(cia301::ObjectDictionary& od) {
   context_->deviations = &config_.deviations;
   context_->acknowledge_latency_cycles =
       std::max<std::uint32_t>(1, config_.acknowledge_latency_cycles);
+  context_->setpoint_buffer = std::max<std::uint32_t>(1, config_.setpoint_buffer);
   context_->jerk_smoothing_cycles = config_.jerk_smoothing_cycles;
   context_->change_on_set_point = config_.pp_change_on_set_point;
   binding_ = std::make_unique<PowerDriveObjects>(od, pds_);

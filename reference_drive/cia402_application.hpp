@@ -117,6 +117,8 @@ struct Cia402ApplicationConfig {
   AxisConfig axis;
   // New set-point (pp bit 4 edge) to set-point acknowledge (bit 12), in drive cycles (≥ 1).
   std::uint32_t acknowledge_latency_cycles = 1;
+  // pp: set-points buffered behind the running one (personality key setpoint_buffer), 1..8.
+  std::uint32_t setpoint_buffer = 1;
   ErrorCodeFormat error_code_format = ErrorCodeFormat::standard;
   // error_number format: EMCY code → error number (unlisted codes: the code's high byte).
   std::vector<std::pair<std::uint16_t, std::uint8_t>> error_numbers;

@@ -76,6 +76,9 @@ Expected<void, std::string> ReferenceDrive::start() {
       return Unexpected("application objects: " + ok.error());
     }
   }
+  for (const auto& [first, last] : config_.absent_objects) {
+    od_->remove_objects(first, last);
+  }
   take_snapshot();
   return bind_services();
 }
@@ -86,12 +89,17 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
     own_storage_ = std::make_unique<cia301::MemoryParameterStorage>();
     storage = own_storage_.get();
   }
-  auto store = cia301::StoreRestore::create(*od_, *storage);
-  if (!store) return Unexpected(store.error());
-  store_ = std::move(*store);
+  // Store/restore only where its objects are (absent_objects may remove them).
+  if (od_->find(cia301::kStoreParametersIndex) != nullptr &&
+      od_->find(cia301::kRestoreDefaultParametersIndex) != nullptr) {
+    auto store = cia301::StoreRestore::create(*od_, *storage);
+    if (!store) return Unexpected(store.error());
+    store_ = std::move(*store);
+  }
 
   pdos_ = std::make_unique<cia301::PdoService>(*od_, bus_, config_.dictionary.pdo.dummy_mapping,
                                                config_.dictionary.pdo.change_mask_index);
+  pdos_->set_first_sync_phase(config_.tpdo_first_sync_phase);
 
   cia301::SdoServerConfig sdo = cia301::SdoServerConfig::for_node(od_->node_id());
   sdo.timeout = config_.sdo_timeout;
@@ -334,16 +342,24 @@ void ReferenceDrive::reset_sdo_servers() {
   }
 }
 
+void ReferenceDrive::apply_stored(std::uint8_t group) {
+  if (store_) {
+    store_->apply(group);
+  } else {
+    od_->restore_defaults(group);  // nothing can be stored: the defaults
+  }
+}
+
 void ReferenceDrive::on_reset(cia301::ResetKind kind) {
   if (kind == cia301::ResetKind::application) {
-    store_->apply(cia301::kStoreApplication);
-    store_->apply(cia301::kStoreManufacturer);
+    apply_stored(cia301::kStoreApplication);
+    apply_stored(cia301::kStoreManufacturer);
     application_reset_ = true;
   } else {
     reset_sdo_servers();
     // Deviation: a reset communication on its own keeps the communication objects as written.
     if (application_reset_ || !has(Deviation::nmt_reset_communication_keeps_values)) {
-      store_->apply(cia301::kStoreCommunication);
+      apply_stored(cia301::kStoreCommunication);
     }
     application_reset_ = false;
     sync_sdo_channels();

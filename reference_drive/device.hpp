@@ -52,6 +52,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "protocol/can/bus.hpp"
@@ -130,6 +131,14 @@ struct DriveConfig {
   // `transmitted` says whether a frame of the drive got onto the wire since power on. Empty:
   // the CiA 301 reaction only.
   std::function<void(ReferenceDrive&, bool bus_off, bool transmitted)> on_bus_off;
+  // Objects the device does not have (personality key absent_objects): index ranges [first,
+  // last] removed from the dictionary after the application added its objects, before the
+  // services bind. The services whose objects are gone are off (device_services.hpp); without
+  // 1010h/1011h there is no store/restore (each reset applies the defaults).
+  std::vector<std::pair<std::uint16_t, std::uint16_t>> absent_objects;
+  // TPDOs of type n without a SYNC start value start their count at the first SYNC (personality
+  // key tpdo_sync_phase: first-sync; PdoService::set_first_sync_phase).
+  bool tpdo_first_sync_phase = false;
   // Named deviations (deviations.hpp; empty: the conformant drive). The drive applies the
   // CiA 301 ones (a DeviationPort between it and `bus`, and its own hooks); the application
   // applies the CiA 402 ones from its own copy.
@@ -196,7 +205,9 @@ class ReferenceDrive {
   std::size_t extra_sdo_server_count() const { return extra_sdo_.size(); }
   const cia301::SdoServer& extra_sdo_server(std::size_t i) const { return *extra_sdo_.at(i); }
   const cia301::PdoService& pdos() const { return *pdos_; }
+  // Precondition: has_store() (1010h and 1011h exist).
   const cia301::StoreRestore& store() const { return *store_; }
+  bool has_store() const { return store_ != nullptr; }
   const DriveStatistics& statistics() const { return stats_; }
   const DriveConfig& config() const { return config_; }
   // The wire-level deviations (nullptr when config().deviations is empty).
@@ -217,6 +228,8 @@ class ReferenceDrive {
   void sync_sdo_channels();
   void reset_sdo_servers();
   void on_reset(cia301::ResetKind kind);
+  // The stored parameters of `group`, or its defaults without store/restore.
+  void apply_stored(std::uint8_t group);
   void on_state_changed(cia301::NmtState from, cia301::NmtState to);
   void on_sync(const cia301::SyncConsumerEvent& event);
   void handle(const cia301::PdoOutput& output);

@@ -588,6 +588,17 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
   plan.drive.dictionary.extra_sdo_servers = p.extra_sdo_servers;
   plan.drive.dictionary.sdo_node_id_sub = p.sdo_server_node_id;
   plan.bus_off = p.bus_off;
+  // Issue 17's permitted choices (personality.hpp).
+  plan.cia402 = p.cia402;
+  for (const profile::ObjectRange& range : p.absent_objects) {
+    plan.drive.absent_objects.emplace_back(range.first, range.last);
+  }
+  plan.abort_codes = p.abort_codes;
+  plan.sdo_response_delay = p.sdo_response_delay;
+  plan.static_pdo_mapping = p.pdo_mapping == profile::PdoMapping::fixed;
+  plan.refuse_empty_pdo = p.empty_pdo_valid == profile::EmptyPdoValid::refuse;
+  plan.drive.tpdo_first_sync_phase = p.tpdo_sync_phase == profile::TpdoSyncPhase::first_sync;
+  plan.application.setpoint_buffer = p.setpoint_buffer;
   if (profile != nullptr) {
     if (auto r = apply_pdo_defaults(profile->pdo_defaults, plan); !r) return Unexpected(r.error());
   }

@@ -150,6 +150,52 @@
 //       An NMT frame (000h, any node) received less than this after the previous NMT frame is
 //       not processed (servo_drive.hpp, the personality port; Festo L1403-1405: 2 x 500 us).
 //       Standard: 0 (every NMT frame is processed).
+//   cia402: true | false
+//       false: a plain CiA 301 device (CiA 301 §7.5.1: 1000h bits 0-15 = 0 or another profile;
+//       the device profile is optional). The Cia402Application is not the drive's application:
+//       no 6000h-9FFFh objects, no PDS, no motion, no 402 EMCYs; `simulate` inputs reach an
+//       application that is not attached and change nothing on the bus. The profile's
+//       identity.device_type gives 1000h. Standard: true.
+//   absent_objects: [index | [first, last]]
+//       Objects the device does not have (ObjectDictionary::remove_objects, after every other
+//       object is in the dictionary, before the services bind; DriveConfig::absent_objects).
+//       An SDO access aborts 06020000h (CiA 301 §7.2.4.3.17), the EDS omits them, and the
+//       services whose objects are gone are off (device_services.hpp: no 100Ch/100Dh: no
+//       guarding answers; no 1016h: no consumer; no 1005h: SYNC on 080h, no producer; no
+//       1014h: no EMCY); without 1010h/1011h no store/restore (each reset applies the
+//       defaults). 1000h, 1001h and 1018h are mandatory (CiA 301 §7.5.1 table of the
+//       communication profile objects) and refused. An object a CiA 402 mode needs (6040h,
+//       6041h, 6060h, 6061h, 6502h, ...) must stay; the drive does not check that: the
+//       profile cites CiA 402-2 for each. Standard: none.
+//   abort_codes: {standard code or name: code}
+//       The SDO abort codes the drive answers in place of the standard drive's (the personality
+//       port rewrites bytes 4-7 of each abort frame it sends on its SDO response COB-ID). Both
+//       must be rows of protocol/cia301/sdo_abort_codes.inc; the profile cites, for each, the
+//       clause or CTT case that accepts it (shared/notes/ctt-catalogue.md). Standard: none.
+//   sdo_response_delay: duration | [min, max]
+//       Each SDO response (and abort) leaves min..max after the drive produced it (a fixed
+//       pseudo-random sequence per drive; never reordered); pending responses are dropped when
+//       the drive sends its boot-up message (a reset loses them). CiA 301 gives no response
+//       time; the default $timing.sdo_response is 100 ms: keep max below it. Standard: 0.
+//   pdo_mapping: dynamic | static
+//       static: every sub-index of the mapping records 1600h-17FFh and 1A00h-1BFFh refuses
+//       SDO writes with 06010002h (CiA 301 §7.5.2.36, §7.5.2.38: a device with static mapping
+//       has read-only mapping entries); the default mappings (pdo_defaults) stay. Standard:
+//       dynamic.
+//   empty_pdo_valid: accept | refuse
+//       refuse: writing a PDO COB-ID (1400h-15FFh, 1800h-19FFh sub 01h) with bit 31 = 0
+//       while its mapping record's sub 00h is 0 aborts 06090030h (CiA 301 §7.5.2.35 names
+//       no reaction: refusing is permitted). accept: valid and silent (pdo_service.hpp).
+//       Standard: accept.
+//   tpdo_sync_phase: nth-sync | first-sync
+//       A TPDO of type n (1..240) without a SYNC start value: its first transmission at the
+//       n-th SYNC after entering Operational (nth-sync) or at the first (first-sync), then
+//       every n-th (CiA 301 §7.5.2.37 leaves the phase open; PdoService::set_first_sync_phase).
+//       Standard: nth-sync.
+//   setpoint_buffer: 1..8
+//       pp: the set-points a set of set-points (controlword bit 5 = 0) buffers behind the
+//       running one (CiA 402-2 profile position: the buffer depth is the device's). Set-point
+//       acknowledge clears once bit 4 is 0 and the buffer has room. Standard: 1.
 //   note: text
 //       Why the values are what they are; not used.
 //
@@ -159,6 +205,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -199,6 +246,14 @@ struct PersonalityPlan {
   // An NMT frame (COB-ID 000h) received less than this after the previous one is lost (Festo
   // nmt_min_spacing); zero: every NMT frame is processed.
   can::Duration nmt_min_spacing{};
+  // false: no CiA 402 application (personality key cia402: false).
+  bool cia402 = true;
+  // SDO abort codes answered in place of the standard drive's (abort_codes) and the delay of
+  // the SDO responses (sdo_response_delay): ServoDrive's personality port applies them.
+  std::map<std::uint32_t, std::uint32_t> abort_codes;
+  profile::ResponseDelay sdo_response_delay;
+  bool static_pdo_mapping = false;  // pdo_mapping: static
+  bool refuse_empty_pdo = false;    // empty_pdo_valid: refuse
   // What the personality asks for that the reference drive cannot show (one line each).
   std::vector<std::string> not_applied;
 };

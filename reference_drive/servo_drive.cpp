@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <map>
 #include <utility>
 
 #include "reference_drive/festo_position_sampling.hpp"
@@ -17,17 +18,31 @@ namespace drivecheck::reference_drive {
 class PersonalityPort final : public can::Bus {
  public:
   PersonalityPort(can::Bus& port, std::uint8_t node, bool emcy_follow_up,
-                  can::Duration nmt_min_spacing)
+                  can::Duration nmt_min_spacing, std::map<std::uint32_t, std::uint32_t> abort_codes,
+                  profile::ResponseDelay sdo_delay)
       : port_(port),
         node_(node),
         emcy_follow_up_(emcy_follow_up),
-        nmt_min_spacing_(nmt_min_spacing) {}
+        nmt_min_spacing_(nmt_min_spacing),
+        abort_codes_(std::move(abort_codes)),
+        sdo_delay_(sdo_delay),
+        random_(0x9E3779B9U ^ node) {}
+  ~PersonalityPort() override { drop_pending(); }
+  PersonalityPort(const PersonalityPort&) = delete;
+  PersonalityPort& operator=(const PersonalityPort&) = delete;
 
   void set_dictionary(const cia301::ObjectDictionary* od) { od_ = od; }
 
   can::TimePoint now() const override { return port_.now(); }
   can::Duration unix_offset() const override { return port_.unix_offset(); }
-  std::error_code send(const can::Frame& frame) override {
+  std::error_code send(const can::Frame& original) override {
+    can::Frame frame = original;
+    if (is_sdo_response(frame)) {
+      remap_abort(frame);
+      if (sdo_delay_.max > can::Duration{}) return send_later(frame);
+    } else if (is_boot_up(frame)) {
+      drop_pending();  // a reset loses the responses not yet sent
+    }
     const std::error_code error = port_.send(frame);
     if (!error && emcy_follow_up_ && is_emcy(frame) && frame.length() >= 3 &&
         (frame.data[0] | frame.data[1]) != 0) {
@@ -65,6 +80,55 @@ class PersonalityPort final : public can::Bus {
   void stop() override { port_.stop(); }
 
  private:
+  // The default SDO channel's responses (580h + node-ID).
+  bool is_sdo_response(const can::Frame& frame) const {
+    return !frame.is_remote() && !frame.is_error() && !frame.is_extended() &&
+           frame.id == 0x580U + node_;
+  }
+  bool is_boot_up(const can::Frame& frame) const {
+    return !frame.is_remote() && !frame.is_error() && !frame.is_extended() &&
+           frame.id == 0x700U + node_ && frame.length() == 1 && frame.data[0] == 0;
+  }
+  // abort_codes: an abort transfer frame (command 80h) carries the code in bytes 4-7 (LE).
+  void remap_abort(can::Frame& frame) const {
+    if (abort_codes_.empty() || frame.length() != 8 || frame.data[0] != 0x80) return;
+    const std::uint32_t code = static_cast<std::uint32_t>(frame.data[4]) |
+                               static_cast<std::uint32_t>(frame.data[5]) << 8U |
+                               static_cast<std::uint32_t>(frame.data[6]) << 16U |
+                               static_cast<std::uint32_t>(frame.data[7]) << 24U;
+    const auto it = abort_codes_.find(code);
+    if (it == abort_codes_.end()) return;
+    for (unsigned i = 0; i < 4; ++i) {
+      frame.data[4 + i] = static_cast<std::uint8_t>(it->second >> (8U * i));
+    }
+  }
+  // sdo_response_delay: min..max later (xorshift32, fixed seed per node), never before a
+  // response produced earlier.
+  std::error_code send_later(const can::Frame& frame) {
+    random_ ^= random_ << 13U;
+    random_ ^= random_ >> 17U;
+    random_ ^= random_ << 5U;
+    const auto span = (sdo_delay_.max - sdo_delay_.min).count();
+    const can::Duration delay =
+        sdo_delay_.min +
+        can::Duration(span > 0 ? static_cast<can::Duration::rep>(random_) % (span + 1) : 0);
+    const can::TimePoint due = std::max(port_.now() + delay, last_due_);
+    last_due_ = due;
+    const std::uint64_t id = next_pending_++;
+    pending_[id] = port_.start_timer(due, [this, frame, id] {
+      pending_.erase(id);
+      (void)port_.send(frame);
+    });
+    return {};
+  }
+  void drop_pending() {
+    for (const auto& [id, timer] : pending_) {
+      (void)id;
+      port_.cancel_timer(timer);
+    }
+    pending_.clear();
+  }
+
   // The EMCY COB-ID: 1014h (bit 31 clear) when the dictionary is known, else 80h + node-ID.
   bool is_emcy(const can::Frame& frame) const {
     if (frame.is_remote() || frame.is_error() || frame.is_extended()) return false;
@@ -97,6 +161,12 @@ class PersonalityPort final : public can::Bus {
   can::Duration nmt_min_spacing_;
   std::optional<can::TimePoint> last_nmt_;
   const cia301::ObjectDictionary* od_ = nullptr;
+  std::map<std::uint32_t, std::uint32_t> abort_codes_;
+  profile::ResponseDelay sdo_delay_;
+  std::uint32_t random_;
+  can::TimePoint last_due_{};
+  std::uint64_t next_pending_ = 1;
+  std::map<std::uint64_t, can::TimerId> pending_;  // delayed SDO responses not yet sent
 };
 
 // The Cia402Application as the drive's application, with the personality's default overrides
@@ -108,7 +178,9 @@ class PersonalityApplication final : public DriveApplication {
       : inner_(inner), overrides_(std::move(overrides)), objects_(std::move(objects)) {}
 
   Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override {
-    if (auto r = inner_.add_objects(od); !r) return r;
+    if (cia402_) {
+      if (auto r = inner_.add_objects(od); !r) return r;
+    }
     if (auto r = apply_object_rules(od, objects_, inner_); !r) return r;
     if (internal_units_) internal_units_->attach(od);
     if (kollmorgen_) {
@@ -122,6 +194,8 @@ class PersonalityApplication final : public DriveApplication {
         not_applied_->push_back(std::move(line));
       }
     }
+    if (static_pdo_mapping_) make_pdo_mapping_static(od);
+    if (refuse_empty_pdo_) refuse_empty_pdos(od);
     return {};
   }
   void on_reset(ReferenceDrive& drive, cia301::ResetKind kind) override {
@@ -141,34 +215,81 @@ class PersonalityApplication final : public DriveApplication {
                               ? cia301::Value::of_signed(o.value)
                               : cia301::Value::of_unsigned(static_cast<std::uint64_t>(o.value)));
     }
-    inner_.on_reset(drive, kind);
+    if (cia402_) inner_.on_reset(drive, kind);
     if (internal_units_) internal_units_->resync(od);
     if (kollmorgen_) kollmorgen_->on_reset();
     if (sampling_) sampling_->on_reset(od, kind);
   }
   void on_nmt_state(ReferenceDrive& drive, cia301::NmtState from, cia301::NmtState to) override {
-    inner_.on_nmt_state(drive, from, to);
+    if (cia402_) inner_.on_nmt_state(drive, from, to);
   }
   void on_cycle(ReferenceDrive& drive, can::TimePoint now) override {
-    inner_.on_cycle(drive, now);
+    if (cia402_) inner_.on_cycle(drive, now);
     if (kollmorgen_) kollmorgen_->refresh(drive.dictionary());  // 1002h for the TPDOs
     if (sampling_) sampling_->refresh(drive.dictionary());      // 204Ah, statusword bit 15
   }
-  void on_sync(ReferenceDrive& drive, can::TimePoint at) override { inner_.on_sync(drive, at); }
+  void on_sync(ReferenceDrive& drive, can::TimePoint at) override {
+    if (cia402_) inner_.on_sync(drive, at);
+  }
   void on_communication_loss(ReferenceDrive& drive) override {
-    inner_.on_communication_loss(drive);
+    if (cia402_) inner_.on_communication_loss(drive);
   }
   void on_drive_destroyed(ReferenceDrive& drive) override {
     if (sampling_) sampling_->detach();
-    inner_.on_drive_destroyed(drive);
+    if (cia402_) inner_.on_drive_destroyed(drive);
   }
 
  private:
+  // pdo_mapping: static (CiA 301 §7.5.2.36, §7.5.2.38): every sub-index of the mapping records
+  // refuses SDO writes as a read-only entry does (06010002h); the PDO service still reads them.
+  static void make_pdo_mapping_static(cia301::ObjectDictionary& od) {
+    for (const cia301::Object& object : od.objects()) {
+      const std::uint16_t index = object.index();
+      if (!((index >= 0x1600 && index <= 0x17FF) || (index >= 0x1A00 && index <= 0x1BFF))) continue;
+      for (const cia301::Entry& e : object.entries()) {
+        od.find(index, e.sub_index())
+            ->set_write_validator(
+                [](const cia301::ObjectDictionary&, const cia301::Entry&,
+                   std::span<const std::uint8_t>) -> Expected<void, cia301::SdoAbort> {
+                  return Unexpected(cia301::SdoAbort::write_read_only);
+                });
+      }
+    }
+  }
+  // empty_pdo_valid: refuse: a COB-ID written valid (bit 31 = 0) while the PDO maps nothing
+  // (its mapping record's sub 00h = 0) aborts 06090030h, after the CiA checks of the entry.
+  static void refuse_empty_pdos(cia301::ObjectDictionary& od) {
+    for (std::uint16_t base : {std::uint16_t{0x1400}, std::uint16_t{0x1800}}) {
+      for (std::uint16_t index = base; index < base + 0x200; ++index) {
+        cia301::Entry* cob_id = od.find(index, 1);
+        if (cob_id == nullptr) continue;
+        const auto mapping = static_cast<std::uint16_t>(index + 0x200);
+        cob_id->set_write_validator(
+            [previous = cob_id->write_validator(), mapping](
+                const cia301::ObjectDictionary& dict, const cia301::Entry& entry,
+                std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+              if (previous) {
+                if (auto ok = previous(dict, entry, data); !ok) return ok;
+              }
+              if (data.size() != 4 || (data[3] & 0x80U) != 0) return {};
+              const cia301::Entry* count = dict.find(mapping, 0);
+              if (count != nullptr && count->as_unsigned() == 0) {
+                return Unexpected(cia301::SdoAbort::invalid_value);
+              }
+              return {};
+            });
+      }
+    }
+  }
+
   Cia402Application& inner_;
   std::vector<DefaultOverride> overrides_;
   std::vector<profile::ObjectRule> objects_;
 
  public:
+  bool cia402_ = true;               // false: inner_ is not this drive's application
+  bool static_pdo_mapping_ = false;  // pdo_mapping: static
+  bool refuse_empty_pdo_ = false;    // empty_pdo_valid: refuse
   std::unique_ptr<InternalUnitParameters> internal_units_;  // null: user units kept (standard)
   std::unique_ptr<KollmorgenObjects> kollmorgen_;           // manufacturer_objects: kollmorgen
   std::unique_ptr<FestoPositionSampling> sampling_;         // position_sampling: festo
@@ -243,6 +364,9 @@ Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& 
   servo->personality_ =
       std::make_unique<PersonalityApplication>(*servo->application_, p.overrides, p.objects);
 
+  servo->personality_->cia402_ = p.cia402;
+  servo->personality_->static_pdo_mapping_ = p.static_pdo_mapping;
+  servo->personality_->refuse_empty_pdo_ = p.refuse_empty_pdo;
   if (p.parameters_internal) {
     servo->personality_->internal_units_ = std::make_unique<InternalUnitParameters>();
   }
@@ -258,9 +382,11 @@ Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& 
   }
 
   can::Bus* port = &bus;
-  if (p.emcy_follow_up || p.nmt_min_spacing != can::Duration{}) {
+  if (p.emcy_follow_up || p.nmt_min_spacing != can::Duration{} || !p.abort_codes.empty() ||
+      p.sdo_response_delay.max > can::Duration{}) {
     servo->port_ =
-        std::make_unique<PersonalityPort>(bus, options.node, p.emcy_follow_up, p.nmt_min_spacing);
+        std::make_unique<PersonalityPort>(bus, options.node, p.emcy_follow_up, p.nmt_min_spacing,
+                                          p.abort_codes, p.sdo_response_delay);
     port = servo->port_.get();
   }
 

@@ -343,6 +343,18 @@ Expected<Object*, std::string> ObjectDictionary::add_var(std::uint16_t index, st
   return add_object({index, std::move(name), ObjectCode::var, {std::move(entry)}});
 }
 
+std::size_t ObjectDictionary::remove_objects(std::uint16_t first, std::uint16_t last) {
+  const auto begin =
+      std::lower_bound(objects_.begin(), objects_.end(), first,
+                       [](const Object& o, std::uint16_t i) { return o.index_ < i; });
+  const auto end = std::upper_bound(begin, objects_.end(), last,
+                                    [](std::uint16_t i, const Object& o) { return i < o.index_; });
+  const auto removed = static_cast<std::size_t>(end - begin);
+  objects_.erase(begin, end);
+  ++revision_;
+  return removed;
+}
+
 const Object* ObjectDictionary::find(std::uint16_t index) const {
   const auto it = std::lower_bound(objects_.begin(), objects_.end(), index,
                                    [](const Object& o, std::uint16_t i) { return o.index_ < i; });

@@ -238,6 +238,11 @@ class ObjectDictionary {
   // object has or outside 1..highest, a definition that does not fit its type.
   Expected<void, std::string> reshape_object(std::uint16_t index, std::uint8_t highest,
                                              std::vector<EntryDefinition> added);
+  // Personality support (reference_drive/personality.hpp `absent_objects`): removes the objects
+  // first..last (inclusive) and returns how many there were. Entry pointers into the removed
+  // objects dangle; those into the others stay valid (each object keeps its entries). Call it
+  // before services hold entries (ReferenceDrive: before they bind).
+  std::size_t remove_objects(std::uint16_t first, std::uint16_t last);
   // Shorthand for a VAR at sub 0.
   Expected<Object*, std::string> add_var(std::uint16_t index, std::string name, DataType type,
                                          AccessType access, Value default_value = {},

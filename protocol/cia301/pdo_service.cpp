@@ -457,7 +457,8 @@ void PdoService::stop(Rpdo& pdo) {
 }
 
 void PdoService::start(Tpdo& pdo, can::TimePoint now) {
-  pdo.sync_count = 0;
+  // The count of a type n TPDO: its first transmission at the n-th SYNC, or at the first one.
+  pdo.sync_count = first_sync_phase_ && pdo.type >= 1 && pdo.type <= 240 ? pdo.type - 1U : 0U;
   pdo.started = false;
   pdo.event = pdo.type >= 254;  // entering Operational is an event for event-driven TPDOs
   pdo.sent_once = false;

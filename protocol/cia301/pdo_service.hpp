@@ -216,6 +216,11 @@ class PdoService {
   PdoService(const PdoService&) = delete;
   PdoService& operator=(const PdoService&) = delete;
 
+  // Which SYNC starts the count of a TPDO of type n (2..240) without a SYNC start value: false
+  // (default) the n-th SYNC after entering Operational is its first transmission; true the
+  // first SYNC is (then every n-th). CiA 301 §7.5.2.37 leaves this to the device. Takes effect
+  // when the TPDOs next start (entering Operational, a reconfiguration).
+  void set_first_sync_phase(bool first_sync) { first_sync_phase_ = first_sync; }
   // Re-reads every PDO's configuration (after ObjectDictionary::load/restore_defaults).
   void reload(can::TimePoint now);
 
@@ -337,6 +342,7 @@ class PdoService {
   std::uint16_t change_mask_index_ = 0;
   bool changed(const Tpdo& pdo, const std::array<std::uint8_t, 8>& payload) const;
   bool running_ = false;
+  bool first_sync_phase_ = false;  // set_first_sync_phase
   std::vector<Rpdo> rpdos_;
   std::vector<Tpdo> tpdos_;
   std::vector<std::pair<std::uint16_t, std::uint8_t>> bound_;

@@ -13,6 +13,8 @@
 #include <system_error>
 #include <utility>
 
+#include "protocol/cia301/sdo_abort.hpp"
+
 namespace drivecheck::profile {
 namespace {
 
@@ -497,6 +499,108 @@ ObjectRule read_object_rule(const Reader& r, const YAML::Node& node) {
 constexpr std::string_view kHardwareEnableT2 = "hardware-enable.transition-2";
 constexpr std::string_view kHardwareEnableT3 = "hardware-enable.transition-3";
 
+// An SDO abort code of sdo_abort_codes.inc, by value (0x06010002) or by its name
+// (write_read_only).
+std::uint32_t abort_code(const Reader& r, const YAML::Node& node, std::string_view what) {
+  if (!node.IsScalar()) r.fail(node, fmt::format("{} must be an abort code", what));
+  const std::string& text = node.Scalar();
+  if (!text.empty() && text[0] >= '0' && text[0] <= '9') {
+    const auto value = static_cast<std::uint32_t>(integer(r, node, what, 0, 0xFFFFFFFF));
+    if (!cia301::find_sdo_abort(value)) {
+      r.fail(node, fmt::format("{}: {:08X}h is no abort code of sdo_abort_codes.inc", what, value));
+    }
+    return value;
+  }
+  for (const cia301::SdoAbortInfo& row : cia301::sdo_abort_table()) {
+    if (row.name == text) return static_cast<std::uint32_t>(row.code);
+  }
+  r.fail(node, fmt::format("{}: '{}' is no abort code name of sdo_abort_codes.inc", what, text));
+}
+
+// The personality keys of issue 17's alternative personalities (personality.hpp).
+void read_choice_keys(const Reader& r, const MapView& map, Personality& p) {
+  if (auto v = map.get("cia402")) p.cia402 = boolean(r, *v, "personality.cia402");
+  if (auto v = map.get("absent_objects")) {
+    require_sequence(r, *v, "personality.absent_objects");
+    for (const YAML::Node& item : *v) {
+      ObjectRange range;
+      if (item.IsSequence()) {
+        if (item.size() != 2) {
+          r.fail(item, "personality.absent_objects: a range is [first, last]");
+        }
+        range.first = static_cast<std::uint16_t>(
+            integer(r, item[0], "personality.absent_objects", 0x1000, 0xFFFF));
+        range.last = static_cast<std::uint16_t>(
+            integer(r, item[1], "personality.absent_objects", 0x1000, 0xFFFF));
+        if (range.last < range.first) {
+          r.fail(item, "personality.absent_objects: a range's last index is below its first");
+        }
+      } else {
+        range.first = static_cast<std::uint16_t>(
+            integer(r, item, "personality.absent_objects", 0x1000, 0xFFFF));
+        range.last = range.first;
+      }
+      for (std::uint16_t mandatory :
+           {std::uint16_t{0x1000}, std::uint16_t{0x1001}, std::uint16_t{0x1018}}) {
+        if (mandatory >= range.first && mandatory <= range.last) {
+          r.fail(item, fmt::format("personality.absent_objects: {:04X}h is mandatory for every "
+                                   "CANopen device (CiA 301 §7.5.1)",
+                                   mandatory));
+        }
+      }
+      p.absent_objects.push_back(range);
+    }
+  }
+  if (auto v = map.get("abort_codes")) {
+    if (!v->IsMap()) r.fail(*v, "personality.abort_codes must be a map {standard code: code}");
+    for (auto it = v->begin(); it != v->end(); ++it) {
+      const std::uint32_t from = abort_code(r, it->first, "personality.abort_codes key");
+      const std::uint32_t to = abort_code(r, it->second, "personality.abort_codes value");
+      if (!p.abort_codes.emplace(from, to).second) {
+        r.fail(it->first, fmt::format("personality.abort_codes: {:08X}h is listed twice", from));
+      }
+    }
+  }
+  if (auto v = map.get("sdo_response_delay")) {
+    ResponseDelay& d = p.sdo_response_delay;
+    if (v->IsSequence()) {
+      if (v->size() != 2) r.fail(*v, "personality.sdo_response_delay: [min, max] or a duration");
+      d.min = duration(r, (*v)[0], "personality.sdo_response_delay");
+      d.max = duration(r, (*v)[1], "personality.sdo_response_delay");
+    } else {
+      d.min = d.max = duration(r, *v, "personality.sdo_response_delay");
+    }
+    if (d.min > d.max || d.max > std::chrono::seconds(1)) {
+      r.fail(*v, "personality.sdo_response_delay must be within 0..1s, min <= max");
+    }
+  }
+  auto choose = [&](std::string_view key, auto& out, auto... options) {
+    auto v = map.get(key);
+    if (!v) return;
+    const std::string text = scalar(r, *v, fmt::format("personality.{}", key));
+    std::string known;
+    bool found = false;
+    (
+        [&](auto option) {
+          known += (known.empty() ? "" : ", ") + std::string(to_string(option));
+          if (!found && to_string(option) == text) {
+            out = option;
+            found = true;
+          }
+        }(options),
+        ...);
+    if (!found) {
+      r.fail(*v, fmt::format("personality.{}: '{}' is not one of {}", key, text, known));
+    }
+  };
+  choose("pdo_mapping", p.pdo_mapping, PdoMapping::dynamic, PdoMapping::fixed);
+  choose("empty_pdo_valid", p.empty_pdo_valid, EmptyPdoValid::accept, EmptyPdoValid::refuse);
+  choose("tpdo_sync_phase", p.tpdo_sync_phase, TpdoSyncPhase::nth_sync, TpdoSyncPhase::first_sync);
+  if (auto v = map.get("setpoint_buffer")) {
+    p.setpoint_buffer = static_cast<unsigned>(integer(r, *v, "personality.setpoint_buffer", 1, 8));
+  }
+}
+
 Personality read_personality(const Reader& r, const YAML::Node& node) {
   const MapView map(r, node, "personality",
                     {"identity",
@@ -535,6 +639,14 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "bus_off",
                      "manufacturer_objects",
                      "position_sampling",
+                     "cia402",
+                     "absent_objects",
+                     "abort_codes",
+                     "sdo_response_delay",
+                     "pdo_mapping",
+                     "empty_pdo_valid",
+                     "tpdo_sync_phase",
+                     "setpoint_buffer",
                      "note"});
   Personality p;
   if (auto v = map.get("identity")) p.identity = read_identity(r, *v, "personality.identity");
@@ -740,6 +852,7 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
     p.life_time_factor =
         static_cast<std::uint8_t>(integer(r, *v, "personality.life_time_factor", 0, 0xFF));
   }
+  read_choice_keys(r, map, p);
   if (auto v = map.get("note")) p.note = scalar(r, *v, "personality.note");
   return p;
 }
@@ -1183,6 +1296,44 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
   if (p.bus_off != BusOffReaction::cia301) {
     out << YAML::Key << "bus_off" << YAML::Value << std::string(to_string(p.bus_off));
   }
+  if (!p.cia402) out << YAML::Key << "cia402" << YAML::Value << false;
+  if (!p.absent_objects.empty()) {
+    out << YAML::Key << "absent_objects" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const ObjectRange& range : p.absent_objects) {
+      if (range.first == range.last) {
+        out << hex(range.first, 4);
+      } else {
+        out << YAML::Flow << YAML::BeginSeq << hex(range.first, 4) << hex(range.last, 4)
+            << YAML::EndSeq;
+      }
+    }
+    out << YAML::EndSeq;
+  }
+  if (!p.abort_codes.empty()) {
+    out << YAML::Key << "abort_codes" << YAML::Value << YAML::BeginMap;
+    for (const auto& [from, to] : p.abort_codes)
+      out << YAML::Key << hex(from, 8) << YAML::Value << hex(to, 8);
+    out << YAML::EndMap;
+  }
+  if (p.sdo_response_delay.max != can::Duration{}) {
+    out << YAML::Key << "sdo_response_delay" << YAML::Value << YAML::Flow << YAML::BeginSeq
+        << format_duration(p.sdo_response_delay.min) << format_duration(p.sdo_response_delay.max)
+        << YAML::EndSeq;
+  }
+  if (p.pdo_mapping != PdoMapping::dynamic) {
+    out << YAML::Key << "pdo_mapping" << YAML::Value << std::string(to_string(p.pdo_mapping));
+  }
+  if (p.empty_pdo_valid != EmptyPdoValid::accept) {
+    out << YAML::Key << "empty_pdo_valid" << YAML::Value
+        << std::string(to_string(p.empty_pdo_valid));
+  }
+  if (p.tpdo_sync_phase != TpdoSyncPhase::nth_sync) {
+    out << YAML::Key << "tpdo_sync_phase" << YAML::Value
+        << std::string(to_string(p.tpdo_sync_phase));
+  }
+  if (p.setpoint_buffer != 1) {
+    out << YAML::Key << "setpoint_buffer" << YAML::Value << p.setpoint_buffer;
+  }
   if (p.heartbeat_time_ms) {
     out << YAML::Key << "heartbeat_time_ms" << YAML::Value << *p.heartbeat_time_ms;
   }
@@ -1328,6 +1479,18 @@ std::string_view to_string(ManufacturerObjects objects) {
 
 std::string_view to_string(PositionSampling sampling) {
   return sampling == PositionSampling::festo ? "festo" : "none";
+}
+
+std::string_view to_string(PdoMapping mapping) {
+  return mapping == PdoMapping::fixed ? "static" : "dynamic";
+}
+
+std::string_view to_string(EmptyPdoValid policy) {
+  return policy == EmptyPdoValid::refuse ? "refuse" : "accept";
+}
+
+std::string_view to_string(TpdoSyncPhase phase) {
+  return phase == TpdoSyncPhase::first_sync ? "first-sync" : "nth-sync";
 }
 
 std::string_view to_string(GuardingLoss loss) {

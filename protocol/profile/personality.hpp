@@ -88,6 +88,40 @@ enum class PositionSampling : std::uint8_t { none, festo };
 // stays (Kollmorgen: warning N04 and a quick stop instead; 1029h:01 = 1).
 enum class GuardingLoss : std::uint8_t { error_behaviour, pre_operational, no_nmt_change };
 
+// How a PDO's mapping may change. dynamic: the mapping records are writable with CiA 301's
+// procedure (§7.5.2.36, §7.5.2.38). static: the mapping is the device's default and the mapping
+// records are read-only (CiA 301 §7.5.2.36/38 let a device support static mapping only; a write
+// of any sub-index aborts as a write to a read-only object, 06010002h).
+enum class PdoMapping : std::uint8_t { dynamic, fixed };
+// A PDO COB-ID written valid (bit 31 = 0) while the PDO has no mapped object (sub 00h of its
+// mapping record = 0). accept: valid, neither sent nor received. refuse: the write aborts
+// 06090030h (invalid value); CiA 301 §7.5.2.35 does not say what a device does then, and
+// refusing is a permitted choice (issue 17 §6; CTT has no case for it).
+enum class EmptyPdoValid : std::uint8_t { accept, refuse };
+// Which SYNC counts as the first of a TPDO of transmission type n (2..240) when no SYNC start
+// value applies (1800h sub 06h = 0, or SYNC without counter). CiA 301 §7.2.2.2 / §7.5.2.37 only
+// say "every n-th SYNC"; which SYNC starts the count is the device's. nth-sync: the first
+// transmission at the n-th SYNC after entering Operational. first-sync: at the first SYNC after
+// entering Operational, then at every n-th.
+enum class TpdoSyncPhase : std::uint8_t { nth_sync, first_sync };
+
+// Indices first..last (inclusive) of objects the drive does not have (personality key
+// `absent_objects`).
+struct ObjectRange {
+  std::uint16_t first = 0;
+  std::uint16_t last = 0;
+  friend bool operator==(const ObjectRange&, const ObjectRange&) = default;
+};
+
+// When the SDO server's responses leave after the request (personality key
+// `sdo_response_delay`): a delay in [min, max], each response its own (a pseudo-random sequence
+// fixed per drive, so runs repeat), never reordering responses. Zero: at once.
+struct ResponseDelay {
+  can::Duration min{};
+  can::Duration max{};
+  friend bool operator==(const ResponseDelay&, const ResponseDelay&) = default;
+};
+
 // An object whose type differs from CiA 402 (ESR 6060h/6061h are INTEGER16).
 struct ObjectType {
   std::uint16_t index = 0;
@@ -176,6 +210,21 @@ struct Personality {
   ManufacturerObjects manufacturer_objects = ManufacturerObjects::none;
   // Festo 204Ah sample_data with its behaviour (PositionSampling above).
   PositionSampling position_sampling = PositionSampling::none;
+  // false: a plain CiA 301 device: no CiA 402 application (no 6000h-9FFFh objects, no PDS, no
+  // motion). 1000h comes from `identity.device_type`.
+  bool cia402 = true;
+  // Objects the drive does not have (their SDO access aborts 06020000h, the EDS omits them).
+  std::vector<ObjectRange> absent_objects;
+  // The SDO abort codes the drive answers in place of the standard drive's, by the standard
+  // code (sdo_abort_codes.inc): e.g. 06010002h -> 06010000h. Both codes must be in the table.
+  std::map<std::uint32_t, std::uint32_t> abort_codes;
+  ResponseDelay sdo_response_delay;
+  PdoMapping pdo_mapping = PdoMapping::dynamic;
+  EmptyPdoValid empty_pdo_valid = EmptyPdoValid::accept;
+  TpdoSyncPhase tpdo_sync_phase = TpdoSyncPhase::nth_sync;
+  // pp: how many set-points the drive buffers behind the running one (CiA 402-2 pp: a set of
+  // set-points; the depth is the device's). 1..8.
+  unsigned setpoint_buffer = 1;
   std::string note;  // free text (why these values)
 
   friend bool operator==(const Personality&, const Personality&) = default;
@@ -193,6 +242,9 @@ std::string_view to_string(cia301::SdoNodeIdSub sub);     // "none", "client", "
 std::string_view to_string(ManufacturerObjects objects);  // "none", "kollmorgen"
 std::string_view to_string(ManufacturerModeLogic logic);  // "behaves-as", "irtsa-mpp"
 std::string_view to_string(PositionSampling sampling);    // "none", "festo"
+std::string_view to_string(PdoMapping mapping);           // "dynamic", "static"
+std::string_view to_string(EmptyPdoValid policy);         // "accept", "refuse"
+std::string_view to_string(TpdoSyncPhase phase);          // "nth-sync", "first-sync"
 std::string_view to_string(
     GuardingLoss loss);  // "error-behaviour", "pre-operational", "no-nmt-change"
 

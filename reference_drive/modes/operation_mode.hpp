@@ -50,6 +50,7 @@ struct ModeContext {
   const DeviationSet* deviations = nullptr;
   // Drive cycles from a new set-point (pp bit 4 edge) to the acknowledge (pp bit 12).
   std::uint32_t acknowledge_latency_cycles = 1;
+  std::uint32_t setpoint_buffer = 1;  // pp: set-points buffered behind the running one
   // Moving-average length of the S-curve (6086h ≠ 0), cycles.
   std::size_t jerk_smoothing_cycles = 20;
   // pp: controlword bit 9 (change on set-point) is evaluated. false: bit 9 is reserved and

@@ -25,7 +25,7 @@ double seconds(can::Duration d) {
 void ProfilePositionMode::on_reset(ModeContext& ctx) {
   trajectory_.reset(ctx.axis.position());
   running_.reset();
-  buffered_.reset();
+  buffered_.clear();
   previous_bit4_ = false;
   ack_ = false;
   ack_due_ = false;
@@ -50,8 +50,8 @@ std::optional<double> ProfilePositionMode::running_target() const {
 }
 
 std::optional<double> ProfilePositionMode::buffered_target() const {
-  if (!buffered_) return std::nullopt;
-  return buffered_->target;
+  if (buffered_.empty()) return std::nullopt;
+  return buffered_.front().target;
 }
 
 ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& ctx,
@@ -62,9 +62,9 @@ ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& c
   if ((controlword & kRelative) != 0 && !ctx.has(Deviation::pp_relative_as_absolute)) {
     // Relative to the demand position 6062h (Festo L5407-5412), here in internal units; the
     // demand of the buffered set-point's start is the running one's target.
-    const double base = buffered_  ? buffered_->target
-                        : running_ ? running_->target
-                                   : trajectory_.position();
+    const double base = !buffered_.empty() ? buffered_.back().target
+                        : running_         ? running_->target
+                                           : trajectory_.position();
     sp.target = base + f.position_to_internal(target) - f.position_to_internal(0.0);
   } else {
     sp.target = f.position_to_internal(target);
@@ -98,7 +98,7 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
   if (!enabled_) {
     // Outside OPERATION ENABLED set-points are dropped and the demand tracks the axis.
     running_.reset();
-    buffered_.reset();
+    buffered_.clear();
     trajectory_.reset(ctx.axis.position());
     ctx.axis.command_position(ctx.axis.position());
   } else {
@@ -109,9 +109,9 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
                                !ctx.has(Deviation::pp_change_immediately_ignored);
       if (immediately || !running_) {
         running_ = sp;
-        buffered_.reset();
+        buffered_.clear();
       } else {
-        buffered_ = sp;
+        buffered_.push_back(sp);  // room: an edge while the buffer is full is not taken (ack_)
       }
       last_target_ = running_->target;
       last_clamped_ = sp.clamped;
@@ -131,18 +131,19 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
           ctx.read_signed(cia402::kMotionProfileType) != 0 ? ctx.jerk_smoothing_cycles : 0);
       if (running_) {
         ProfileLimits limits = running_->limits;
-        if (buffered_) {
-          limits.end_velocity =
-              buffered_->change_on_set_point ? limits.velocity : running_->limits.end_velocity;
+        if (!buffered_.empty()) {
+          limits.end_velocity = buffered_.front().change_on_set_point
+                                    ? limits.velocity
+                                    : running_->limits.end_velocity;
         } else {
           limits.end_velocity = 0.0;
         }
         trajectory_.move_to(running_->target, limits);
       }
       trajectory_.step(dt);
-      if (running_ && trajectory_.profile_done() && buffered_) {
-        running_ = buffered_;
-        buffered_.reset();
+      if (running_ && trajectory_.profile_done() && !buffered_.empty()) {
+        running_ = buffered_.front();
+        buffered_.pop_front();
         last_target_ = running_->target;
         last_clamped_ = running_->clamped;
         reached_ = false;
@@ -165,7 +166,9 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
       --ack_countdown_;
     }
   }
-  if (ack_shown && !bit4 && !buffered_ && !ctx.has(Deviation::pp_set_point_ack_never_cleared)) {
+  // The buffer has room once it holds fewer than setpoint_buffer (1: empty).
+  const bool room = buffered_.size() < std::max<std::size_t>(1, ctx.setpoint_buffer);
+  if (ack_shown && !bit4 && room && !ctx.has(Deviation::pp_set_point_ack_never_cleared)) {
     ack_ = false;
   }
 

@@ -6,8 +6,8 @@
 // Controlword bits (OPERATION ENABLED):
 //   4 new set-point   rising edge: take 607Ah (and the profile objects) as a new set-point
 //   5 change set immediately  1: the running positioning is abandoned, the new one starts now;
-//                      0: set of set-points: it is buffered (one deep) and starts when the
-//                      running one reaches its target
+//                      0: set of set-points: it is buffered (ModeContext::setpoint_buffer
+//                      deep, 1 by default) and starts when the running one reaches its target
 //   6 abs/rel         1: target = 6062h (the demand position, not 6064h) + 607Ah
 //   8 halt            the PDS stops the axis (605Dh); the running and buffered set-points are
 //                     kept (a new set-point is taken too) and releasing halt continues the
@@ -19,7 +19,7 @@
 //                     ends with 6082h end velocity (0: stops)
 // Statusword bits:
 //   12 set-point acknowledge  set acknowledge_latency_cycles after the bit 4 edge (1: in the
-//                     cycle that saw the edge); cleared once bit 4 is 0 AND the buffer is free
+//                     cycle that saw the edge); cleared once bit 4 is 0 AND the buffer has room
 //                     (Festo L6429-6433, L5557-5561). A bit 4 edge while bit 12 is still 1 (the
 //                     buffer full) is ignored.
 //   10 target reached  the demand has reached the target and |6064h - target| <= 6067h for
@@ -31,6 +31,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <optional>
 
 #include "reference_drive/axis/trajectory.hpp"
@@ -63,7 +64,7 @@ class ProfilePositionMode final : public OperationMode {
 
   TrajectoryGenerator trajectory_;
   std::optional<SetPoint> running_;
-  std::optional<SetPoint> buffered_;
+  std::deque<SetPoint> buffered_;  // ModeContext::setpoint_buffer deep (1: one)
   bool previous_bit4_ = false;
   bool ack_ = false;
   std::uint32_t ack_countdown_ = 0;  // cycles until bit 12 rises

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <map>
 #include <random>
 #include <string>
 
@@ -501,6 +502,68 @@ TEST(DriveProfilePersonality, ObjectRulesParseAndRefuseNonsense) {
            "wo}]}\n"));
   error_of(with("personality: {objects: [{index: 0x604D, min: 5, max: 2}]}\n"));
   error_of(with("personality: {tpdo_transmit_masks: 0x1000}\n"));
+}
+
+TEST(DriveProfilePersonality, PermittedChoiceKeysParseAndRoundTrip) {
+  // Given the keys of issue 17's permitted choices / When parsed and serialised / Then typed
+  // and equal after the round trip
+  auto p =
+      parse(with("personality:\n"
+                 "  cia402: false\n"
+                 "  absent_objects: [0x1003, [0x1005, 0x1007]]\n"
+                 "  abort_codes: {write_read_only: 0x06010000, 0x06090011: general_error}\n"
+                 "  sdo_response_delay: [20ms, 40ms]\n"
+                 "  pdo_mapping: static\n"
+                 "  empty_pdo_valid: refuse\n"
+                 "  tpdo_sync_phase: first-sync\n"
+                 "  setpoint_buffer: 4\n"));
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  const Personality& e = p->personality;
+  EXPECT_FALSE(e.cia402);
+  EXPECT_EQ(e.absent_objects, (std::vector<ObjectRange>{{0x1003, 0x1003}, {0x1005, 0x1007}}));
+  EXPECT_EQ(e.abort_codes, (std::map<std::uint32_t, std::uint32_t>{{0x06010002, 0x06010000},
+                                                                   {0x06090011, 0x08000000}}));
+  EXPECT_EQ(e.sdo_response_delay.min, 20ms);
+  EXPECT_EQ(e.sdo_response_delay.max, 40ms);
+  EXPECT_EQ(e.pdo_mapping, PdoMapping::fixed);
+  EXPECT_EQ(e.empty_pdo_valid, EmptyPdoValid::refuse);
+  EXPECT_EQ(e.tpdo_sync_phase, TpdoSyncPhase::first_sync);
+  EXPECT_EQ(e.setpoint_buffer, 4U);
+  auto again = parse(to_yaml(*p));
+  ASSERT_TRUE(again.has_value()) << again.error().to_string() << "\n" << to_yaml(*p);
+  EXPECT_EQ(again->personality, e);
+  // A single delay is [d, d]; the defaults are the standard drive's.
+  auto single = parse(with("personality: {sdo_response_delay: 30ms}\n"));
+  ASSERT_TRUE(single.has_value()) << single.error().to_string();
+  EXPECT_EQ(single->personality.sdo_response_delay.min, 30ms);
+  EXPECT_EQ(single->personality.sdo_response_delay.max, 30ms);
+  const Personality standard;
+  EXPECT_TRUE(standard.cia402);
+  EXPECT_EQ(standard.pdo_mapping, PdoMapping::dynamic);
+  EXPECT_EQ(standard.setpoint_buffer, 1U);
+}
+
+TEST(DriveProfilePersonality, PermittedChoiceKeysRefuseNonsense) {
+  // Given a mandatory object made absent, a reversed range, codes the table lacks, a delay
+  // above 1 s or reversed, a buffer of 0 / When parsed / Then errors naming the line
+  for (std::string_view bad : {
+           "personality: {absent_objects: [0x1018]}\n",
+           "personality: {absent_objects: [[0x1000, 0x1002]]}\n",
+           "personality: {absent_objects: [[0x1007, 0x1005]]}\n",
+           "personality: {absent_objects: [[0x1005]]}\n",
+           "personality: {abort_codes: {0x12345678: 0x06010000}}\n",
+           "personality: {abort_codes: {write_read_only: no_such_code}}\n",
+           "personality: {abort_codes: [0x06010002]}\n",
+           "personality: {sdo_response_delay: [40ms, 20ms]}\n",
+           "personality: {sdo_response_delay: 2s}\n",
+           "personality: {setpoint_buffer: 0}\n",
+           "personality: {pdo_mapping: fixed}\n",
+           "personality: {tpdo_sync_phase: third}\n",
+           "personality: {cia402: maybe}\n",
+       }) {
+    const TextError error = error_of(with(bad));
+    EXPECT_GT(error.line, 0) << bad;
+  }
 }
 
 TEST(DriveProfilePersonality, ErrorNumberCode) {

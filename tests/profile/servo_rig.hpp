@@ -41,6 +41,16 @@ class ServoRig {
       }
       profile_ = std::move(*loaded);
     }
+    start(power);
+  }
+  // A drive with a profile the test made (e.g. parsed from text).
+  explicit ServoRig(profile::DriveProfile profile, PowerOn power = PowerOn::now) {
+    profile_ = std::move(profile);
+    start(power);
+  }
+
+ private:
+  void start(PowerOn power) {
     tester_ = bus_.attach("tester");
     port_ = bus_.attach("drive");
     tester_->set_frame_handler([this](const can::TimedFrame& f) { seen_.push_back(f.frame); });
@@ -56,6 +66,7 @@ class ServoRig {
     if (power == PowerOn::now) power_on();
   }
 
+ public:
   bool ok() const { return drive_ != nullptr; }
   ServoDrive& drive() { return *drive_; }
   void power_on() {
