@@ -102,8 +102,26 @@ class Engine::Impl {
     if (options_.real_bus && vector.motion) prepare_motion(result);
     VectorRun run(context_, vector, result);
     const auto status = run.run_steps();
+    // Ctrl-C while the steps ran: whatever the steps made of the stopped bus is no verdict on
+    // the DUT. Sampled before the teardown, so that a vector decided before it stays decided.
+    const bool interrupted = status != StepStatus::ok && context_.interrupted.load();
     run.teardown();
     run.drain();
+    if (interrupted) {
+      const std::size_t step = run.current_step();
+      result.verdict = Verdict::interrupted;
+      result.warning = false;
+      result.message = fmt::format(
+          "interrupted by the user {}: no verdict (the checks and frames so far are kept)",
+          step < vector.steps.size() ? fmt::format("in step {}", step + 1)
+                                     : std::string("in the setup"));
+      keep_head_and_tail(result);
+      result.finished = bus_.now();
+      result.wall_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+      if (dut_spoke != nullptr) *dut_spoke = true;  // not a silence of the DUT
+      return result;
+    }
     if (context_.stalled.load()) {
       decide_verdict(result, vector, profile_, Outcome::harness_error,
                      "the simulation stopped advancing (a livelock in a simulated node): "
