@@ -4,14 +4,18 @@
 // numbered from 1 in the checks and the message; the message's first line says it all.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <memory>
 #include <regex>
 #include <string>
 
 #include "conformance/engine.hpp"
+#include "conformance/provenance.hpp"
+#include "conformance/sha256.hpp"
 #include "conformance/vector_file.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "tests/support/scripted_peer.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace drivecheck::conformance {
 namespace {
@@ -126,6 +130,59 @@ TEST_F(RunResultTest, StepsAreNumberedFromOneAndTheMessageIsOneLine) {
                             ": step 2 sdo_write: Expected .+; Actual .+$");
   EXPECT_TRUE(std::regex_match(first_line, one_line)) << first_line;
   EXPECT_NE(result.message.find("\n  Expected: "), std::string::npos) << result.message;
+}
+
+TEST(VectorSetDigest, DependsOnPathsAndBytesNotOnOrderOrLocation) {
+  // Given two directories with the same vector files, written in opposite orders, and a
+  //       non-YAML file in one of them
+  test_support::TempDir a;
+  test_support::TempDir b;
+  for (const auto* dir : {&a, &b}) {
+    std::filesystem::create_directories(dir->path() / "cia301");
+    std::filesystem::create_directories(dir->path() / "drives");
+  }
+  a.write("cia301/sdo.yaml", "- id: x\n");
+  a.write("drives/p.yaml", "name: p\n");
+  a.write("README.md", "not part of the set\n");
+  b.write("drives/p.yaml", "name: p\n");
+  b.write("cia301/sdo.yaml", "- id: x\n");
+  // When their digests are taken
+  const auto digest_a = vector_set_digest(a.path());
+  const auto digest_b = vector_set_digest(b.path());
+  ASSERT_TRUE(digest_a) << digest_a.error();
+  ASSERT_TRUE(digest_b) << digest_b.error();
+  // Then they are equal, cover the two YAML files, and are the sha256 of the sorted
+  //      sha256sum lines (the shell recipe in provenance.hpp)
+  EXPECT_EQ(digest_a->sha256, digest_b->sha256);
+  EXPECT_EQ(digest_a->files, 2U);
+  const std::string listing = sha256_hex(std::string_view("- id: x\n")) + "  cia301/sdo.yaml\n" +
+                              sha256_hex(std::string_view("name: p\n")) + "  drives/p.yaml\n";
+  EXPECT_EQ(digest_a->sha256, sha256_hex(listing));
+  // And a changed byte changes it
+  b.write("drives/p.yaml", "name: q\n");
+  EXPECT_NE(vector_set_digest(b.path())->sha256, digest_a->sha256);
+}
+
+TEST(CitedDocuments, StandardsThenManualsWithTitleAndEdition) {
+  // Given a manual list with a titled manual and one with only its device
+  test_support::TempDir dir;
+  const auto sha = std::string(64, 'a');
+  const auto path = dir.write("manuals.yaml",
+                              "- file: m.txt\n  device: D\n  title: \"T\"\n  edition: \"E 1\"\n"
+                              "  sha256: " +
+                                  sha +
+                                  "\n  lines: 3\n"
+                                  "- file: n.txt\n  device: N\n  sha256: " +
+                                  sha + "\n  lines: 3\n");
+  // When the cited documents are listed
+  const auto documents = cited_documents(path);
+  // Then the standards come first with their editions, then each manual
+  ASSERT_EQ(documents.size(), kCitedStandards.size() + 2);
+  EXPECT_EQ(documents[0].key, "CiA 301");
+  EXPECT_EQ(documents[0].edition, "v4.2.0 (2011-02-21)");
+  EXPECT_EQ(documents[kCitedStandards.size()].title, "T");
+  EXPECT_EQ(documents[kCitedStandards.size()].edition, "E 1");
+  EXPECT_EQ(documents[kCitedStandards.size() + 1].title, "N");
 }
 
 }  // namespace
