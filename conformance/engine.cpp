@@ -355,8 +355,15 @@ VectorResult Engine::probe_undocumented_objects(
                           : fmt::format("{} undescribed: {}", found.size(), fmt::join(found, ", "));
   result.checks.push_back(Check{0, "probe", expected, actual, found.empty()});
   decide_verdict(result, probe, impl_->profile_, found.empty() ? Outcome::pass : Outcome::fail,
-                 fmt::format("step 1 probe:\n  Expected: {}\n  Actual:   {}", expected, actual),
+                 fmt::format("{}: probe: Expected {}; Actual {}\n  Expected: {}\n  Actual:   {}",
+                             probe.file, expected, actual, expected, actual),
                  impl_->options_.strict);
+  if (interrupted_.load()) {
+    // Ctrl-C during the scan: a partial scan proves nothing either way.
+    result.verdict = Verdict::interrupted;
+    result.warning = false;
+    result.message = "interrupted by the user during the scan: no verdict (" + actual + " so far)";
+  }
   result.finished = impl_->bus_.now();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
