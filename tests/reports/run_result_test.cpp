@@ -75,6 +75,18 @@ TEST_F(RunResultTest, CtrlCDuringAVectorIsInterruptedNotAFailure) {
   EXPECT_EQ(counts[Tally::fail] + counts[Tally::error] + counts[Tally::pass], 0U);
 }
 
+TEST_F(RunResultTest, CtrlCDuringTheObjectScanIsInterruptedNotAPass) {
+  // Given no device answering (every upload times out, which the scan takes as absent), and
+  //       Ctrl-C 1 ms into the scan of undocumented objects
+  Engine engine(*harness_, profile_, {});
+  harness_->start_timer_after(1ms, [&engine] { engine.interrupt(); });
+  // When the scan runs
+  const auto result =
+      engine.probe_undocumented_objects([](std::uint16_t) { return false; }, "EDS test.eds");
+  // Then the partial scan is no verdict
+  EXPECT_EQ(result.verdict, Verdict::interrupted) << result.message;
+}
+
 TEST_F(RunResultTest, LateFrameOfTheVectorBeforeIsBetweenVectors) {
   // Given a peer that aborts a write at once and again 5 ms later (a late duplicate), then
   // answers a read
