@@ -64,7 +64,7 @@ void BM_ConformanceSuite(benchmark::State& state) {
     simulated += std::chrono::duration<double>(result.simulated).count();
     wall += result.wall_seconds;
     run = result.vectors.size();
-    passed = result.counts()[conformance::Verdict::pass];
+    passed = result.counts()[conformance::Tally::pass];
     stalled = stalled || result.dut_lost;
   }
   state.counters["vectors"] = static_cast<double>(run);

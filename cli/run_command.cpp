@@ -30,6 +30,7 @@
 #include "conformance/capabilities.hpp"
 #include "conformance/engine.hpp"
 #include "conformance/od_checks.hpp"
+#include "conformance/provenance.hpp"
 #include "conformance/sha256.hpp"
 #include "conformance/vector_file.hpp"
 #include "conformance/vector_order.hpp"
@@ -254,6 +255,15 @@ void run(const RunOptions& options) {
 
   conformance::RunInfo info;
   info.tool_version = DRIVECHECK_VERSION;
+  // Provenance for the reports: the revision, the vector set's digest, the cited documents.
+  info.revision = std::string(reports::build_revision());
+  if (auto digest = conformance::vector_set_digest(vectors_dir)) {
+    info.vector_digest = digest->sha256;
+    info.vector_files = digest->files;
+  } else {
+    bad_input("drivecheck run: " + digest.error());
+  }
+  info.documents = conformance::cited_documents(vectors_dir / "manuals.yaml");
   info.started_utc = utc_now();
   info.bus = options.bus;
   info.profile_file = profile->path.string();

@@ -138,8 +138,26 @@ class Engine::Impl {
     if (options_.real_bus && vector.motion) prepare_motion(result);
     VectorRun run(context_, vector, result);
     const auto status = run.run_steps();
+    // Ctrl-C while the steps ran: whatever the steps made of the stopped bus is no verdict on
+    // the DUT. Sampled before the teardown, so that a vector decided before it stays decided.
+    const bool interrupted = status != StepStatus::ok && context_.interrupted.load();
     run.teardown();
     run.drain();
+    if (interrupted) {
+      const std::size_t step = run.current_step();
+      result.verdict = Verdict::interrupted;
+      result.warning = false;
+      result.message = fmt::format(
+          "interrupted by the user {}: no verdict (the checks and frames so far are kept)",
+          step < vector.steps.size() ? fmt::format("in step {}", step + 1)
+                                     : std::string("in the setup"));
+      keep_head_and_tail(result);
+      result.finished = bus_.now();
+      result.wall_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+      if (dut_spoke != nullptr) *dut_spoke = true;  // not a silence of the DUT
+      return result;
+    }
     if (context_.stalled.load()) {
       decide_verdict(result, vector, profile_, Outcome::harness_error,
                      "the simulation stopped advancing (a livelock in a simulated node): "
@@ -414,8 +432,15 @@ VectorResult Engine::probe_undocumented_objects(
                           : fmt::format("{} undescribed: {}", found.size(), fmt::join(found, ", "));
   result.checks.push_back(Check{0, "probe", expected, actual, found.empty()});
   decide_verdict(result, probe, impl_->profile_, found.empty() ? Outcome::pass : Outcome::fail,
-                 fmt::format("step 1 probe:\n  Expected: {}\n  Actual:   {}", expected, actual),
+                 fmt::format("{}: probe: Expected {}; Actual {}\n  Expected: {}\n  Actual:   {}",
+                             probe.file, expected, actual, expected, actual),
                  impl_->options_.strict);
+  if (interrupted_.load()) {
+    // Ctrl-C during the scan: a partial scan proves nothing either way.
+    result.verdict = Verdict::interrupted;
+    result.warning = false;
+    result.message = "interrupted by the user during the scan: no verdict (" + actual + " so far)";
+  }
   result.finished = impl_->bus_.now();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <iterator>
 
 #include "conformance/samples.hpp"
 #include "conformance/vector_run.hpp"
@@ -174,9 +175,15 @@ void VectorRun::sample(std::uint16_t index, std::uint8_t sub, std::span<const st
   if (index == 0x6041) last_statusword_ = static_cast<std::uint16_t>(raw);
 }
 
+// Steps are numbered from 1 as the vector file lists them; 0 is the setup (step_index_ is past
+// the steps while setup and teardown run). The message, the checks and every report use this.
+static std::size_t step_number(std::size_t index, std::size_t steps) {
+  return index < steps ? index + 1 : 0;
+}
+
 void VectorRun::check(std::string action, std::string expected, std::string actual, bool ok) {
-  result_.checks.push_back(
-      Check{step_index_, std::move(action), std::move(expected), std::move(actual), ok});
+  result_.checks.push_back(Check{step_number(step_index_, vector_.steps.size()), std::move(action),
+                                 std::move(expected), std::move(actual), ok, now()});
 }
 
 std::string VectorRun::recent_frames(std::size_t from_index, std::size_t max) const {
@@ -194,16 +201,22 @@ StepStatus VectorRun::fail(std::string action, std::string expected, std::string
   if (vector_timed_out() && actual.find("vector timeout") == std::string::npos)
     actual += fmt::format(" (vector timeout {} reached)",
                           profile::format_duration(resolve(vector_.timeout)));
-  message_ = fmt::format(
-      "step {} {} (line {}):\n  Expected: {}\n  Actual:   {}", step_index_ + 1, action,
-      step_index_ < vector_.steps.size() ? vector_.steps[step_index_].line : vector_.line, expected,
-      actual);
+  // The first line says it all on one line (CI systems show only that, as JUnit's failure
+  // message): where in the vector file, which step, Expected and Actual. The block follows.
+  const std::size_t step = step_number(step_index_, vector_.steps.size());
+  const std::size_t line = step != 0 ? vector_.steps[step_index_].line : vector_.line;
+  const std::string where = step != 0 ? fmt::format("step {} {}", step, action) : action;
+  message_ = fmt::format("{}:{}: {}: Expected {}; Actual {}\n  Expected: {}\n  Actual:   {}",
+                         vector_.file, line, where, expected, actual, expected, actual);
   check(std::move(action), std::move(expected), std::move(actual), false);
   return StepStatus::failed;
 }
 
 StepStatus VectorRun::harness_error(std::string action, std::string message) {
-  message_ = fmt::format("harness error in step {} {}: {}", step_index_ + 1, action, message);
+  const std::size_t step = step_number(step_index_, vector_.steps.size());
+  message_ = fmt::format("{}:{}: harness error in {}: {}", vector_.file,
+                         step != 0 ? vector_.steps[step_index_].line : vector_.line,
+                         step != 0 ? fmt::format("step {} {}", step, action) : action, message);
   check(std::move(action), "a step the harness can carry out", std::move(message), false);
   return StepStatus::harness_error;
 }
@@ -221,7 +234,24 @@ std::string SdoOutcome::describe() const {
 
 StepStatus VectorRun::run_steps() {
   result_.started = now();
-  if (const auto status = setup(); status != StepStatus::ok) return status;
+  // The evidence begins at this vector's setup: what the DUT sent before the setup's first
+  // frame (a late answer to the vector before, a frame queued while nothing listened) is kept
+  // apart as "between vectors", never as this vector's own evidence.
+  step_index_ = vector_.steps.size();  // setup: no step
+  const std::size_t first = result_.frames.size();
+  drain();
+  const std::size_t drained = result_.frames.size();
+  const StepStatus setup_status = setup();
+  std::size_t own = first;
+  while (own < result_.frames.size() && !result_.frames[own].from_harness)
+    ++own;
+  if (own == result_.frames.size()) own = drained;  // the setup sent nothing: the drain only
+  const auto from = result_.frames.begin() + static_cast<std::ptrdiff_t>(first);
+  const auto to = result_.frames.begin() + static_cast<std::ptrdiff_t>(own);
+  result_.between_vectors.insert(result_.between_vectors.end(), std::make_move_iterator(from),
+                                 std::make_move_iterator(to));
+  result_.frames.erase(from, to);
+  if (setup_status != StepStatus::ok) return setup_status;
   if (const auto status = resolve_device_values(); status != StepStatus::ok) return status;
   can::TimePoint previous_end = now();
   // An SDO stimulus (sdo_write, sdo_read, controlword) is a request: the DUT may react to it

@@ -24,12 +24,13 @@ enum class Verdict : std::uint8_t {
   deviation,       // failed exactly where the profile documents a deviation (with its source)
   not_applicable,  // skipped: the profile or the EDS says the feature is absent (with reason)
   error,           // harness error: the vector could not be carried out (not the DUT's fault)
+  interrupted,     // the user stopped the run (Ctrl-C) while this vector ran: no verdict on it
 };
-inline constexpr std::size_t kVerdictCount = 5;
+inline constexpr std::size_t kVerdictCount = 6;
 
 constexpr std::string_view to_string(Verdict verdict) {
-  constexpr std::array<std::string_view, kVerdictCount> kNames{"pass", "fail", "deviation",
-                                                               "not-applicable", "error"};
+  constexpr std::array<std::string_view, kVerdictCount> kNames{
+      "pass", "fail", "deviation", "not-applicable", "error", "interrupted"};
   return kNames[static_cast<std::size_t>(verdict)];
 }
 constexpr std::string_view to_string(Level level) {
@@ -47,11 +48,16 @@ struct EvidenceFrame {
 
 // One checked expectation: what the step required and what was seen.
 struct Check {
-  std::size_t step = 0;  // index into the vector's steps
+  // The step, numbered from 1 as the vector file lists them (the same number as in the
+  // message, "step 3 ..."); 0: not a step (setup, teardown, or the harness's own checks).
+  std::size_t step = 0;
   std::string action;    // the step's action key, e.g. "expect_frame", "sdo_read"
   std::string expected;  // e.g. "580+5#80416000020001 06 (abort 06010002h)", "one of {...}"
   std::string actual;    // what the DUT did, or "nothing within 100 ms"
   bool ok = false;
+  // Bus time at which the check was decided: the frame judged, or the deadline that passed
+  // (the timing diagram and the transcript mark it for a failed check). Absent: not recorded.
+  std::optional<can::TimePoint> at = std::nullopt;
 };
 
 // A timing the vector measured (measure, expect_periodic, within-bounds of interest).
@@ -106,6 +112,9 @@ struct VectorResult {
   std::vector<EvidenceFrame> frames;
   std::size_t frames_elided = 0;
   std::size_t frames_elided_at = 0;
+  // Frames that arrived between the previous vector's end and this vector's setup (e.g. a late
+  // answer to the vector before): shown with this vector, marked, never as its evidence.
+  std::vector<EvidenceFrame> between_vectors;
   std::vector<Timing> timings;
   // Samples in time order per signal; a long vector's samples are thinned by time
   // (conformance/samples.hpp): samples_elided were left out, never a bit edge.
@@ -128,10 +137,28 @@ struct DutIdentity {
   std::optional<std::uint32_t> serial;
 };
 
+// A document that vectors cite (vectors/manuals.yaml): a drive manual by its file name, or a
+// standard ("CiA 301", "CiA 402-2") whose clause numbers the citations use. A citation
+// "<key> §<section> ..." refers to the document whose key it starts with.
+struct CitedDocument {
+  std::string key;      // "000_33c1d912b8b6010a.txt", "CiA 301"
+  std::string title;    // "Festo CMMP-AS-...-M3/-M0: Description, Device profile CiA 402 ..."
+  std::string edition;  // "8046795 1510b", "v4.2.0 (2011-02-21)"
+};
+
 struct RunInfo {
   std::string tool_version;  // drivecheck's version
-  std::string started_utc;   // ISO 8601, e.g. 2026-11-21T08:30:00Z
-  std::string bus;           // "sim" or "socketcan:can0"
+  // The drivecheck revision it was built from (`git describe --always --dirty` at build time;
+  // the version when not built from a git checkout).
+  std::string revision;
+  // sha256 of the vector set: every vector file and drive profile loaded, order-independent
+  // (conformance/vector_digest.hpp says exactly how). Two reports with the same digest ran the
+  // same suite.
+  std::string vector_digest;
+  std::size_t vector_files = 0;  // how many files the digest covers
+  std::vector<CitedDocument> documents;
+  std::string started_utc;  // ISO 8601, e.g. 2026-11-21T08:30:00Z
+  std::string bus;          // "sim" or "socketcan:can0"
   int node = 0;
   std::string profile_name;  // e.g. "festo-cmmp"
   // Why this profile: "--profile festo-cmmp", "embedded default (--bus sim without --profile)",
@@ -160,18 +187,57 @@ struct RunInfo {
   std::vector<std::string> capabilities;
 };
 
+// How a vector counts, the one definition every output uses (console, JUnit, HTML, JSON,
+// report diff): each vector is in exactly one tally. A should/may failure without --strict is a
+// `warning`, not a `fail`; an interrupted vector is neither passed nor failed.
+enum class Tally : std::uint8_t {
+  pass,
+  fail,
+  warning,
+  deviation,
+  not_applicable,
+  error,
+  interrupted
+};
+inline constexpr std::size_t kTallyCount = 7;
+
+constexpr std::string_view to_string(Tally tally) {
+  constexpr std::array<std::string_view, kTallyCount> kNames{
+      "pass", "fail", "warning", "deviation", "not-applicable", "error", "interrupted"};
+  return kNames[static_cast<std::size_t>(tally)];
+}
+
+constexpr Tally tally_of(Verdict verdict, bool warning) {
+  switch (verdict) {
+    case Verdict::pass:
+      return Tally::pass;
+    case Verdict::fail:
+      return warning ? Tally::warning : Tally::fail;
+    case Verdict::deviation:
+      return Tally::deviation;
+    case Verdict::not_applicable:
+      return Tally::not_applicable;
+    case Verdict::error:
+      return Tally::error;
+    case Verdict::interrupted:
+      return Tally::interrupted;
+  }
+  return Tally::error;
+}
+
 struct VerdictCounts {
-  std::array<std::size_t, kVerdictCount> by_verdict{};
-  std::size_t warnings = 0;
+  std::array<std::size_t, kTallyCount> by_tally{};
+  void add(Verdict verdict, bool warning) {
+    ++by_tally[static_cast<std::size_t>(tally_of(verdict, warning))];
+  }
+  // Every vector, interrupted ones included.
   std::size_t total() const {
     std::size_t sum = 0;
-    for (auto n : by_verdict)
+    for (auto n : by_tally)
       sum += n;
     return sum;
   }
-  std::size_t operator[](Verdict verdict) const {
-    return by_verdict[static_cast<std::size_t>(verdict)];
-  }
+  std::size_t operator[](Tally tally) const { return by_tally[static_cast<std::size_t>(tally)]; }
 };
 
 struct RunResult {
@@ -187,10 +253,8 @@ struct RunResult {
 
   VerdictCounts counts() const {
     VerdictCounts counts;
-    for (const auto& vector : vectors) {
-      ++counts.by_verdict[static_cast<std::size_t>(vector.verdict)];
-      if (vector.warning) ++counts.warnings;
-    }
+    for (const auto& vector : vectors)
+      counts.add(vector.verdict, vector.warning);
     return counts;
   }
 };
@@ -201,11 +265,8 @@ struct RunResult {
 inline int exit_code(const RunResult& result) {
   if (result.interrupted) return 130;
   if (result.dut_lost) return 3;
-  for (const auto& vector : result.vectors) {
-    if ((vector.verdict == Verdict::fail && !vector.warning) || vector.verdict == Verdict::error)
-      return 1;
-  }
-  return 0;
+  const auto counts = result.counts();
+  return counts[Tally::fail] + counts[Tally::error] > 0 ? 1 : 0;
 }
 
 }  // namespace drivecheck::conformance

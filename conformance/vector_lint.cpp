@@ -195,10 +195,12 @@ Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
     bool ok = true;
     for (const auto& kv : node) {
       const auto key = kv.first.Scalar();
-      if (key != "file" && key != "device" && key != "sha256" && key != "lines") {
-        errors.push_back(
-            {file, line_of(kv.first),
-             fmt::format("unknown key '{}' (allowed: file, device, sha256, lines)", key)});
+      if (key != "file" && key != "device" && key != "sha256" && key != "lines" && key != "title" &&
+          key != "edition") {
+        errors.push_back({file, line_of(kv.first),
+                          fmt::format("unknown key '{}' (allowed: file, device, sha256, lines, "
+                                      "title, edition)",
+                                      key)});
         ok = false;
       } else if (!kv.second.IsScalar()) {
         errors.push_back(
@@ -215,6 +217,8 @@ Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
     if (!ok) continue;
     entry.file = node["file"].Scalar();
     entry.device = node["device"].Scalar();
+    if (node["title"]) entry.title = node["title"].Scalar();
+    if (node["edition"]) entry.edition = node["edition"].Scalar();
     entry.sha256 = node["sha256"].Scalar();
     const auto& lines = node["lines"].Scalar();
     if (entry.sha256.size() != 64 ||

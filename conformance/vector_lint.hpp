@@ -41,9 +41,12 @@ struct ManualEntry {
   std::string sha256;
   std::size_t lines = 0;
   std::size_t line = 0;  // where manuals.yaml lists it
+  std::string title;     // optional: the manual's title, shown with its citations in reports
+  std::string edition;   // optional: its edition (document number, revision, date)
 };
 
-// Reads manuals.yaml ({file, device, sha256, lines} per entry, keys checked).
+// Reads manuals.yaml ({file, device, sha256, lines, title?, edition?} per entry, keys
+// checked).
 Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
     const std::filesystem::path& path);
 

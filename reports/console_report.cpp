@@ -88,18 +88,24 @@ std::string ConsoleReporter::result_line(const VectorResult& vector, bool unicod
       return "- " + id + " (n/a" + (message.empty() ? "" : ": " + message) + ")";
     case Verdict::error:
       return "E " + id + dash + "harness error: " + message;
+    case Verdict::interrupted:
+      return "? " + id + dash + message;
   }
   return id;
 }
 
 std::string ConsoleReporter::summary_line(const RunResult& result) {
+  // The counts every output shows (conformance::VerdictCounts): a warning is not a failure,
+  // an interrupted vector is neither passed nor failed.
   const auto counts = result.counts();
+  using conformance::Tally;
   std::string line = fmt::format(
-      "{} vectors: {} passed, {} failed, {} deviations, {} not applicable, {} errors, {} "
-      "warnings",
-      counts.total(), counts[Verdict::pass], counts[Verdict::fail] - counts.warnings,
-      counts[Verdict::deviation], counts[Verdict::not_applicable], counts[Verdict::error],
-      counts.warnings);
+      "{} vectors: {} passed, {} failed, {} warnings, {} deviations, {} not applicable, {} "
+      "errors",
+      counts.total(), counts[Tally::pass], counts[Tally::fail], counts[Tally::warning],
+      counts[Tally::deviation], counts[Tally::not_applicable], counts[Tally::error]);
+  if (counts[Tally::interrupted] != 0)
+    line += fmt::format(", {} interrupted", counts[Tally::interrupted]);
   if (result.interrupted) line += " (interrupted)";
   if (result.dut_lost) line += " (the DUT stopped answering)";
   return line + fmt::format(" (exit {})", conformance::exit_code(result));

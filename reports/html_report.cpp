@@ -24,6 +24,7 @@ namespace drivecheck::reports {
 namespace {
 
 using conformance::RunResult;
+using conformance::Tally;
 using conformance::VectorResult;
 using conformance::Verdict;
 
@@ -71,11 +72,14 @@ std::string url_component(std::string_view text) {
   return out;
 }
 
-constexpr std::array<std::string_view, conformance::kVerdictCount> kVerdictLabels{
-    "pass", "fail", "deviation", "n/a", "error"};
+constexpr std::array<std::string_view, conformance::kTallyCount> kTallyLabels{
+    "pass", "fail", "warning", "deviation", "n/a", "error", "interrupted"};
 
-std::string_view label(Verdict verdict) {
-  return kVerdictLabels[static_cast<std::size_t>(verdict)];
+std::string_view label(Tally tally) {
+  return kTallyLabels[static_cast<std::size_t>(tally)];
+}
+Tally tally_of(const VectorResult& vector) {
+  return conformance::tally_of(vector.verdict, vector.warning);
 }
 
 std::string ms_text(can::Duration duration) {
@@ -107,7 +111,21 @@ thead th{background:var(--soft)}
 .filters button.on{background:var(--fg);color:var(--bg)}
 #shown{color:var(--muted);margin-left:8px}
 .legend{color:var(--muted);font-size:13px}
-@media print{.filters{display:none}details.vector>summary{list-style:none}}
+.v-interrupted{color:var(--na)}
+#search{font:inherit;padding:3px 8px;border:1px solid var(--line);border-radius:14px;min-width:220px}
+.matrices{display:grid;grid-template-columns:minmax(0,1fr) minmax(0,1fr);gap:0 24px;align-items:start}
+@media (max-width:900px){.matrices{grid-template-columns:1fr}}
+#clause-matrix td.vectors a{display:inline-block;margin:0 6px 2px 0;text-decoration:none;font-family:ui-monospace,monospace;font-size:12px}
+.doc{color:var(--muted)}
+.between{border:1px dashed var(--warn);border-radius:4px;padding:2px 8px;margin:6px 0}
+.failmark{color:#ff7b72;font-weight:700}
+/* Printing (or saving as PDF): no controls; every failure, error and warning expanded with its
+   evidence (the script also opens them before printing; ::details-content does it without). */
+@media print{.filters{display:none}details.vector>summary{list-style:none}
+details.vector[data-print=expand]::details-content{content-visibility:visible;display:block;height:auto}
+details.vector[data-print=expand]{break-inside:auto}
+pre.transcript{max-height:none;white-space:pre-wrap;background:#fff;color:#000;border:1px solid var(--line)}
+#clause-box::details-content{content-visibility:visible;display:block}}
 details.vector{border:1px solid var(--line);border-left:4px solid var(--line);border-radius:4px;margin:4px 0}
 details.vector[data-verdict=pass]{border-left-color:var(--pass)}
 details.vector[data-verdict=fail]{border-left-color:var(--fail)}
@@ -115,6 +133,7 @@ details.vector[data-verdict=deviation]{border-left-color:var(--deviation)}
 details.vector[data-verdict=not-applicable]{border-left-color:var(--na)}
 details.vector[data-verdict=error]{border-left-color:var(--error)}
 details.vector[data-warning=true]{border-left-color:var(--warn)}
+details.vector[data-verdict=interrupted]{border-left-color:var(--na);border-left-style:dashed}
 details.vector>summary{cursor:pointer;padding:4px 8px;list-style-position:inside}
 details.vector[open]>summary{background:var(--soft)}
 .badge{display:inline-block;min-width:78px;font-weight:600;text-transform:uppercase;font-size:12px}
@@ -134,29 +153,48 @@ constexpr std::string_view kScript = R"js(
   var items = list.querySelectorAll('details.vector');
   var buttons = document.querySelectorAll('.filters button[data-filter]');
   var shown = document.getElementById('shown');
-  function apply(filter, family) {
+  var search = document.getElementById('search');
+  var texts = [];  // what a search looks in: id, title, sources, message (lower case)
+  for (var t = 0; t < items.length; t++) {
+    var parts = items[t].querySelectorAll('summary, .requirement, .message');
+    var text = '';
+    for (var p = 0; p < parts.length; p++) text += ' ' + parts[p].textContent;
+    texts.push(text.toLowerCase());
+  }
+  var state = {filter: 'all', family: '', clause: '', search: ''};
+  function apply() {
     var n = 0;
+    var words = state.search.toLowerCase().split(/\s+/).filter(function (w) { return w; });
     for (var i = 0; i < items.length; i++) {
       var d = items[i];
-      var ok = filter === 'all' ||
-               (filter === 'warning' ? d.getAttribute('data-warning') === 'true'
-                                     : d.getAttribute('data-verdict') === filter);
-      if (family && d.getAttribute('data-family') !== family) ok = false;
+      var ok = state.filter === 'all' || d.getAttribute('data-tally') === state.filter;
+      if (state.family && d.getAttribute('data-family') !== state.family) ok = false;
+      if (state.clause &&
+          ('\n' + d.getAttribute('data-clauses') + '\n').indexOf('\n' + state.clause + '\n') < 0)
+        ok = false;
+      for (var w = 0; ok && w < words.length; w++)
+        if (texts[i].indexOf(words[w]) < 0) ok = false;
       d.hidden = !ok;
       if (ok) n++;
     }
     for (var j = 0; j < buttons.length; j++)
-      buttons[j].classList.toggle('on', buttons[j].getAttribute('data-filter') === filter);
-    list.setAttribute('data-filter', filter);
-    list.setAttribute('data-family', family || '');
-    shown.textContent = n + ' shown' + (family ? ' in ' + family : '');
+      buttons[j].classList.toggle('on', buttons[j].getAttribute('data-filter') === state.filter);
+    list.setAttribute('data-filter', state.filter);
+    list.setAttribute('data-family', state.family);
+    list.setAttribute('data-clause', state.clause);
+    list.setAttribute('data-search', state.search);
+    if (search.value !== state.search) search.value = state.search;
+    shown.textContent = n + ' shown' + (state.family ? ' in ' + state.family : '') +
+                        (state.clause ? ' citing ' + state.clause : '') +
+                        (state.search ? ' matching "' + state.search + '"' : '');
     shown.setAttribute('data-shown', String(n));
   }
   function fromHash() {
     var params = new URLSearchParams(location.hash.replace(/^#/, ''));
     var open = params.get('open');
     if (open !== null) {
-      apply('all', '');
+      state = {filter: 'all', family: '', clause: '', search: ''};
+      apply();
       var d = document.getElementById('v:' + open);
       if (d) {
         d.open = true;
@@ -166,13 +204,19 @@ constexpr std::string_view kScript = R"js(
       }
       return;
     }
-    apply(params.get('filter') || 'all', params.get('family') || '');
+    state = {filter: params.get('filter') || 'all', family: params.get('family') || '',
+             clause: params.get('clause') || '', search: params.get('search') || ''};
+    apply();
   }
   for (var k = 0; k < buttons.length; k++) {
     buttons[k].addEventListener('click', function (e) {
       location.hash = 'filter=' + encodeURIComponent(e.currentTarget.getAttribute('data-filter'));
     });
   }
+  search.addEventListener('input', function () {
+    state.search = search.value;
+    apply();
+  });
   window.addEventListener('hashchange', fromHash);
   fromHash();
   var actions = document.querySelectorAll('.filters button[data-action]');
@@ -183,6 +227,21 @@ constexpr std::string_view kScript = R"js(
         items[i].open = expand && !items[i].hidden;
     });
   }
+  // Printing: the failures open with their evidence (and close again afterwards).
+  var reopened = [];
+  window.addEventListener('beforeprint', function () {
+    reopened = [];
+    for (var i = 0; i < items.length; i++) {
+      if (items[i].getAttribute('data-print') === 'expand' && !items[i].open) {
+        items[i].open = true;
+        reopened.push(items[i]);
+      }
+    }
+  });
+  window.addEventListener('afterprint', function () {
+    for (var i = 0; i < reopened.length; i++) reopened[i].open = false;
+    reopened = [];
+  });
   document.body.setAttribute('data-js', 'ready');
 })();
 )js";
@@ -309,6 +368,16 @@ void render_timing_svg(std::string& out, const VectorResult& vector) {
   std::int64_t t_max = INT64_MIN;
   for (const auto& sample : vector.samples) {
     const std::int64_t t = sample.at.time_since_epoch().count();
+    t_min = std::min(t_min, t);
+    t_max = std::max(t_max, t);
+  }
+  // The failed checks with their time (the frame judged or the deadline that passed) are
+  // marked on the diagram, which spans them too.
+  std::vector<const conformance::Check*> failed;
+  for (const auto& check : vector.checks) {
+    if (check.ok || !check.at || vector.samples.empty()) continue;
+    failed.push_back(&check);
+    const std::int64_t t = check.at->time_since_epoch().count();
     t_min = std::min(t_min, t);
     t_max = std::max(t_max, t);
   }
@@ -508,6 +577,22 @@ void render_timing_svg(std::string& out, const VectorResult& vector) {
     out += '\n';
     y += row + 4;
   }
+  // Where it failed: a dashed red line at the failed check's time, labelled with its step.
+  for (const conformance::Check* check : failed) {
+    const auto offset = static_cast<std::uint64_t>(check->at->time_since_epoch().count()) -
+                        static_cast<std::uint64_t>(t_min);
+    const double x = x_of(static_cast<std::int64_t>(std::min<std::uint64_t>(offset, INT64_MAX)));
+    const std::string what =
+        check->step == 0 ? std::string("setup failed") : fmt::format("step {} failed", check->step);
+    fmt::format_to(std::back_inserter(out),
+                   "<g class=\"failure-mark\" data-step=\"{0}\"><title>{1}: Expected {2}; Actual "
+                   "{3}</title><line x1=\"{4:.1f}\" y1=\"{5}\" x2=\"{4:.1f}\" y2=\"{6}\" "
+                   "stroke=\"#cf222e\" stroke-width=\"1.5\" stroke-dasharray=\"4 3\"/>"
+                   "<text x=\"{7:.1f}\" y=\"{8}\" text-anchor=\"end\" fill=\"#cf222e\">{1} ({9})"
+                   "</text></g>\n",
+                   check->step, what, esc(check->expected), esc(check->actual), x,
+                   8 + kLegendHeight, axis_y, x - 3, 8 + kLegendHeight + 10, esc(check->action));
+  }
   // Time axis: 5 ticks, labelled in ms from the first sample.
   fmt::format_to(std::back_inserter(out),
                  "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#59636e\"/>", kLeft,
@@ -579,7 +664,27 @@ void render_run_info(std::string& out, const RunResult& result) {
   row("Duration",
       fmt::format("{:.3f} s bus time, {:.3f} s wall",
                   static_cast<double>(result.simulated.count()) / 1e9, result.wall_seconds));
-  row("drivecheck", info.tool_version);
+  row("drivecheck", info.revision.empty() || info.revision == info.tool_version
+                        ? info.tool_version
+                        : info.tool_version + " (revision " + info.revision + ")");
+  if (!info.vector_digest.empty()) {
+    fmt::format_to(
+        std::back_inserter(out),
+        "<dt>Vector set</dt><dd><span class=\"mono\" data-vector-digest>sha256 {}</span> "
+        "({} files: vectors and drive profiles)</dd>",
+        esc(info.vector_digest), info.vector_files);
+  }
+  if (!info.documents.empty()) {
+    // The one place that says which document and edition each citation refers to.
+    out += "<dt>Cited documents</dt><dd><ul class=\"documents\" id=\"documents\">";
+    for (const auto& document : info.documents) {
+      fmt::format_to(std::back_inserter(out),
+                     "<li data-document=\"{0}\"><span class=\"mono\">{0}</span>: {1}{2}</li>",
+                     esc(document.key), esc(document.title),
+                     document.edition.empty() ? "" : ", edition " + esc(document.edition));
+    }
+    out += "</ul></dd>";
+  }
   out += "</dl>\n";
   if (result.interrupted)
     out +=
@@ -596,22 +701,26 @@ void render_run_info(std::string& out, const RunResult& result) {
 }
 
 void render_counts(std::string& out, const RunResult& result) {
+  // The counts every output shows (conformance::VerdictCounts): each vector in one tally.
   const auto counts = result.counts();
   out += "<div class=\"counts\" id=\"counts\">";
   fmt::format_to(std::back_inserter(out),
                  "<span class=\"count\"><b data-count-total>{}</b>vectors</span>", counts.total());
-  for (std::size_t i = 0; i < conformance::kVerdictCount; ++i) {
-    const auto verdict = static_cast<Verdict>(i);
+  for (std::size_t i = 0; i < conformance::kTallyCount; ++i) {
+    const auto tally = static_cast<Tally>(i);
     fmt::format_to(std::back_inserter(out),
                    "<span class=\"count v-{0}\"><b data-count-{0}>{1}</b>{2}</span>",
-                   to_string(verdict), counts.by_verdict[i], label(verdict));
+                   to_string(tally), counts.by_tally[i], label(tally));
   }
-  fmt::format_to(std::back_inserter(out),
-                 "<span class=\"count v-warning\"><b data-count-warnings>{}</b>warnings</span>",
-                 counts.warnings);
   fmt::format_to(std::back_inserter(out),
                  "<span class=\"count\">exit code <b data-exit-code>{}</b></span></div>\n",
                  conformance::exit_code(result));
+}
+
+void tally_header(std::string& out) {
+  for (std::size_t i = 0; i < conformance::kTallyCount; ++i)
+    fmt::format_to(std::back_inserter(out), "<th class=\"v-{}\">{}</th>",
+                   to_string(static_cast<Tally>(i)), label(static_cast<Tally>(i)));
 }
 
 void render_matrix(std::string& out, const RunResult& result) {
@@ -620,14 +729,13 @@ void render_matrix(std::string& out, const RunResult& result) {
   for (const auto& vector : result.vectors) {
     auto [it, inserted] = by_family.try_emplace(vector.family);
     if (inserted) families.push_back(vector.family);
-    ++it->second.by_verdict[static_cast<std::size_t>(vector.verdict)];
-    if (vector.warning) ++it->second.warnings;
+    it->second.add(vector.verdict, vector.warning);
   }
-  out += "<h2>Conformance matrix</h2>\n<table id=\"matrix\"><thead><tr><th>Family</th>";
-  for (std::size_t i = 0; i < conformance::kVerdictCount; ++i)
-    fmt::format_to(std::back_inserter(out), "<th class=\"v-{}\">{}</th>",
-                   to_string(static_cast<Verdict>(i)), label(static_cast<Verdict>(i)));
-  out += "<th class=\"v-warning\">warnings</th><th>total</th></tr></thead><tbody>\n";
+  out +=
+      "<section><h2>Conformance matrix by family</h2>\n<table "
+      "id=\"matrix\"><thead><tr><th>Family</th>";
+  tally_header(out);
+  out += "<th>total</th></tr></thead><tbody>\n";
   const auto cell = [&](std::string_view filter, std::string_view family, std::size_t n) {
     if (n == 0) {
       out += "<td class=\"zero\">0</td>";
@@ -641,31 +749,160 @@ void render_matrix(std::string& out, const RunResult& result) {
   for (const auto& family : families) {
     const auto& counts = by_family[family];
     fmt::format_to(std::back_inserter(out), "<tr data-family=\"{0}\"><th>{0}</th>", esc(family));
-    for (std::size_t i = 0; i < conformance::kVerdictCount; ++i)
-      cell(to_string(static_cast<Verdict>(i)), family, counts.by_verdict[i]);
-    cell("warning", family, counts.warnings);
+    for (std::size_t i = 0; i < conformance::kTallyCount; ++i)
+      cell(to_string(static_cast<Tally>(i)), family, counts.by_tally[i]);
     cell("all", family, counts.total());
     out += "</tr>\n";
   }
-  out += "</tbody></table>\n";
+  out += "</tbody></table></section>\n";
 }
 
-void render_vector(std::string& out, const VectorResult& vector) {
-  const std::string verdict(to_string(vector.verdict));
+// Numeric-aware order of clauses: "§3.2.10" after "§3.2.9".
+bool clause_less(const std::string& a, const std::string& b) {
+  std::size_t i = 0;
+  std::size_t j = 0;
+  while (i < a.size() && j < b.size()) {
+    const bool da = a[i] >= '0' && a[i] <= '9';
+    const bool db = b[j] >= '0' && b[j] <= '9';
+    if (da && db) {
+      std::size_t ei = i;
+      std::size_t ej = j;
+      while (ei < a.size() && a[ei] >= '0' && a[ei] <= '9')
+        ++ei;
+      while (ej < b.size() && b[ej] >= '0' && b[ej] <= '9')
+        ++ej;
+      const std::string na = a.substr(i, ei - i);
+      const std::string nb = b.substr(j, ej - j);
+      if (na.size() != nb.size()) return na.size() < nb.size();
+      if (na != nb) return na < nb;
+      i = ei;
+      j = ej;
+      continue;
+    }
+    if (a[i] != b[j]) return a[i] < b[j];
+    ++i;
+    ++j;
+  }
+  return a.size() - i < b.size() - j;
+}
+
+// The matrix by clause: each CiA 301 / CiA 402 clause or manual section the vectors cite, the
+// vectors that cite it and their verdicts. A cell filters the list to that clause.
+void render_clause_matrix(std::string& out, const RunResult& result) {
+  std::map<std::string, std::vector<const VectorResult*>> by_clause;
+  for (const auto& vector : result.vectors) {
+    std::vector<std::string> seen;
+    for (const auto& source : vector.sources) {
+      std::string clause = clause_of(source);
+      if (std::find(seen.begin(), seen.end(), clause) != seen.end()) continue;
+      seen.push_back(clause);
+      by_clause[std::move(clause)].push_back(&vector);
+    }
+  }
+  std::vector<std::string> clauses;
+  for (const auto& [clause, list] : by_clause)
+    clauses.push_back(clause);
+  std::sort(clauses.begin(), clauses.end(), clause_less);
   fmt::format_to(std::back_inserter(out),
-                 "<details class=\"vector\" id=\"v:{0}\" data-verdict=\"{1}\" data-family=\"{2}\" "
-                 "data-warning=\"{3}\"><summary><span class=\"badge v-{4}\">{5}</span> "
-                 "<code>{0}</code> {6}<a class=\"permalink\" href=\"#open={7}\" "
-                 "title=\"link to this vector\">#</a></summary>\n<div class=\"vbody\">",
+                 "<section><details id=\"clause-box\"><summary><h2 style=\"display:inline\">"
+                 "Conformance matrix by clause</h2> ({} clauses and manual sections)</summary>\n"
+                 "<table id=\"clause-matrix\"><thead><tr><th>Clause</th>",
+                 clauses.size());
+  tally_header(out);
+  out += "<th>vectors</th></tr></thead><tbody>\n";
+  for (const auto& clause : clauses) {
+    const auto& list = by_clause[clause];
+    conformance::VerdictCounts counts;
+    for (const VectorResult* vector : list)
+      counts.add(vector->verdict, vector->warning);
+    const conformance::CitedDocument* document = cited_document(result.info, clause);
+    fmt::format_to(std::back_inserter(out),
+                   "<tr data-clause=\"{0}\"><th><a href=\"#clause={1}\" data-clause-link=\"{0}\">"
+                   "{0}</a>{2}</th>",
+                   esc(clause), esc(url_component(clause)),
+                   document == nullptr
+                       ? std::string()
+                       : "<br><span class=\"doc\">" + esc(document->title) +
+                             (document->edition.empty() ? "" : ", " + esc(document->edition)) +
+                             "</span>");
+    for (std::size_t i = 0; i < conformance::kTallyCount; ++i) {
+      if (counts.by_tally[i] == 0)
+        out += "<td class=\"zero\">0</td>";
+      else
+        fmt::format_to(std::back_inserter(out), "<td class=\"v-{}\">{}</td>",
+                       to_string(static_cast<Tally>(i)), counts.by_tally[i]);
+    }
+    out += "<td class=\"vectors\">";
+    for (const VectorResult* vector : list) {
+      fmt::format_to(std::back_inserter(out),
+                     "<a class=\"v-{0}\" href=\"#open={1}\" title=\"{0}\">{2}</a>",
+                     to_string(tally_of(*vector)), esc(url_component(vector->id)), esc(vector->id));
+    }
+    out += "</td></tr>\n";
+  }
+  out += "</tbody></table></details></section>\n";
+}
+
+// The transcript lines of `frames`, with a marker line before the first frame after each
+// failed check's time (where the vector failed).
+void render_transcript(std::string& out, const VectorResult& vector) {
+  std::vector<const conformance::Check*> marks;
+  for (const auto& check : vector.checks)
+    if (!check.ok && check.at) marks.push_back(&check);
+  std::size_t next = 0;
+  const auto mark_until = [&](std::optional<can::TimePoint> before) {
+    while (next < marks.size() && (!before || *marks[next]->at < *before)) {
+      const auto* check = marks[next++];
+      fmt::format_to(std::back_inserter(out),
+                     "<span class=\"failmark\" data-failure-step=\"{}\">{} ✗ {} failed here: "
+                     "Expected {}; Actual {}</span>\n",
+                     check->step,
+                     fmt::format("({:11.6f})",
+                                 static_cast<double>((*check->at - vector.started).count()) / 1e9),
+                     check->step == 0 ? std::string("setup") : fmt::format("step {}", check->step),
+                     esc(check->expected), esc(check->actual));
+    }
+  };
+  for (std::size_t i = 0; i < vector.frames.size(); ++i) {
+    if (vector.frames_elided != 0 && i == vector.frames_elided_at) {
+      out += esc(elided_line(vector.frames_elided));
+      out += '\n';
+    }
+    mark_until(vector.frames[i].at);
+    out += esc(transcript_line(vector.frames[i], vector.started));
+    out += '\n';
+  }
+  mark_until(std::nullopt);
+}
+
+void render_vector(std::string& out, const VectorResult& vector, const RunResult& result) {
+  const std::string verdict(to_string(vector.verdict));
+  const Tally tally = tally_of(vector);
+  std::string clauses;
+  for (const auto& source : vector.sources)
+    clauses += (clauses.empty() ? "" : "\n") + clause_of(source);
+  const bool expand_in_print =
+      tally == Tally::fail || tally == Tally::error || tally == Tally::warning;
+  fmt::format_to(std::back_inserter(out),
+                 "<details class=\"vector\" id=\"v:{0}\" data-verdict=\"{1}\" data-tally=\"{8}\" "
+                 "data-family=\"{2}\" data-warning=\"{3}\" data-clauses=\"{9}\"{10}><summary><span "
+                 "class=\"badge v-{4}\">{5}</span> <code>{0}</code> {6}<a class=\"permalink\" "
+                 "href=\"#open={7}\" title=\"link to this vector\">#</a></summary>\n<div "
+                 "class=\"vbody\">",
                  esc(vector.id), verdict, esc(vector.family), vector.warning ? "true" : "false",
-                 vector.warning ? "warning" : verdict,
-                 vector.warning ? "warning" : label(vector.verdict), esc(vector.title),
-                 esc(url_component(vector.id)));
+                 to_string(tally), label(tally), esc(vector.title), esc(url_component(vector.id)),
+                 to_string(tally), esc(clauses), expand_in_print ? " data-print=\"expand\"" : "");
   fmt::format_to(std::back_inserter(out), "<p class=\"requirement\"><b>{}</b> · level <b>{}</b>",
                  esc(vector.title), to_string(vector.level));
-  for (const auto& source : vector.sources)
-    fmt::format_to(std::back_inserter(out), " · source <span class=\"mono\">{}</span>",
-                   esc(source));
+  for (const auto& source : vector.sources) {
+    const conformance::CitedDocument* document = cited_document(result.info, source);
+    fmt::format_to(
+        std::back_inserter(out), " · source <span class=\"mono\">{}</span>{}", esc(source),
+        document == nullptr
+            ? std::string()
+            : " <span class=\"doc\">(" + esc(document->title) +
+                  (document->edition.empty() ? "" : ", " + esc(document->edition)) + ")</span>");
+  }
   if (!vector.file.empty())
     fmt::format_to(std::back_inserter(out), " · vector <span class=\"mono\">{}:{}</span>",
                    esc(vector.file), vector.line);
@@ -679,12 +916,14 @@ void render_vector(std::string& out, const VectorResult& vector) {
     fmt::format_to(std::back_inserter(out),
                    "<p class=\"deviation\">Documented deviation <code>{}</code>, source "
                    "<span class=\"mono\">{}</span></p>\n",
-                   esc(vector.deviation_id), esc(vector.deviation_source));
+                   esc(vector.deviation_id),
+                   esc(citation_text(result.info, vector.deviation_source)));
   }
   if (!vector.message.empty())
     fmt::format_to(std::back_inserter(out), "<div class=\"message\">{}</div>\n",
                    esc(vector.message));
   if (!vector.checks.empty()) {
+    // Steps numbered from 1 as in the vector file and the message; "setup" for the setup.
     out +=
         "<table class=\"checks\"><thead><tr><th>step</th><th>action</th><th>Expected</th>"
         "<th>Actual</th><th></th></tr></thead><tbody>";
@@ -692,7 +931,8 @@ void render_vector(std::string& out, const VectorResult& vector) {
       fmt::format_to(std::back_inserter(out),
                      "<tr><td>{}</td><td>{}</td><td class=\"mono\">{}</td><td "
                      "class=\"mono\">{}</td><td class=\"{}\">{}</td></tr>",
-                     check.step, esc(check.action), esc(check.expected), esc(check.actual),
+                     check.step == 0 ? std::string("setup") : std::to_string(check.step),
+                     esc(check.action), esc(check.expected), esc(check.actual),
                      check.ok ? "ok" : "bad", check.ok ? "ok" : "FAILED");
     }
     out += "</tbody></table>\n";
@@ -712,18 +952,24 @@ void render_vector(std::string& out, const VectorResult& vector) {
     out += "</tbody></table>\n";
   }
   render_timing_svg(out, vector);
+  if (!vector.between_vectors.empty()) {
+    fmt::format_to(std::back_inserter(out),
+                   "<div class=\"between\" data-between-vectors=\"{}\"><p>Between vectors: {} "
+                   "frame(s) arrived after the vector before ended and before this vector's setup "
+                   "(e.g. a late answer to the vector before). They are not this vector's "
+                   "evidence.</p><pre class=\"transcript between-vectors\">",
+                   vector.between_vectors.size(), vector.between_vectors.size());
+    for (const auto& frame : vector.between_vectors) {
+      out += esc(transcript_line(frame, vector.started));
+      out += '\n';
+    }
+    out += "</pre></div>\n";
+  }
   fmt::format_to(std::back_inserter(out),
                  "<p class=\"mono\">{} frames, {} bus time</p><pre class=\"transcript\">",
                  vector.frames.size() + vector.frames_elided,
                  ms_text(vector.finished - vector.started));
-  for (std::size_t i = 0; i < vector.frames.size(); ++i) {
-    if (vector.frames_elided != 0 && i == vector.frames_elided_at) {
-      out += esc(elided_line(vector.frames_elided));
-      out += '\n';
-    }
-    out += esc(transcript_line(vector.frames[i], vector.started));
-    out += '\n';
-  }
+  render_transcript(out, vector);
   out += "</pre></div></details>\n";
 }
 
@@ -743,8 +989,10 @@ std::string render_html(const RunResult& result) {
                  esc(result.info.tool_version), esc(name), kStyle, esc(name));
   render_run_info(out, result);
   render_counts(out, result);
-  out += "</header>\n";
+  out += "</header>\n<div class=\"matrices\">";
   render_matrix(out, result);
+  render_clause_matrix(out, result);
+  out += "</div>\n";
 
   out +=
       "<p class=\"legend\"><b>pass</b>: the device did what the requirement says. "
@@ -753,25 +1001,27 @@ std::string render_html(const RunResult& result) {
       "(with the manual's section): specified behaviour, not a failure. <b>n/a</b>: the "
       "device does not have the feature (per its profile or EDS). <b>error</b>: the test "
       "could not be carried out. <b>warning</b>: a SHOULD/MAY requirement not met (fails "
-      "only with --strict).</p>\n";
+      "only with --strict; counted as a warning, not a failure). <b>interrupted</b>: the run "
+      "was stopped while the vector ran: no verdict, neither passed nor failed.</p>\n";
   out += "<h2>Vectors</h2>\n<div class=\"filters\" id=\"filters\">";
+  out +=
+      "<input type=\"search\" id=\"search\" placeholder=\"search id, title, source, "
+      "message\" aria-label=\"search the vectors\">";
   fmt::format_to(std::back_inserter(out),
                  "<button type=\"button\" data-filter=\"all\" class=\"on\">all ({})</button>",
                  counts.total());
-  for (std::size_t i = 0; i < conformance::kVerdictCount; ++i) {
-    const auto verdict = static_cast<Verdict>(i);
+  for (std::size_t i = 0; i < conformance::kTallyCount; ++i) {
+    const auto tally = static_cast<Tally>(i);
     fmt::format_to(std::back_inserter(out),
                    "<button type=\"button\" data-filter=\"{0}\" class=\"v-{0}\">{1} ({2})</button>",
-                   to_string(verdict), label(verdict), counts.by_verdict[i]);
+                   to_string(tally), label(tally), counts.by_tally[i]);
   }
-  fmt::format_to(std::back_inserter(out),
-                 "<button type=\"button\" data-filter=\"warning\" class=\"v-warning\">warnings "
-                 "({})</button><button type=\"button\" data-action=\"expand\">expand shown</button>"
-                 "<button type=\"button\" data-action=\"collapse\">collapse all</button>"
-                 "<span id=\"shown\"></span></div>\n<div id=\"vectors\">\n",
-                 counts.warnings);
+  out +=
+      "<button type=\"button\" data-action=\"expand\">expand shown</button>"
+      "<button type=\"button\" data-action=\"collapse\">collapse all</button>"
+      "<span id=\"shown\"></span></div>\n<div id=\"vectors\">\n";
   for (const auto& vector : result.vectors)
-    render_vector(out, vector);
+    render_vector(out, vector, result);
   fmt::format_to(std::back_inserter(out),
                  "</div>\n<footer>Generated by drivecheck {} · times are bus time from each "
                  "vector's start · tx = sent by drivecheck, rx = sent by the device</footer>\n"

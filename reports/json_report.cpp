@@ -44,6 +44,18 @@ json dut_json(const DutIdentity& dut) {
   return out;
 }
 
+json frames_json(const std::vector<conformance::EvidenceFrame>& list) {
+  json frames = json::array();
+  for (const auto& frame : list) {
+    frames.push_back({{"t_ns", ns_of(frame.at)},
+                      {"t_s", seconds(frame.at.time_since_epoch())},
+                      {"frame", can::to_candump(frame.frame)},
+                      {"from_harness", frame.from_harness},
+                      {"decoded", frame.decoded}});
+  }
+  return frames;
+}
+
 json vector_json(const VectorResult& vector) {
   json out;
   out["id"] = vector.id;
@@ -60,22 +72,17 @@ json vector_json(const VectorResult& vector) {
   out["warning"] = vector.warning;
   json checks = json::array();
   for (const auto& check : vector.checks) {
-    checks.push_back({{"step", check.step},
-                      {"action", check.action},
-                      {"expected", check.expected},
-                      {"actual", check.actual},
-                      {"ok", check.ok}});
+    json c = {{"step", check.step},
+              {"action", check.action},
+              {"expected", check.expected},
+              {"actual", check.actual},
+              {"ok", check.ok}};
+    if (check.at) c["t_ns"] = ns_of(*check.at);
+    checks.push_back(std::move(c));
   }
   out["checks"] = std::move(checks);
-  json frames = json::array();
-  for (const auto& frame : vector.frames) {
-    frames.push_back({{"t_ns", ns_of(frame.at)},
-                      {"t_s", seconds(frame.at.time_since_epoch())},
-                      {"frame", can::to_candump(frame.frame)},
-                      {"from_harness", frame.from_harness},
-                      {"decoded", frame.decoded}});
-  }
-  out["frames"] = std::move(frames);
+  out["frames"] = frames_json(vector.frames);
+  out["between_vectors"] = frames_json(vector.between_vectors);
   out["frames_elided"] = vector.frames_elided;
   out["frames_elided_at"] = vector.frames_elided_at;
   json timings = json::array();
@@ -234,7 +241,28 @@ std::size_t size_of(const Reader& reader, const json& object, const char* key) {
   return static_cast<std::size_t>(value);
 }
 
-VectorResult read_vector(Reader& reader, const json& in) {
+std::vector<conformance::EvidenceFrame> read_frames(Reader& reader, const json& in,
+                                                    const char* key) {
+  std::vector<conformance::EvidenceFrame> frames;
+  std::size_t i = 0;
+  for (const json& item : reader.array(in, key)) {
+    Scope scope(reader, fmt::format("{}[{}]", key, i++));
+    if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+    conformance::EvidenceFrame frame;
+    frame.at = time_at(reader.nanoseconds(item, "t_ns"));
+    const std::string text = reader.string(item, "frame");
+    auto parsed = can::parse_candump(text);
+    if (!parsed) throw ReadError{reader.where("frame") + ": " + parsed.error()};
+    frame.frame = *parsed;
+    frame.from_harness = reader.boolean(item, "from_harness");
+    frame.decoded = reader.string(item, "decoded");
+    frames.push_back(std::move(frame));
+  }
+  return frames;
+}
+
+// `version`: the report's schema_version (1: steps of checks numbered from 0).
+VectorResult read_vector(Reader& reader, const json& in, std::int64_t version) {
   if (!in.is_object()) throw ReadError{reader.where("") + ": expected an object"};
   VectorResult vector;
   vector.id = reader.string(in, "id");
@@ -264,26 +292,18 @@ VectorResult read_vector(Reader& reader, const json& in) {
     if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
     conformance::Check check;
     check.step = size_of(reader, item, "step");
+    if (version < 2) ++check.step;  // schema 1 counted steps from 0
+    if (item.contains("t_ns")) check.at = time_at(reader.nanoseconds(item, "t_ns"));
     check.action = reader.string(item, "action");
     check.expected = reader.string(item, "expected");
     check.actual = reader.string(item, "actual");
     check.ok = reader.boolean(item, "ok");
     vector.checks.push_back(std::move(check));
   }
-  i = 0;
-  for (const json& item : reader.array(in, "frames")) {
-    Scope scope(reader, fmt::format("frames[{}]", i++));
-    if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
-    conformance::EvidenceFrame frame;
-    frame.at = time_at(reader.nanoseconds(item, "t_ns"));
-    const std::string text = reader.string(item, "frame");
-    auto parsed = can::parse_candump(text);
-    if (!parsed) throw ReadError{reader.where("frame") + ": " + parsed.error()};
-    frame.frame = *parsed;
-    frame.from_harness = reader.boolean(item, "from_harness");
-    frame.decoded = reader.string(item, "decoded");
-    vector.frames.push_back(std::move(frame));
-  }
+  vector.frames = read_frames(reader, in, "frames");
+  // Absent in schema 1 reports: frames between vectors were not told apart.
+  if (in.contains("between_vectors"))
+    vector.between_vectors = read_frames(reader, in, "between_vectors");
   // Absent in reports written before the evidence cap: nothing was left out.
   if (in.contains("frames_elided")) {
     vector.frames_elided = static_cast<std::size_t>(reader.unsigned_integer(in, "frames_elided"));
@@ -342,9 +362,10 @@ RunResult read_run(Reader& reader, const json& document) {
     throw ReadError{"schema_version: missing (not a drivecheck JSON report?)"};
   }
   const std::int64_t version = reader.integer(document, "schema_version");
-  if (version != kJsonSchemaVersion) {
-    throw ReadError{fmt::format("schema_version: {} is not supported (this drivecheck reads {})",
-                                version, kJsonSchemaVersion)};
+  if (version < kOldestJsonSchemaVersion || version > kJsonSchemaVersion) {
+    throw ReadError{
+        fmt::format("schema_version: {} is not supported (this drivecheck reads {} to {})", version,
+                    kOldestJsonSchemaVersion, kJsonSchemaVersion)};
   }
   RunResult result;
   {
@@ -352,6 +373,23 @@ RunResult read_run(Reader& reader, const json& document) {
     const json& run = reader.object(document, "run");
     auto& info = result.info;
     info.tool_version = reader.string(run, "tool_version");
+    // Schema 2 (absent in schema 1 reports).
+    info.revision = reader.optional_string(run, "revision").value_or("");
+    if (run.contains("vector_set")) {
+      Scope inner(reader, "vector_set");
+      const json& set = reader.object(run, "vector_set");
+      info.vector_digest = reader.string(set, "sha256");
+      info.vector_files = size_of(reader, set, "files");
+    }
+    if (run.contains("documents")) {
+      std::size_t k = 0;
+      for (const json& item : reader.array(run, "documents")) {
+        Scope inner(reader, fmt::format("documents[{}]", k++));
+        if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+        info.documents.push_back({reader.string(item, "key"), reader.string(item, "title"),
+                                  reader.string(item, "edition")});
+      }
+    }
     info.started_utc = reader.string(run, "started_utc");
     info.bus = reader.string(run, "bus");
     const std::int64_t node = reader.integer(run, "node");
@@ -438,7 +476,7 @@ RunResult read_run(Reader& reader, const json& document) {
   std::size_t i = 0;
   for (const json& item : reader.array(document, "vectors")) {
     Scope scope(reader, fmt::format("vectors[{}]", i++));
-    result.vectors.push_back(read_vector(reader, item));
+    result.vectors.push_back(read_vector(reader, item, version));
   }
   return result;
 }
@@ -449,6 +487,14 @@ std::string render_json(const RunResult& result) {
   json run;
   const auto& info = result.info;
   run["tool_version"] = info.tool_version;
+  run["revision"] = info.revision;
+  run["vector_set"] = {{"sha256", info.vector_digest}, {"files", info.vector_files}};
+  json documents = json::array();
+  for (const auto& document : info.documents) {
+    documents.push_back(
+        {{"key", document.key}, {"title", document.title}, {"edition", document.edition}});
+  }
+  run["documents"] = std::move(documents);
   run["started_utc"] = info.started_utc;
   run["bus"] = info.bus;
   run["node"] = info.node;
@@ -475,10 +521,9 @@ std::string render_json(const RunResult& result) {
 
   const auto counts = result.counts();
   json count_json;
-  for (std::size_t i = 0; i < conformance::kVerdictCount; ++i) {
-    count_json[std::string(to_string(static_cast<Verdict>(i)))] = counts.by_verdict[i];
+  for (std::size_t i = 0; i < conformance::kTallyCount; ++i) {
+    count_json[std::string(to_string(static_cast<conformance::Tally>(i)))] = counts.by_tally[i];
   }
-  count_json["warnings"] = counts.warnings;
   count_json["total"] = counts.total();
 
   json vectors = json::array();

@@ -15,9 +15,11 @@ using conformance::RunResult;
 using conformance::VectorResult;
 using conformance::Verdict;
 
-// Fails as `drivecheck run`'s exit code counts it: a required failure or a harness error.
+// Fails as every output counts it (conformance::VerdictCounts, and the exit code): a required
+// failure or a harness error.
 bool fails(const VectorResult& vector) {
-  return (vector.verdict == Verdict::fail && !vector.warning) || vector.verdict == Verdict::error;
+  const auto tally = conformance::tally_of(vector.verdict, vector.warning);
+  return tally == conformance::Tally::fail || tally == conformance::Tally::error;
 }
 
 std::string verdict_text(const std::optional<Verdict>& verdict, bool warning) {
@@ -70,7 +72,8 @@ std::vector<ReportChange> diff_reports(const RunResult& before, const RunResult&
     change.warning_before = was.warning;
     if (fails(*now) && !fails(was)) {
       change.kind = ChangeKind::new_failure;
-    } else if (fails(was) && !fails(*now)) {
+    } else if (fails(was) && !fails(*now) && now->verdict != Verdict::interrupted) {
+      // An interrupted vector has no verdict: it did not get fixed (a verdict change).
       change.kind = ChangeKind::fixed;
     } else if (was.verdict != now->verdict || was.warning != now->warning) {
       change.kind = ChangeKind::verdict_changed;

@@ -30,32 +30,37 @@ namespace drivecheck::reports {
 Expected<void, std::string> write_file_atomically(const std::filesystem::path& path,
                                                   std::string_view contents);
 
-// ---- JSON (schema_version 1) -------------------------------------------------------------
+// ---- JSON (schema_version 2) -------------------------------------------------------------
 //
-//   { "schema_version": 1, "generator": "drivecheck <version>",
-//     "run": { tool_version, started_utc, bus, node, profile: {name,title,file},
-//              eds: {file,sha256}, personality, deviations: [..], seed,
-//              order ("file" | "reverse" | "shuffle:SEED"; absent in older reports: file),
-//              strict, allow_motion, filter, dut: {device_type, device_name, hardware_version,
-//              software_version, vendor_id, product_code, revision, serial} (absent = not
-//              readable),
-//              interrupted, dut_lost, simulated_ns, simulated_s, wall_s },
-//     "counts": { pass, fail, deviation, not-applicable, error, warnings, total },
+// The schema, versioned, is reports/report.schema.json (JSON Schema 2020-12); every field is
+// described there. In short:
+//   { "schema_version": 2, "generator": "drivecheck <version>",
+//     "run": { tool_version, revision, vector_set: {sha256, files}, documents: [{key, title,
+//              edition}], started_utc, bus, node, profile: {name,title,file,commissioning?},
+//              eds: {file,sha256}, personality, deviations: [..], seed, order, strict,
+//              allow_motion, filter, dut: {...} (absent = not readable), interrupted, dut_lost,
+//              harness_notes, simulated_ns, simulated_s, wall_s },
+//     "counts": { pass, fail, warning, deviation, not-applicable, error, interrupted, total }
+//               (conformance::VerdictCounts: each vector in exactly one),
 //     "exit_code": 0|1|3|130,
 //     "vectors": [ { id, family, title, sources: [..], level, file, line, verdict, message,
 //                    deviation_id, deviation_source, warning,
-//                    checks: [{step, action, expected, actual, ok}],
+//                    checks: [{step (from 1 as in the vector file; 0 = setup), action,
+//                              expected, actual, ok, t_ns?}],
 //                    frames: [{t_ns, t_s, frame: "605#..", from_harness, decoded}],
+//                    frames_elided, frames_elided_at,
+//                    between_vectors: [frames that arrived before this vector's setup],
 //                    timings: [{name, measured_ns, measured_s, min_ns?, max_ns?, ok}],
-//                    samples: [{t_ns, signal, value, origin: "sdo"|"tpdo"|"rpdo"}],
-//                    samples_elided (samples thinned out of a long vector, every bit edge
-//                    kept; origin and samples_elided are absent in older reports: sdo, 0),
+//                    samples: [{t_ns, signal, value, origin}], samples_elided,
 //                    started_ns, finished_ns, duration_s, wall_s } ] }
 //
 // Times on the bus clock are integers in ns ("*_ns") and, for people, seconds ("*_s").
 // Verdicts and levels are the strings of conformance::to_string. Invalid UTF-8 in a string is
 // written as U+FFFD (the only lossy step: write → read gives back every valid-UTF-8 result).
-inline constexpr int kJsonSchemaVersion = 1;
+// The reader also reads schema 1 (steps counted from 0 there; no revision, digest, documents
+// or between_vectors).
+inline constexpr int kJsonSchemaVersion = 2;
+inline constexpr int kOldestJsonSchemaVersion = 1;
 
 std::string render_json(const conformance::RunResult& result);
 Expected<void, std::string> write_json_report(const std::filesystem::path& path,
@@ -72,17 +77,23 @@ Expected<conformance::RunResult, TextError> read_json_report(const std::filesyst
 // ---- JUnit XML ---------------------------------------------------------------------------
 //
 // <testsuites> with one <testsuite name="cia301/sdo"> per family (run order of first
-// appearance); <testcase name="<vector id>" classname="drivecheck.cia301.sdo" time="s"> with
-// <properties> (source, level, verdict, expected/actual per check, DUT identity, EDS hash,
-// profile, deviation, warning) and:
-//   fail           <failure message="first line" type="fail">Expected/Actual block</failure>
+// appearance). The first testsuite's <properties> carry the run once per file (tool version,
+// revision, vector-set digest, bus, DUT identity, EDS, profile, cited documents with their
+// editions, bus and wall time); each suite has suite.bus_time_s. <testcase name="<vector id>"
+// classname="drivecheck.cia301.sdo" time="<wall s>"> (no properties, no file attribute: the
+// Jenkins/xunit schema and GitLab reject them) with:
+//   fail           <failure message="<file>:<line>: step N action: Expected ...; Actual ..."
+//                  type="fail">requirement, sources, Expected/Actual block</failure>
 //   error          <error message="first line" type="harness-error">...</error>
-//   not applicable <skipped message="reason"/>
-//   deviation      passes: property verdict=deviation + deviation id/source (a deviation the
-//                  drive's manual documents is the drive's specified behaviour, not a failure)
-//   should/may failure without --strict: passes with property warning=...
-// <system-out> carries the decoded transcript (transcript_line per frame).
-// The schema it satisfies: tests/reports/junit.xsd.
+//   not applicable <skipped message="not applicable: reason"/>
+//   interrupted    <skipped message="interrupted by the user ..."/>
+//   deviation      passes (a deviation the drive's manual documents is the drive's specified
+//                  behaviour, not a failure); said in system-out
+//   should/may failure without --strict: passes; "Warning: ..." in system-out
+// <system-out>: requirement, sources with their documents, level, verdict, vector file:line,
+// bus time, every check and timing, frames between vectors (marked), then the transcript.
+// Counts are conformance::VerdictCounts: failures = fail, errors = error, skipped =
+// not-applicable + interrupted. The schema it satisfies: tests/reports/junit.xsd.
 std::string render_junit(const conformance::RunResult& result);
 Expected<void, std::string> write_junit_report(const std::filesystem::path& path,
                                                const conformance::RunResult& result);
@@ -91,13 +102,28 @@ Expected<void, std::string> write_junit_report(const std::filesystem::path& path
 //
 // One self-contained page (inline CSS and JS, no network). Hooks for scripts and tests:
 //   <body data-js="ready">                   set by the page's script once it ran
-//   [data-count-<verdict>] / [data-count-total] / [data-count-warnings]   the counts shown
-//   <details class="vector" id="v:<vector id>" data-verdict="fail" data-family="cia301/sdo"
-//            data-warning="true|false">      one per vector
-//   <pre class="transcript">                  the decoded frames inside it
-//   <svg class="timing">                      the timing diagram (vectors with samples)
+//   [data-count-<tally>] / [data-count-total] the counts shown (conformance::VerdictCounts;
+//                                             tallies pass fail warning deviation
+//                                             not-applicable error interrupted)
+//   <table id="matrix">                       by family; <table id="clause-matrix"> (inside
+//                                             <details id="clause-box">) by cited clause or
+//                                             manual section, with the vectors citing it
+//   <ul id="documents">                       the cited documents with their editions (once)
+//   <input id="search">                       text search over id, title, sources, message
+//   <details class="vector" id="v:<vector id>" data-verdict="fail" data-tally="fail"
+//            data-family="cia301/sdo" data-warning="true|false" data-clauses="<clause>\n..."
+//            data-print="expand" (fail, error, warning: opened when printed)>  one per vector
+//   <div data-between-vectors="N">            frames that arrived before the vector's setup
+//   <pre class="transcript">                  the decoded frames, with a
+//                                             <span data-failure-step="N"> where a check failed
+//   <svg class="timing">                      the timing diagram (vectors with samples), with a
+//                                             <g class="failure-mark" data-step="N"> per failed
+//                                             check
 //   URL fragment: #open=<vector id> opens (and scrolls to) that vector;
-//                 #filter=<verdict|warning|all>[&family=<family>] filters the list.
+//                 #filter=<tally|all>[&family=<family>][&clause=<clause>][&search=<text>]
+//                 filters the list.
+// Printing (or saving as PDF) hides the controls and expands every failure, error and warning
+// with its evidence (print CSS ::details-content, and the script's beforeprint handler).
 std::string render_html(const conformance::RunResult& result);
 Expected<void, std::string> write_html_report(const std::filesystem::path& path,
                                               const conformance::RunResult& result);
@@ -199,5 +225,26 @@ std::string to_valid_utf8(std::string_view text);
 std::string printable_text(std::string_view text);
 // The first line of `text` (up to the first '\n', without a trailing '\r').
 std::string_view first_line(std::string_view text);
+
+// ---- build ------------------------------------------------------------------------------
+
+// The drivecheck revision this binary was built from: `git describe --always --dirty` of the
+// source tree at build time, or the project version when it was not built from a git checkout.
+std::string_view build_revision();
+
+// ---- citations ---------------------------------------------------------------------------
+
+// The document a citation ("000_33c1d912b8b6010a.txt §3.2.2 L764-780", "CiA 301 §7.2.4.3.17")
+// refers to, from RunInfo::documents (vectors/manuals.yaml): the longest key the citation
+// starts with, ending at a word boundary; nullptr when none is listed.
+const conformance::CitedDocument* cited_document(const conformance::RunInfo& info,
+                                                 std::string_view source);
+// The citation followed by its document's title and edition, "<source> (<title>, <edition>)";
+// the citation alone when its document is not listed.
+std::string citation_text(const conformance::RunInfo& info, std::string_view source);
+// The clause a citation names, for the HTML clause matrix: "<document> §<section>" without the
+// line range or the free text after it ("CiA 301 §7.2.4.3.17", "000_...txt §3.2.2"); a
+// citation without "§" up to its line range.
+std::string clause_of(std::string_view source);
 
 }  // namespace drivecheck::reports

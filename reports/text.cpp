@@ -105,3 +105,44 @@ std::string elided_line(std::size_t count) {
 }
 
 }  // namespace drivecheck::reports
+
+namespace drivecheck::reports {
+
+const conformance::CitedDocument* cited_document(const conformance::RunInfo& info,
+                                                 std::string_view source) {
+  const conformance::CitedDocument* best = nullptr;
+  for (const auto& document : info.documents) {
+    const std::string_view key = document.key;
+    if (key.empty() || !source.starts_with(key)) continue;
+    // "CiA 402" must not claim "CiA 4021": the key ends at a word boundary.
+    if (source.size() > key.size() && source[key.size()] != ' ' && source[key.size()] != ',')
+      continue;
+    if (best == nullptr || best->key.size() < key.size()) best = &document;
+  }
+  return best;
+}
+
+std::string citation_text(const conformance::RunInfo& info, std::string_view source) {
+  const conformance::CitedDocument* document = cited_document(info, source);
+  if (document == nullptr) return std::string(source);
+  std::string text = std::string(source) + " (" + document->title;
+  if (!document->edition.empty()) text += ", " + document->edition;
+  return text + ")";
+}
+
+std::string clause_of(std::string_view source) {
+  const auto mark = source.find("§");
+  if (mark == std::string_view::npos) {
+    const auto end = source.find(" L");
+    return std::string(source.substr(0, end));
+  }
+  std::size_t end = mark + std::string_view("§").size();
+  while (end < source.size() && source[end] != ' ' && source[end] != ',' && source[end] != ';')
+    ++end;
+  std::string_view document = source.substr(0, mark);
+  while (!document.empty() && document.back() == ' ')
+    document.remove_suffix(1);
+  return std::string(document) + " " + std::string(source.substr(mark, end - mark));
+}
+
+}  // namespace drivecheck::reports

@@ -1,6 +1,6 @@
 // Writes the HTML and JSON reports the browser test opens in headless Chromium.
 //
-//   make_browser_report OUTDIR                  the synthetic run (every verdict, hostile text)
+//   make_browser_report OUTDIR                  the synthetic run (every tally, hostile text)
 //   make_browser_report OUTDIR --from RUN.json  a real run's JSON (e.g. `drivecheck run --json`
 //                                               with an injected deviation), re-rendered
 //   make_browser_report OUTDIR --many N         the synthetic run's vectors repeated to N
@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   const std::filesystem::path out = argv[1];
   drivecheck::conformance::RunResult run;
   if (argc == 2) {
-    run = drivecheck::test_support::synthetic_run();
+    run = drivecheck::test_support::synthetic_run_every_tally();
   } else if (std::string_view(argv[2]) == "--from") {
     auto read = drivecheck::reports::read_json_report(argv[3]);
     if (!read) {

@@ -45,8 +45,9 @@ TEST(ConsoleReport, OneLinePerVerdict) {
   };
   EXPECT_EQ(line(0), "✔ cia301/sdo/expedited-upload");
   EXPECT_EQ(line(1),
-            "× cia301/sdo/abort/write-read-only — Expected: 585#80416000020001 06 (abort "
-            "06010002h)");
+            "× cia301/sdo/abort/write-read-only — vectors/cia301/sdo.yaml:14: step 1 "
+            "expect_frame: Expected 585#80416000020001 06 (abort 06010002h); Actual "
+            "585#80416000000002 06 (abort 06020000h)");
   EXPECT_EQ(line(2), "~ cia402/fsa/transition-16 (deviation no-transition-16)");
   EXPECT_EQ(line(3),
             "- cia402/homing/method-35 (n/a: the profile does not support homing.method.35)");
@@ -100,8 +101,8 @@ TEST(ConsoleReport, PlainStreamGetsResultLinesAndSummaryOnly) {
   EXPECT_EQ(text.find('\r'), std::string::npos);
   EXPECT_EQ(text.find('\x1b'), std::string::npos);
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 8);
-  EXPECT_NE(text.find("\n7 vectors: 2 passed, 1 failed, 1 deviations, 1 not applicable, 1 "
-                      "errors, 1 warnings (exit 1)\n"),
+  EXPECT_NE(text.find("\n7 vectors: 2 passed, 1 failed, 1 warnings, 1 deviations, 1 not "
+                      "applicable, 1 errors (exit 1)\n"),
             std::string::npos)
       << text;
 }

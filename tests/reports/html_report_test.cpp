@@ -80,11 +80,11 @@ TEST(HtmlReport, ShowsCountsMatrixAndEveryVector) {
   const std::string html = render_html(synthetic_run());
   EXPECT_NE(html.find("<b data-count-total>7</b>"), std::string::npos);
   EXPECT_NE(html.find("<b data-count-pass>2</b>"), std::string::npos);
-  EXPECT_NE(html.find("<b data-count-fail>2</b>"), std::string::npos);
+  EXPECT_NE(html.find("<b data-count-fail>1</b>"), std::string::npos);
   EXPECT_NE(html.find("<b data-count-deviation>1</b>"), std::string::npos);
   EXPECT_NE(html.find("<b data-count-not-applicable>1</b>"), std::string::npos);
   EXPECT_NE(html.find("<b data-count-error>1</b>"), std::string::npos);
-  EXPECT_NE(html.find("<b data-count-warnings>1</b>"), std::string::npos);
+  EXPECT_NE(html.find("<b data-count-warning>1</b>"), std::string::npos);
   EXPECT_EQ(count_of(html, "<details class=\"vector\""), 7u);
   EXPECT_EQ(count_of(html, "<tr data-family="), 6u);
   EXPECT_NE(html.find("href=\"#filter=fail&amp;family=cia301%2Fsdo\""), std::string::npos);
@@ -212,6 +212,64 @@ TEST(HtmlReport, ThousandVectorsStayOneFileOfReasonableSize) {
   EXPECT_EQ(count_of(html, "<details class=\"vector\""), 1000u);
   EXPECT_LT(html.size(), 20u * 1024 * 1024);
   EXPECT_NE(html.find("<b data-count-fail>1000</b>"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace drivecheck::reports
+
+namespace drivecheck::reports {
+namespace {
+
+TEST(HtmlReport, SearchClauseMatrixAndPrintExpansion) {
+  // Given a run with every tally, two cited documents and citations of CiA 301 and a manual
+  const std::string html = render_html(test_support::synthetic_run_every_tally());
+  // When written as HTML
+  // Then there is a search box, a clause matrix beside the family matrix with a row per cited
+  //      clause linking to its vectors, and failures, errors and warnings are marked to expand
+  //      in print (with the print CSS that opens them)
+  EXPECT_NE(html.find("<input type=\"search\" id=\"search\""), std::string::npos);
+  EXPECT_NE(html.find("<div class=\"matrices\">"), std::string::npos);
+  EXPECT_NE(html.find("<table id=\"clause-matrix\">"), std::string::npos);
+  EXPECT_NE(html.find("<tr data-clause=\"CiA 301 §7.2.4.3.17\">"), std::string::npos);
+  EXPECT_NE(html.find("<tr data-clause=\"000_33c1d912b8b6010a.txt §3.2.2\">"), std::string::npos);
+  EXPECT_NE(html.find("href=\"#open=cia402%2Fpp%2Fchange-set-immediately\""), std::string::npos);
+  EXPECT_NE(html.find("data-clauses=\"CiA 301 §7.2.4.3.17\n000_33c1d912b8b6010a.txt §3.2.2\""),
+            std::string::npos);
+  EXPECT_EQ(count_of(html, " data-print=\"expand\""), 3u);  // fail, warning, error
+  EXPECT_NE(html.find("@media print"), std::string::npos);
+  EXPECT_NE(html.find("data-print=expand]::details-content"), std::string::npos);
+  EXPECT_NE(html.find("addEventListener('beforeprint'"), std::string::npos);
+}
+
+TEST(HtmlReport, ProvenanceCitationsBetweenVectorsAndFailureMarks) {
+  // Given a run with its revision, vector digest, cited documents, a vector with a frame from
+  //       between vectors, and a failed check at 150 ms on a vector with a timing diagram
+  const std::string html = render_html(test_support::synthetic_run_every_tally());
+  // Then the run info shows the revision, the digest and every document once with its edition
+  EXPECT_NE(html.find("0.1.0 (revision v0.1.0-42-gabcdef0)"), std::string::npos);
+  EXPECT_NE(html.find("sha256 " + std::string(64, 'a')), std::string::npos);
+  EXPECT_EQ(count_of(html, "<li data-document="), 2u);
+  EXPECT_NE(html.find("CANopen application layer and communication profile, edition v4.2.0"),
+            std::string::npos);
+  // And a citation shows its manual's title and edition
+  const std::string pass = vector_html(html, "cia301/sdo/expedited-upload");
+  EXPECT_NE(pass.find("L764-771</span> <span class=\"doc\">(Festo CMMP-AS-...-M3/-M0 "
+                      "Description, 8046795 1510b)</span>"),
+            std::string::npos)
+      << pass;
+  // And the late frame is shown as between vectors, outside the vector's transcript
+  const std::string late = vector_html(html, "cia301/sdo/abort/write-read-only");
+  EXPECT_NE(late.find("data-between-vectors=\"1\""), std::string::npos);
+  const auto transcript = late.find("<pre class=\"transcript\">");
+  ASSERT_NE(transcript, std::string::npos);
+  EXPECT_EQ(late.find("585#8040600000000508", transcript), std::string::npos);
+  // And the failed check is marked on the timing diagram and in the transcript, with its step
+  const std::string pp = vector_html(html, "cia402/pp/single-set-point");
+  EXPECT_NE(pp.find("<g class=\"failure-mark\" data-step=\"3\">"), std::string::npos) << pp;
+  EXPECT_NE(pp.find("step 3 failed (expect_statusword)"), std::string::npos);
+  EXPECT_NE(pp.find("data-failure-step=\"3\""), std::string::npos);
+  // And the check table numbers steps as the message does
+  EXPECT_NE(pp.find("<tr><td>3</td><td>expect_statusword</td>"), std::string::npos);
 }
 
 }  // namespace

@@ -25,16 +25,17 @@ conformance::RunResult valid_utf8_run() {
 TEST(JsonReport, HasSchemaVersionCountsAndTimesInNanosecondsAndSeconds) {
   // Given the synthetic run with every verdict
   // When written as JSON
-  // Then the document has schema_version 1, counts per verdict, the exit code, and each
-  //      frame's time both as t_ns and t_s
+  // Then the document has schema_version 2, counts per tally (a warning is not a fail), the
+  //      exit code, and each frame's time both as t_ns and t_s
   const json document = json::parse(render_json(valid_utf8_run()));
-  EXPECT_EQ(document["schema_version"], 1);
+  EXPECT_EQ(document["schema_version"], 2);
   EXPECT_EQ(document["counts"]["pass"], 2);
-  EXPECT_EQ(document["counts"]["fail"], 2);
+  EXPECT_EQ(document["counts"]["fail"], 1);
+  EXPECT_EQ(document["counts"]["warning"], 1);
   EXPECT_EQ(document["counts"]["deviation"], 1);
   EXPECT_EQ(document["counts"]["not-applicable"], 1);
   EXPECT_EQ(document["counts"]["error"], 1);
-  EXPECT_EQ(document["counts"]["warnings"], 1);
+  EXPECT_EQ(document["counts"]["interrupted"], 0);
   EXPECT_EQ(document["counts"]["total"], 7);
   EXPECT_EQ(document["exit_code"], 1);
   const json& frame = document["vectors"][0]["frames"][1];
@@ -159,7 +160,7 @@ TEST(JsonReportRead, SyntaxErrorNamesFileAndLine) {
   // When read
   // Then the error is "<file>:3: not valid JSON: ..."
   TempDir dir;
-  const auto path = dir.write("bad.json", "{\n  \"schema_version\": 1,\n  \"run\": ]\n}\n");
+  const auto path = dir.write("bad.json", "{\n  \"schema_version\": 2,\n  \"run\": ]\n}\n");
   const auto read = read_json_report(path);
   ASSERT_FALSE(read);
   EXPECT_EQ(read.error().file, path.string());
@@ -173,8 +174,8 @@ TEST(JsonReportRead, StructuralErrorsNameTheKey) {
   // Then each error names the JSON path and what is wrong
   json document = json::parse(render_json(valid_utf8_run()));
   json wrong_version = document;
-  wrong_version["schema_version"] = 2;
-  EXPECT_NE(parse_json_report(wrong_version.dump()).error().message.find("schema_version: 2"),
+  wrong_version["schema_version"] = 3;
+  EXPECT_NE(parse_json_report(wrong_version.dump()).error().message.find("schema_version: 3"),
             std::string::npos);
   json bad_verdict = document;
   bad_verdict["vectors"][3]["verdict"] = "pased";
@@ -256,6 +257,47 @@ TEST(JsonReportRead, MissingFileIsAnError) {
   const auto read = read_json_report(dir / "absent.json");
   ASSERT_FALSE(read);
   EXPECT_NE(read.error().to_string().find("absent.json"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace drivecheck::reports
+
+namespace drivecheck::reports {
+namespace {
+
+TEST(JsonReportRead, SchemaOneStepsAreRenumberedFromOne) {
+  // Given a schema 1 report (steps counted from 0, no between_vectors, no provenance)
+  json older = json::parse(render_json(test_support::synthetic_run()));
+  older["schema_version"] = 1;
+  older["vectors"][0]["checks"][0]["step"] = 0;
+  older["vectors"][0].erase("between_vectors");
+  older["run"].erase("revision");
+  older["run"].erase("vector_set");
+  older["run"].erase("documents");
+  // When read
+  const auto read = parse_json_report(older.dump());
+  // Then it reads, with its first step numbered 1 as schema 2 numbers it
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(read->vectors[0].checks[0].step, 1U);
+}
+
+TEST(JsonReport, ProvenanceBetweenVectorsAndCheckTimesRoundTrip) {
+  // Given a run with the revision, the vector digest, cited documents, frames between vectors
+  //       and a failed check's time
+  const auto run = test_support::synthetic_run_every_tally();
+  // When written and read back
+  const auto read = parse_json_report(render_json(run));
+  ASSERT_TRUE(read) << read.error().to_string();
+  // Then all of it is there
+  EXPECT_EQ(read->info.revision, "v0.1.0-42-gabcdef0");
+  EXPECT_EQ(read->info.vector_digest, std::string(64, 'a'));
+  EXPECT_EQ(read->info.vector_files, 12U);
+  ASSERT_EQ(read->info.documents.size(), 2U);
+  EXPECT_EQ(read->info.documents[0].edition, "v4.2.0 (2011-02-21)");
+  ASSERT_EQ(read->vectors[1].between_vectors.size(), 1U);
+  EXPECT_EQ(can::to_candump(read->vectors[1].between_vectors[0].frame), "585#8040600000000508");
+  EXPECT_EQ(read->vectors[1].checks[0].at, test_support::at_ms(22));
+  EXPECT_EQ(read->vectors.back().verdict, conformance::Verdict::interrupted);
 }
 
 }  // namespace

@@ -91,13 +91,19 @@ inline conformance::RunResult synthetic_run() {
   // fail: the abort code is wrong; hostile text in the message and the decoded frame
   auto fail = vector("cia301/sdo/abort/write-read-only", Verdict::fail, 20);
   fail.message =
-      "Expected: 585#80416000020001 06 (abort 06010002h)\nActual:   585#80416000000002 06 "
+      "vectors/cia301/sdo.yaml:14: step 1 expect_frame: Expected 585#80416000020001 06 (abort "
+      "06010002h); Actual 585#80416000000002 06 (abort 06020000h)\n"
+      "  Expected: 585#80416000020001 06 (abort 06010002h)\n  Actual:   585#80416000000002 06 "
       "(abort 06020000h) </script> ]]> \x1b[2J";
   // ccs=1 e=1 s=1 n=0, 6041h sub 0, data 0 / abort 6041h sub 0, 06020000h
   fail.frames = {evidence(21, "605#2341600000000000", true, "SDO rx  node 5  download 6041:00"),
                  evidence(22, "585#8041600000000206", false,
                           "SDO tx  node 5  abort 6041:00 06020000h </pre><b>x</b>")};
-  fail.checks = {{1, "expect_frame", "585#8041600002000106", "585#8041600000000206", false}};
+  fail.checks = {
+      {1, "expect_frame", "585#8041600002000106", "585#8041600000000206", false, at_ms(22)}};
+  // a late answer to the vector before, which arrived before this vector's setup
+  fail.between_vectors = {
+      evidence(20, "585#8040600000000508", false, "SDO tx  node 5  abort 6040:00 08000005h")};
   run.vectors.push_back(fail);
 
   // deviation: Festo never takes transition 16
@@ -152,6 +158,41 @@ inline conformance::RunResult synthetic_run() {
   pp.frames = {evidence(100, "605#2B4060001F000000", true, "SDO rx  node 5  6040:00 = 001Fh")};
   pp.finished = at_ms(205);
   run.vectors.push_back(pp);
+  return run;
+}
+
+// synthetic_run() and what a run interrupted by Ctrl-C adds, with its provenance: every tally
+// (pass 2, fail 1, warning 1, deviation 1, not-applicable 1, error 1, interrupted 1; total 8),
+// a failed check marked on the timing diagram, the cited documents; exit code 130.
+inline conformance::RunResult synthetic_run_every_tally() {
+  auto run = synthetic_run();
+  run.info.revision = "v0.1.0-42-gabcdef0";
+  run.info.vector_digest = std::string(64, 'a');
+  run.info.vector_files = 12;
+  run.info.documents = {
+      {"CiA 301", "CANopen application layer and communication profile", "v4.2.0 (2011-02-21)"},
+      {"000_33c1d912b8b6010a.txt", "Festo CMMP-AS-...-M3/-M0 Description", "8046795 1510b"}};
+  auto stopped = vector("cia402/pp/change-set-immediately", conformance::Verdict::interrupted, 210);
+  stopped.family = "cia402/pp";
+  stopped.sources = {"CiA 301 §7.2.4.3.17", "000_33c1d912b8b6010a.txt §3.2.2 L764-771"};
+  stopped.message = "interrupted by the user in step 2: no verdict";
+  stopped.checks = {{1, "sdo_write", "write 6040h", "ok", true, at_ms(211)}};
+  run.vectors.push_back(stopped);
+  // the pp vector's statusword check failed at 150 ms (marked on its timing diagram)
+  for (auto& vector : run.vectors) {
+    if (vector.id == "cia402/pp/single-set-point") {
+      vector.verdict = conformance::Verdict::fail;
+      vector.message =
+          "vectors/cia402/pp.yaml:40: step 3 expect_statusword: Expected bit 10 set; Actual 0237h";
+      vector.checks = {{3, "expect_statusword", "bit 10 set", "0237h", false, at_ms(150)}};
+    }
+    if (vector.id == "cia301/sdo/abort/write-read-only") {
+      vector.verdict = conformance::Verdict::pass;
+      vector.message.clear();
+      vector.checks[0].ok = true;
+    }
+  }
+  run.interrupted = true;
   return run;
 }
 
