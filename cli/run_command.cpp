@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -19,6 +20,7 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -54,7 +56,9 @@ struct RunOptions {
   int node = 1;
   std::string profile = "cia402-reference";
   std::string eds;
-  std::string filter;
+  std::vector<std::string> filters;
+  std::vector<std::string> levels;
+  std::string rerun;
   bool strict = false;
   bool allow_motion = false;
   std::uint64_t seed = 1;
@@ -68,25 +72,70 @@ struct RunOptions {
   std::vector<std::string> deviations;
 };
 
+// SIGINT/SIGTERM from the start of the run: before the engine exists (while the vectors load)
+// the handler only notes it; the run then stops before touching the bus, writing nothing.
+std::atomic<bool> g_interrupted{false};
 std::atomic<conformance::Engine*> g_engine{nullptr};
 
 extern "C" void interrupt_run(int) {
+  g_interrupted.store(true);
   if (auto* engine = g_engine.load()) engine->interrupt();
 }
 
-// The engine the signal handlers interrupt, set while the run goes on.
+// The engine the signal handlers interrupt, set while the run goes on. A signal that came
+// before it was set interrupts it at once.
 class InterruptScope {
  public:
-  explicit InterruptScope(conformance::Engine& engine) : signals_(interrupt_run) {
+  explicit InterruptScope(conformance::Engine& engine) {
     g_engine.store(&engine);
+    if (g_interrupted.load()) engine.interrupt();
   }
   ~InterruptScope() { g_engine.store(nullptr); }
   InterruptScope(const InterruptScope&) = delete;
   InterruptScope& operator=(const InterruptScope&) = delete;
-
- private:
-  SignalScope signals_;
 };
+
+// Interrupted before the run began: exit 130, no report (nothing was run).
+void exit_if_interrupted(std::string_view while_doing) {
+  if (!g_interrupted.load()) return;
+  fmt::print(stderr, "drivecheck run: interrupted while {}; nothing was run, no report written\n",
+             while_doing);
+  exit_with(kExitInterrupted);
+}
+
+// Whether `vector` is selected by one of the --filter values (none: all): a glob over the id
+// ("cia402/fsa/*"), or a family as the reports' matrix names it ("cia301/sdo"), or a glob over
+// the family ("cia301/*").
+bool selected_by_filters(const std::vector<std::string>& filters,
+                         const conformance::Vector& vector) {
+  if (filters.empty()) return true;
+  const std::string family = vector.family();
+  return std::any_of(filters.begin(), filters.end(), [&](const std::string& filter) {
+    return profile::glob_match(filter, vector.id) || profile::glob_match(filter, family);
+  });
+}
+bool selected_by_filters(const std::vector<std::string>& filters, std::string_view id) {
+  conformance::Vector probe;
+  probe.id = std::string(id);
+  return selected_by_filters(filters, probe);
+}
+
+// The ids a report lists as fail or error (--rerun).
+std::set<std::string> failed_ids(const std::string& report_file) {
+  auto report = reports::read_json_report(report_file);
+  if (!report) {
+    fmt::print(stderr, "{}\n", report.error().to_string());
+    exit_with(kExitUsage);
+    return {};
+  }
+  std::set<std::string> ids;
+  for (const auto& vector : report->vectors) {
+    if (vector.verdict == conformance::Verdict::fail ||
+        vector.verdict == conformance::Verdict::error)
+      ids.insert(vector.id);
+  }
+  return ids;
+}
 
 [[noreturn]] void bad_input(const std::string& message) {
   fmt::print(stderr, "{}\n", message);
@@ -95,6 +144,8 @@ class InterruptScope {
 }
 
 void run(const RunOptions& options) {
+  g_interrupted.store(false);
+  const SignalScope signals(interrupt_run);
   const auto spec = parse_bus_spec(options.bus);
   if (!spec) usage_error("run", spec.error());
   const bool sim = spec->kind == BusSpec::Kind::sim;
@@ -107,6 +158,8 @@ void run(const RunOptions& options) {
   }
   if (!sim && !options.deviations.empty())
     usage_error("run", "--deviation injects faults into the embedded drive: only with --bus sim");
+  std::optional<std::set<std::string>> rerun_ids;
+  if (!options.rerun.empty()) rerun_ids = failed_ids(options.rerun);
 
   // Vectors, profile, EDS: all bad input is reported before the bus is touched.
   const std::filesystem::path vectors_dir =
@@ -120,6 +173,7 @@ void run(const RunOptions& options) {
     exit_with(kExitUsage);
     return;
   }
+  exit_if_interrupted("loading the vectors");
   auto profile = profile::find_profile(options.profile, vectors_dir / "drives");
   if (!profile) bad_input(profile.error().to_string());
 
@@ -190,10 +244,35 @@ void run(const RunOptions& options) {
   for (auto& vector : od_vectors)
     vectors.vectors.push_back(std::move(vector));
   // The selection first, then its order: a shuffle depends on the seed and the selection only.
-  if (!options.filter.empty()) {
-    std::erase_if(vectors.vectors, [&options](const conformance::Vector& vector) {
-      return !profile::glob_match(options.filter, vector.id);
-    });
+  std::erase_if(vectors.vectors, [&](const conformance::Vector& vector) {
+    if (!selected_by_filters(options.filters, vector)) return true;
+    if (!options.levels.empty() &&
+        std::find(options.levels.begin(), options.levels.end(),
+                  conformance::to_string(vector.level)) == options.levels.end())
+      return true;
+    return rerun_ids && !rerun_ids->contains(vector.id);
+  });
+  const std::string probe_id = "eds/od/undocumented-objects";
+  const bool run_probe =
+      eds_od && selected_by_filters(options.filters, probe_id) &&
+      (options.levels.empty() ||
+       std::find(options.levels.begin(), options.levels.end(), "must") != options.levels.end()) &&
+      (!rerun_ids || rerun_ids->contains(probe_id));
+  if (vectors.vectors.empty() && !run_probe) {
+    // An empty selection is no pass: say which part of the selection left nothing.
+    std::vector<std::string> parts;
+    for (const auto& filter : options.filters)
+      parts.push_back("--filter " + filter);
+    for (const auto& level : options.levels)
+      parts.push_back("--level " + level);
+    if (rerun_ids)
+      parts.push_back(fmt::format("--rerun {} ({} failed)", options.rerun, rerun_ids->size()));
+    fmt::print(stderr,
+               "drivecheck run: no vector matches {} (drivecheck vectors list shows them)\n",
+               parts.empty() ? std::string("(the vector set is empty)")
+                             : fmt::format("{}", fmt::join(parts, " ")));
+    exit_with(kExitUsage);
+    return;
   }
   conformance::apply_order(vectors.vectors, *order);
   if (order->kind != conformance::VectorOrder::Kind::file)
@@ -207,7 +286,7 @@ void run(const RunOptions& options) {
   engine_options.strict = options.strict;
   engine_options.allow_motion = options.allow_motion;
   engine_options.real_bus = !sim;
-  engine_options.filter = options.filter;
+  // The selection is made above (filters, levels, --rerun); the engine runs what it is given.
   engine_options.simulation = drive ? drive->simulation() : nullptr;
   engine_options.eds = eds_od ? &*eds_od : nullptr;
   engine_options.on_vector_started = [&](const conformance::Vector& v) {
@@ -226,6 +305,10 @@ void run(const RunOptions& options) {
   info.eds_sha256 = eds_sha256;
   info.seed = options.seed;
   info.order = conformance::to_string(*order);
+  std::string selection_text = fmt::format("{}", fmt::join(options.filters, " "));
+  for (const auto& level : options.levels)
+    selection_text += (selection_text.empty() ? "level " : " level ") + level;
+  if (rerun_ids) selection_text += (selection_text.empty() ? "" : " ") + ("rerun " + options.rerun);
   if (drive) {
     info.personality = drive->personality();
     info.deviations = drive->deviations();
@@ -233,6 +316,7 @@ void run(const RunOptions& options) {
 
   conformance::RunResult result;
   {
+    exit_if_interrupted("preparing the run");
     conformance::Engine engine(*port, *profile, std::move(engine_options));
     InterruptScope interrupts(engine);
     // The simulated bus runs in this thread; if a simulated node livelocks (events at one
@@ -257,9 +341,8 @@ void run(const RunOptions& options) {
       });
     }
     result = engine.run(vectors.vectors, std::move(info));
-    const std::string probe_id = "eds/od/undocumented-objects";
-    if (eds_od && !result.interrupted && !result.dut_lost &&
-        (options.filter.empty() || profile::glob_match(options.filter, probe_id))) {
+    result.info.filter = selection_text;
+    if (run_probe && !result.interrupted && !result.dut_lost) {
       console.vector_started(probe_id);
       result.vectors.push_back(engine.probe_undocumented_objects(
           [&eds_od](std::uint16_t index) { return eds_od->find(index) != nullptr; },
@@ -321,8 +404,18 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--eds", options->eds, "The drive's EDS/DCF file")
       ->check(CLI::ExistingFile)
       ->type_name("FILE");
-  cmd->add_option("--filter", options->filter, "Only vectors whose id matches, e.g. cia402/fsa/*")
+  cmd->add_option("--filter", options->filters,
+                  "Only vectors whose id or family matches, e.g. cia402/fsa/* or cia301/sdo "
+                  "(repeatable: any of them)")
       ->type_name("GLOB");
+  cmd->add_option("--level", options->levels,
+                  "Only vectors of this requirement level (repeatable: any of them)")
+      ->check(CLI::IsMember({"must", "should", "may"}))
+      ->type_name("must|should|may");
+  cmd->add_option("--rerun", options->rerun,
+                  "Run again only the vectors a JSON report lists as fail or error")
+      ->check(CLI::ExistingFile)
+      ->type_name("REPORT.json");
   cmd->add_flag("--strict", options->strict,
                 "SHOULD and MAY failures are failures (default: warnings)");
   cmd->add_flag("--allow-motion", options->allow_motion,
