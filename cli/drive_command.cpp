@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/data_dir.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
 #include "protocol/can/socketcan_bus.hpp"
@@ -64,8 +65,7 @@ void run_drive(const DriveOptions& options) {
   // Bad names are bad input: report them before touching the bus.
   std::optional<profile::DriveProfile> personality;
   if (!options.personality.empty()) {
-    auto loaded = profile::find_profile(options.personality,
-                                        std::filesystem::path(DRIVECHECK_VECTORS_DIR) / "drives");
+    auto loaded = profile::find_profile(options.personality, shipped_vectors_dir() / "drives");
     if (!loaded) usage_error("drive", "--personality: " + loaded.error().to_string());
     personality = std::move(*loaded);
   }

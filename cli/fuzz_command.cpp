@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/data_dir.hpp"
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
@@ -41,9 +42,6 @@
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
 
-#ifndef DRIVECHECK_VECTORS_DIR
-#error "DRIVECHECK_VECTORS_DIR must be defined by the build (cli/CMakeLists.txt)"
-#endif
 #ifndef DRIVECHECK_VERSION
 #error "DRIVECHECK_VERSION must be defined by the build (cli/CMakeLists.txt)"
 #endif
@@ -230,8 +228,7 @@ void fuzz(const FuzzOptions& options) {
   if (!(options.babble_limit > 0)) usage_error("fuzz", "--babble-limit must be above 0");
   const auto node = static_cast<std::uint8_t>(options.node);
 
-  auto profile = profile::find_profile(options.profile,
-                                       std::filesystem::path(DRIVECHECK_VECTORS_DIR) / "drives");
+  auto profile = profile::find_profile(options.profile, shipped_vectors_dir() / "drives");
   if (!profile) {
     fmt::print(stderr, "{}\n", profile.error().to_string());
     exit_with(kExitUsage);
@@ -258,7 +255,7 @@ void fuzz(const FuzzOptions& options) {
   // the simulated bus the reference drive's own EDS describes exactly that drive.
   std::string eds_file = options.eds;
   if (eds_file.empty() && sim && profile->objects.empty() && profile->name == "cia402-reference")
-    eds_file = std::string(DRIVECHECK_VECTORS_DIR) + "/../reference_drive/reference_drive.eds";
+    eds_file = reference_drive_eds().string();
   if (!eds_file.empty()) {
     auto eds = cia306::read_eds_file(eds_file);
     if (!eds) {

@@ -1,6 +1,6 @@
 // drivecheck run: the conformance suite against a drive. With no options, the embedded
-// default: the reference drive on the simulated bus (1 Mbit/s), every vector of the source
-// tree's vectors/, reports under reports/out/ (report.html, junit.xml, report.json).
+// default: the reference drive on the simulated bus (1 Mbit/s), every shipped vector
+// (cli/data_dir.hpp), reports under reports/out/ (report.html, junit.xml, report.json).
 //
 // Reports: when none of --junit/--html/--json is given, all three go to reports/out/ relative
 // to the current directory; otherwise exactly the ones given are written.
@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/data_dir.hpp"
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
@@ -33,6 +34,7 @@
 #include "conformance/od_checks.hpp"
 #include "conformance/sha256.hpp"
 #include "conformance/vector_file.hpp"
+#include "conformance/vector_lint.hpp"
 #include "conformance/vector_order.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/can/socketcan_bus.hpp"
@@ -41,9 +43,6 @@
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
 
-#ifndef DRIVECHECK_VECTORS_DIR
-#error "DRIVECHECK_VECTORS_DIR must be defined by the build (cli/CMakeLists.txt)"
-#endif
 #ifndef DRIVECHECK_VERSION
 #error "DRIVECHECK_VERSION must be defined by the build (cli/CMakeLists.txt)"
 #endif
@@ -163,8 +162,14 @@ void run(const RunOptions& options) {
 
   // Vectors, profile, EDS: all bad input is reported before the bus is touched.
   const std::filesystem::path vectors_dir =
-      options.vectors.empty() ? DRIVECHECK_VECTORS_DIR : options.vectors;
-  auto vectors = conformance::load_vector_tree(vectors_dir);
+      options.vectors.empty() ? shipped_vectors_dir() : std::filesystem::path(options.vectors);
+  // Linted as `drivecheck vectors lint` does (schema, ids, sources, profiles); the manuals'
+  // sha256 is lint's business, not the run's.
+  auto vectors = conformance::lint_vector_tree({vectors_dir, std::nullopt});
+  for (const auto& warning : vectors.warnings)
+    fmt::print(stderr, "{}: warning: {}\n",
+               warning.line > 0 ? fmt::format("{}:{}", warning.file, warning.line) : warning.file,
+               warning.message);
   if (!vectors.ok()) {
     for (const auto& error : vectors.errors)
       fmt::print(stderr, "{}\n", error.to_string());
@@ -441,7 +446,7 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--pcap", options->pcap, "Record every frame to a pcap file for Wireshark")
       ->type_name("FILE");
   cmd->add_option("--vectors", options->vectors,
-                  "Vector directory (default: the source tree's vectors/)")
+                  "Vector directory instead of the shipped one (<prefix>/share/drivecheck/vectors)")
       ->check(CLI::ExistingDirectory)
       ->type_name("DIR");
   cmd->add_option("--deviation", options->deviations,
