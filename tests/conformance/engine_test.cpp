@@ -352,6 +352,22 @@ TEST_F(EngineTest, ExpectStatuswordFailsAtDeadline) {
   EXPECT_NE(result.message.find("statusword 0000h"), std::string::npos) << result.message;
 }
 
+TEST_F(EngineTest, PollingADeviceThatAbortsEndsWithItsAbortNotATimeout) {
+  // Given a device without 6041h: every read is aborted at once with 06020000h
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#4041600000000000")  // ccs=2 upload 6041h sub 0
+      .reply("581#8041600000000206");  // abort 06020000h (object does not exist)
+  peer.set_repeat(true);
+  // When a vector limited to 50 ms polls the statusword for up to 1 s
+  const auto result =
+      run(make_vector("    - expect_statusword: {mask: 0x0040, value: 0x0040}\n      within: 1s\n",
+                      "  timeout: 50ms\n"));
+  // Then it fails with the device's answer, the abort; no request went unanswered
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(result.message.find("06020000"), std::string::npos) << result.message;
+  EXPECT_EQ(result.message.find("did not answer in time"), std::string::npos) << result.message;
+}
+
 TEST_F(EngineTest, VectorTimeoutEndsAWait) {
   // Given a vector limited to 50 ms that waits 1 s
   const auto start = bus_.now();
