@@ -1,7 +1,7 @@
 // drivecheck fuzz: the live-bus fuzzer (fuzz/live/live_fuzzer.hpp) against a drive on a bus.
 //
 //   drivecheck fuzz --bus socketcan:can0 --node 5 --duration 1h [--eds FILE] [--allow-motion]
-//   drivecheck fuzz --bus sim --node 1 --duration 60s [--profile NAME] [--deviation NAME...]
+//   drivecheck fuzz --bus sim --duration 60s [--profile NAME] [--deviation NAME...] (node 1)
 //   drivecheck fuzz --replay anomaly-1-sdo-no-answer.min.log --bus ... --node N
 //
 // --bus sim: the embedded reference drive (cli/embedded_drive.hpp) on the simulated bus in
@@ -56,6 +56,7 @@ struct FuzzOptions {
   bool allow_motion = false;
   std::uint64_t seed = 1;
   std::string profile = "cia402-reference";
+  std::string old_personality;  // --personality, the deprecated name of --profile
   std::vector<std::string> deviations;
   std::string eds;
   std::string out = "reports/fuzz";
@@ -397,8 +398,8 @@ void add_fuzz_command(CLI::App& app) {
   cmd->add_option("--bus", options->bus, "The bus: sim, or socketcan:IF")
       ->required()
       ->check(bus_validator());
-  cmd->add_option("--node", options->node, "Node id of the drive")
-      ->required()
+  cmd->add_option("--node", options->node,
+                  "Node id of the drive (required with socketcan; the embedded drive: 1)")
       ->check(CLI::Range(kMinNodeId, kMaxNodeId));
   cmd->add_option("--duration", options->duration,
                   "How long to fuzz (bus time: simulated on --bus sim), e.g. 90s, 10min, 2h")
@@ -409,7 +410,7 @@ void add_fuzz_command(CLI::App& app) {
   cmd->add_option("--seed", options->seed, "Seed of the case generator (and the simulated bus)")
       ->check(seed_validator())
       ->capture_default_str();
-  cmd->add_option("--profile,--personality", options->profile,
+  cmd->add_option("--profile", options->profile,
                   "Drive profile (vectors/drives): the objects to fuzz; on --bus sim also the "
                   "reference drive's personality")
       ->type_name("NAME|FILE")
@@ -437,7 +438,22 @@ void add_fuzz_command(CLI::App& app) {
       ->check(duration_validator())
       ->capture_default_str();
   cmd->add_flag("--no-minimise", options->no_minimise, "Do not minimise anomalies");
-  cmd->callback([options] { fuzz(*options); });
+  // The old name of --profile: still taken, with a warning.
+  cmd->add_option("--personality", options->old_personality, "Deprecated: use --profile")
+      ->type_name("NAME|FILE")
+      ->group("");
+  cmd->callback([options, cmd] {
+    if (!options->old_personality.empty()) {
+      warn_deprecated_option("fuzz", "--personality", "--profile");
+      if (cmd->count("--profile") == 0) options->profile = options->old_personality;
+    }
+    if (options->node == 0) {
+      // The embedded drive is node 1, as in drivecheck run; a real bus needs to be told.
+      if (options->bus != "sim") usage_error("fuzz", "--node is required with --bus socketcan:IF");
+      options->node = 1;
+    }
+    fuzz(*options);
+  });
 }
 
 }  // namespace drivecheck::cli

@@ -40,6 +40,7 @@
 #include "protocol/can/socketcan_bus.hpp"
 #include "protocol/can/trace_recorder.hpp"
 #include "protocol/cia306/eds.hpp"
+#include "protocol/cia306/eds_lint.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
 
@@ -187,12 +188,22 @@ void run(const RunOptions& options) {
   if (!options.eds.empty()) {
     auto eds = cia306::read_eds_file(options.eds);
     if (!eds) bad_input(eds.error().to_string());
+    // The EDS is linted first and every finding shown (as drivecheck eds lint prints them).
+    // A file the reader cannot make sense of is refused; lint findings about what the EDS
+    // describes (e.g. no error control) are shown and the run goes on: the drive is judged
+    // on the bus, not by its EDS.
+    auto findings = eds->diagnostics;
+    for (auto& finding : cia306::lint_eds(eds->eds, options.eds))
+      findings.push_back(std::move(finding));
+    for (const auto& finding : findings)
+      fmt::print(stderr, "{}\n", finding.to_string());
     if (eds->has_errors()) {
-      for (const auto& d : eds->diagnostics)
-        fmt::print(stderr, "{}\n", d.to_string());
       bad_input(fmt::format("drivecheck run: {} has errors (drivecheck eds lint {})", options.eds,
                             options.eds));
     }
+    if (!findings.empty())
+      fmt::print(stderr, "drivecheck run: {}: {} finding(s) above; the EDS is used\n", options.eds,
+                 findings.size());
     auto od = cia306::to_object_dictionary(eds->eds, static_cast<std::uint8_t>(options.node),
                                            options.eds);
     if (!od) {

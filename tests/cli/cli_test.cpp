@@ -68,7 +68,9 @@ TEST(CliHelp, EverySubcommandHasHelpExitingZero) {
                                                        {"vectors", "lint"},
                                                        {"vectors", "list"},
                                                        {"report"},
-                                                       {"report", "diff"}};
+                                                       {"report", "diff"},
+                                                       {"profiles"},
+                                                       {"deviations"}};
   for (const auto& path : paths) {
     auto args = path;
     args.push_back("--help");
@@ -387,6 +389,65 @@ TEST(CliRunSelection, RerunRunsOnlyTheFailedVectors) {
   const auto nothing = drivecheck({"run", "--rerun", again, "--json", first});
   EXPECT_EQ(nothing.exit_code, 2);
   EXPECT_NE(nothing.err.find("no vector matches"), std::string::npos) << nothing.err;
+}
+
+TEST(CliListings, ProfilesAndDeviationsAreListed) {
+  // Given the shipped profiles and the reference drive's deviations
+  // When listed
+  const auto profiles = drivecheck({"profiles"});
+  const auto deviations = drivecheck({"deviations"});
+  // Then each names what --profile and --deviation take, and exits 0
+  EXPECT_EQ(profiles.exit_code, 0) << profiles.err;
+  for (const char* name : {"cia402-reference", "festo-cmmp", "kollmorgen-s300-s700",
+                           "irtsa-drive-fb", "esr-triodrive"})
+    EXPECT_NE(profiles.out.find(name), std::string::npos) << name << "\n" << profiles.out;
+  EXPECT_NE(profiles.out.find("5 profiles"), std::string::npos) << profiles.out;
+  EXPECT_EQ(deviations.exit_code, 0) << deviations.err;
+  const auto row = deviations.out.find("\nsdo-read-only-wrong-abort ");
+  ASSERT_NE(row, std::string::npos) << deviations.out;
+  const auto row_text = deviations.out.substr(row, deviations.out.find('\n', row + 1) - row);
+  EXPECT_NE(row_text.find(" cia301/sdo "), std::string::npos) << row_text;
+  EXPECT_NE(row_text.find(" ordinary "), std::string::npos) << row_text;
+  EXPECT_NE(deviations.out.find(" deviations (drivecheck run --deviation NAME)"),
+            std::string::npos);
+}
+
+TEST(CliFuzz, SimulatedBusNeedsNoNodeAndOldPersonalityNameWarns) {
+  // Given the live fuzzer on the embedded drive, without --node, with the old option name
+  test_support::TempDir dir;
+  const auto result = drivecheck({"fuzz", "--bus", "sim", "--duration", "2s", "--personality",
+                                  "festo-cmmp", "--out", (dir / "fuzz").string()});
+  // When it runs / Then it fuzzes node 1 as festo-cmmp, warns about the old name, exits 0
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("--personality is deprecated, use --profile"), std::string::npos)
+      << result.err;
+  EXPECT_NE(result.out.find("node 1 on sim"), std::string::npos) << result.out;
+  // And a real bus still needs --node
+  expect_usage_error(drivecheck({"fuzz", "--bus", "socketcan:vcan0", "--duration", "2s"}),
+                     "--node is required");
+}
+
+TEST(CliRunEds, EmptyVendorNumberIsAcceptedWithAWarning) {
+  // Given the reference drive's EDS with VendorNumber and ProductNumber left empty, as real
+  // vendor EDS files have them
+  test_support::TempDir dir;
+  std::string eds = test_support::read_file(std::string(DRIVECHECK_SOURCE_DIR) +
+                                            "/reference_drive/reference_drive.eds");
+  for (const std::string key : {"VendorNumber=", "ProductNumber="}) {
+    const auto at = eds.find("\n" + key);
+    ASSERT_NE(at, std::string::npos) << key;
+    eds.erase(at + 1 + key.size(), eds.find('\n', at + 1) - (at + 1 + key.size()));
+  }
+  const auto file = dir.write("vendor.eds", eds);
+  // When run with it on the EDS checks of the identity object
+  const auto result = drivecheck({"run", "--eds", file.string(), "--filter", "eds/od/1018*",
+                                  "--json", (dir / "r.json").string()});
+  // Then the run goes on (exit 0) and shows the lint findings first
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("vendor.eds:"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("VendorNumber is empty"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("[identity-empty]"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("finding(s) above; the EDS is used"), std::string::npos) << result.err;
 }
 
 }  // namespace
