@@ -17,6 +17,12 @@ void usage_error(std::string_view command, std::string_view message) {
   throw CLI::RuntimeError(kExitUsage);
 }
 
+void warn_deprecated_option(std::string_view command, std::string_view old_name,
+                            std::string_view new_name) {
+  fmt::print(stderr, "drivecheck {}: warning: {} is deprecated, use {}\n", command, old_name,
+             new_name);
+}
+
 std::string utc_now() {
   const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   std::tm tm{};

@@ -32,6 +32,13 @@ void add_decode_command(CLI::App& app);
 void add_eds_command(CLI::App& app);
 void add_vectors_command(CLI::App& app);
 void add_report_command(CLI::App& app);
+// `profiles` and `deviations` (cli/list_commands.cpp).
+void add_list_commands(CLI::App& app);
+
+// A deprecated option name was used: "drivecheck <command>: --old is deprecated, use --new"
+// on stderr (the run goes on).
+void warn_deprecated_option(std::string_view command, std::string_view old_name,
+                            std::string_view new_name);
 
 // Ends the running subcommand with `code` (0 returns normally instead of throwing).
 void exit_with(int code);

@@ -1,13 +1,13 @@
 // drivecheck drive: the reference drive serving a real CAN interface, as a stand-in device
 // for testing masters and PLCs.
 //
-//   drivecheck drive --bus socketcan:IF --node N [--store FILE] [--personality NAME|FILE]
+//   drivecheck drive --bus socketcan:IF --node N [--store FILE] [--profile NAME|FILE]
 //                    [--deviation NAME...]
 //
 // The drive (reference_drive/servo_drive.hpp: the CiA 301 device with the CiA 402 application)
 // powers on (boot-up message), then serves SDO, NMT, heartbeat/guarding, EMCY, SYNC, PDOs and
 // the power drive system until SIGINT or SIGTERM, which stop the bus loop (Bus::stop(),
-// async-signal-safe) and end the program with exit 0. --personality takes a drive profile
+// async-signal-safe) and end the program with exit 0. --profile takes a drive profile
 // (vectors/drives/NAME.yaml, or a file) and makes the drive behave as that manual documents;
 // what the reference drive cannot show of it is listed on stderr. --deviation injects named
 // deviations (reference_drive/deviations.inc; repeatable, or comma-separated). With --store,
@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/data_dir.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
 #include "protocol/can/socketcan_bus.hpp"
@@ -43,6 +44,7 @@ struct DriveOptions {
   int node = 0;
   std::string store;
   std::string personality;
+  std::string old_personality;  // --personality, the deprecated name of --profile
   std::vector<std::string> deviations;
 };
 
@@ -64,9 +66,8 @@ void run_drive(const DriveOptions& options) {
   // Bad names are bad input: report them before touching the bus.
   std::optional<profile::DriveProfile> personality;
   if (!options.personality.empty()) {
-    auto loaded = profile::find_profile(options.personality,
-                                        std::filesystem::path(DRIVECHECK_VECTORS_DIR) / "drives");
-    if (!loaded) usage_error("drive", "--personality: " + loaded.error().to_string());
+    auto loaded = profile::find_profile(options.personality, shipped_vectors_dir() / "drives");
+    if (!loaded) usage_error("drive", "--profile: " + loaded.error().to_string());
     personality = std::move(*loaded);
   }
   auto deviations = reference_drive::DeviationSet::parse(options.deviations);
@@ -142,15 +143,25 @@ void add_drive_command(CLI::App& app) {
   cmd->add_option("--store", options->store,
                   "Keep stored parameters (1010h/1011h) in this file (default: in memory)")
       ->type_name("FILE");
-  cmd->add_option("--personality", options->personality,
-                  "Behave as the drive of this profile (vectors/drives: cia402-reference, "
+  cmd->add_option("--profile", options->personality,
+                  "Behave as the drive of this profile (drivecheck profiles: cia402-reference, "
                   "festo-cmmp, kollmorgen-s300-s700, irtsa-drive-fb, esr-triodrive; or a file)")
       ->type_name("NAME|FILE");
+  // The old name of --profile (run and fuzz call it --profile): still taken, with a warning.
+  cmd->add_option("--personality", options->old_personality, "Deprecated: use --profile")
+      ->type_name("NAME|FILE")
+      ->group("");
   cmd->add_option("--deviation", options->deviations,
                   "Inject a named deviation (repeatable or comma-separated; see "
                   "reference_drive/deviations.inc)")
       ->type_name("NAME");
-  cmd->callback([options] { run_drive(*options); });
+  cmd->callback([options, cmd] {
+    if (!options->old_personality.empty()) {
+      warn_deprecated_option("drive", "--personality", "--profile");
+      if (cmd->count("--profile") == 0) options->personality = options->old_personality;
+    }
+    run_drive(*options);
+  });
 }
 
 }  // namespace drivecheck::cli

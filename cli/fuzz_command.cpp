@@ -1,7 +1,7 @@
 // drivecheck fuzz: the live-bus fuzzer (fuzz/live/live_fuzzer.hpp) against a drive on a bus.
 //
 //   drivecheck fuzz --bus socketcan:can0 --node 5 --duration 1h [--eds FILE] [--allow-motion]
-//   drivecheck fuzz --bus sim --node 1 --duration 60s [--profile NAME] [--deviation NAME...]
+//   drivecheck fuzz --bus sim --duration 60s [--profile NAME] [--deviation NAME...] (node 1)
 //   drivecheck fuzz --replay anomaly-1-sdo-no-answer.min.log --bus ... --node N
 //
 // --bus sim: the embedded reference drive (cli/embedded_drive.hpp) on the simulated bus in
@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/data_dir.hpp"
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
@@ -41,9 +42,6 @@
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
 
-#ifndef DRIVECHECK_VECTORS_DIR
-#error "DRIVECHECK_VECTORS_DIR must be defined by the build (cli/CMakeLists.txt)"
-#endif
 #ifndef DRIVECHECK_VERSION
 #error "DRIVECHECK_VERSION must be defined by the build (cli/CMakeLists.txt)"
 #endif
@@ -58,6 +56,7 @@ struct FuzzOptions {
   bool allow_motion = false;
   std::uint64_t seed = 1;
   std::string profile = "cia402-reference";
+  std::string old_personality;  // --personality, the deprecated name of --profile
   std::vector<std::string> deviations;
   std::string eds;
   std::string out = "reports/fuzz";
@@ -230,8 +229,7 @@ void fuzz(const FuzzOptions& options) {
   if (!(options.babble_limit > 0)) usage_error("fuzz", "--babble-limit must be above 0");
   const auto node = static_cast<std::uint8_t>(options.node);
 
-  auto profile = profile::find_profile(options.profile,
-                                       std::filesystem::path(DRIVECHECK_VECTORS_DIR) / "drives");
+  auto profile = profile::find_profile(options.profile, shipped_vectors_dir() / "drives");
   if (!profile) {
     fmt::print(stderr, "{}\n", profile.error().to_string());
     exit_with(kExitUsage);
@@ -258,7 +256,7 @@ void fuzz(const FuzzOptions& options) {
   // the simulated bus the reference drive's own EDS describes exactly that drive.
   std::string eds_file = options.eds;
   if (eds_file.empty() && sim && profile->objects.empty() && profile->name == "cia402-reference")
-    eds_file = std::string(DRIVECHECK_VECTORS_DIR) + "/../reference_drive/reference_drive.eds";
+    eds_file = reference_drive_eds().string();
   if (!eds_file.empty()) {
     auto eds = cia306::read_eds_file(eds_file);
     if (!eds) {
@@ -400,8 +398,8 @@ void add_fuzz_command(CLI::App& app) {
   cmd->add_option("--bus", options->bus, "The bus: sim, or socketcan:IF")
       ->required()
       ->check(bus_validator());
-  cmd->add_option("--node", options->node, "Node id of the drive")
-      ->required()
+  cmd->add_option("--node", options->node,
+                  "Node id of the drive (required with socketcan; the embedded drive: 1)")
       ->check(CLI::Range(kMinNodeId, kMaxNodeId));
   cmd->add_option("--duration", options->duration,
                   "How long to fuzz (bus time: simulated on --bus sim), e.g. 90s, 10min, 2h")
@@ -412,7 +410,7 @@ void add_fuzz_command(CLI::App& app) {
   cmd->add_option("--seed", options->seed, "Seed of the case generator (and the simulated bus)")
       ->check(seed_validator())
       ->capture_default_str();
-  cmd->add_option("--profile,--personality", options->profile,
+  cmd->add_option("--profile", options->profile,
                   "Drive profile (vectors/drives): the objects to fuzz; on --bus sim also the "
                   "reference drive's personality")
       ->type_name("NAME|FILE")
@@ -440,7 +438,22 @@ void add_fuzz_command(CLI::App& app) {
       ->check(duration_validator())
       ->capture_default_str();
   cmd->add_flag("--no-minimise", options->no_minimise, "Do not minimise anomalies");
-  cmd->callback([options] { fuzz(*options); });
+  // The old name of --profile: still taken, with a warning.
+  cmd->add_option("--personality", options->old_personality, "Deprecated: use --profile")
+      ->type_name("NAME|FILE")
+      ->group("");
+  cmd->callback([options, cmd] {
+    if (!options->old_personality.empty()) {
+      warn_deprecated_option("fuzz", "--personality", "--profile");
+      if (cmd->count("--profile") == 0) options->profile = options->old_personality;
+    }
+    if (options->node == 0) {
+      // The embedded drive is node 1, as in drivecheck run; a real bus needs to be told.
+      if (options->bus != "sim") usage_error("fuzz", "--node is required with --bus socketcan:IF");
+      options->node = 1;
+    }
+    fuzz(*options);
+  });
 }
 
 }  // namespace drivecheck::cli

@@ -51,6 +51,7 @@ int main(int argc, char** argv) {
   drivecheck::cli::add_eds_command(app);
   drivecheck::cli::add_vectors_command(app);
   drivecheck::cli::add_report_command(app);
+  drivecheck::cli::add_list_commands(app);
   // After the subcommands: they would inherit it.
   app.footer(
       "Exit codes: 0 all required vectors pass, 1 some fail, 2 bad input or usage,\n"

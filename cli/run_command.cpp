@@ -1,6 +1,6 @@
 // drivecheck run: the conformance suite against a drive. With no options, the embedded
-// default: the reference drive on the simulated bus (1 Mbit/s), every vector of the source
-// tree's vectors/, reports under reports/out/ (report.html, junit.xml, report.json).
+// default: the reference drive on the simulated bus (1 Mbit/s), every shipped vector
+// (cli/data_dir.hpp), reports under reports/out/ (report.html, junit.xml, report.json).
 //
 // Reports: when none of --junit/--html/--json is given, all three go to reports/out/ relative
 // to the current directory; otherwise exactly the ones given are written.
@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -19,11 +20,13 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/data_dir.hpp"
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
@@ -33,18 +36,17 @@
 #include "conformance/provenance.hpp"
 #include "conformance/sha256.hpp"
 #include "conformance/vector_file.hpp"
+#include "conformance/vector_lint.hpp"
 #include "conformance/vector_order.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/can/socketcan_bus.hpp"
 #include "protocol/can/trace_recorder.hpp"
 #include "protocol/cia301/nmt_master.hpp"
 #include "protocol/cia306/eds.hpp"
+#include "protocol/cia306/eds_lint.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
 
-#ifndef DRIVECHECK_VECTORS_DIR
-#error "DRIVECHECK_VECTORS_DIR must be defined by the build (cli/CMakeLists.txt)"
-#endif
 #ifndef DRIVECHECK_VERSION
 #error "DRIVECHECK_VERSION must be defined by the build (cli/CMakeLists.txt)"
 #endif
@@ -57,7 +59,9 @@ struct RunOptions {
   int node = 1;
   std::string profile;  // empty: chosen (cia402-reference on sim, from 1000h on a real bus)
   std::string eds;
-  std::string filter;
+  std::vector<std::string> filters;
+  std::vector<std::string> levels;
+  std::string rerun;
   bool strict = false;
   bool allow_motion = false;
   std::uint64_t seed = 1;
@@ -71,25 +75,70 @@ struct RunOptions {
   std::vector<std::string> deviations;
 };
 
+// SIGINT/SIGTERM from the start of the run: before the engine exists (while the vectors load)
+// the handler only notes it; the run then stops before touching the bus, writing nothing.
+std::atomic<bool> g_interrupted{false};
 std::atomic<conformance::Engine*> g_engine{nullptr};
 
 extern "C" void interrupt_run(int) {
+  g_interrupted.store(true);
   if (auto* engine = g_engine.load()) engine->interrupt();
 }
 
-// The engine the signal handlers interrupt, set while the run goes on.
+// The engine the signal handlers interrupt, set while the run goes on. A signal that came
+// before it was set interrupts it at once.
 class InterruptScope {
  public:
-  explicit InterruptScope(conformance::Engine& engine) : signals_(interrupt_run) {
+  explicit InterruptScope(conformance::Engine& engine) {
     g_engine.store(&engine);
+    if (g_interrupted.load()) engine.interrupt();
   }
   ~InterruptScope() { g_engine.store(nullptr); }
   InterruptScope(const InterruptScope&) = delete;
   InterruptScope& operator=(const InterruptScope&) = delete;
-
- private:
-  SignalScope signals_;
 };
+
+// Interrupted before the run began: exit 130, no report (nothing was run).
+void exit_if_interrupted(std::string_view while_doing) {
+  if (!g_interrupted.load()) return;
+  fmt::print(stderr, "drivecheck run: interrupted while {}; nothing was run, no report written\n",
+             while_doing);
+  exit_with(kExitInterrupted);
+}
+
+// Whether `vector` is selected by one of the --filter values (none: all): a glob over the id
+// ("cia402/fsa/*"), or a family as the reports' matrix names it ("cia301/sdo"), or a glob over
+// the family ("cia301/*").
+bool selected_by_filters(const std::vector<std::string>& filters,
+                         const conformance::Vector& vector) {
+  if (filters.empty()) return true;
+  const std::string family = vector.family();
+  return std::any_of(filters.begin(), filters.end(), [&](const std::string& filter) {
+    return profile::glob_match(filter, vector.id) || profile::glob_match(filter, family);
+  });
+}
+bool selected_by_filters(const std::vector<std::string>& filters, std::string_view id) {
+  conformance::Vector probe;
+  probe.id = std::string(id);
+  return selected_by_filters(filters, probe);
+}
+
+// The ids a report lists as fail or error (--rerun).
+std::set<std::string> failed_ids(const std::string& report_file) {
+  auto report = reports::read_json_report(report_file);
+  if (!report) {
+    fmt::print(stderr, "{}\n", report.error().to_string());
+    exit_with(kExitUsage);
+    return {};
+  }
+  std::set<std::string> ids;
+  for (const auto& vector : report->vectors) {
+    if (vector.verdict == conformance::Verdict::fail ||
+        vector.verdict == conformance::Verdict::error)
+      ids.insert(vector.id);
+  }
+  return ids;
+}
 
 [[noreturn]] void bad_input(const std::string& message) {
   fmt::print(stderr, "{}\n", message);
@@ -98,6 +147,8 @@ class InterruptScope {
 }
 
 void run(const RunOptions& options) {
+  g_interrupted.store(false);
+  const SignalScope signals(interrupt_run);
   const auto spec = parse_bus_spec(options.bus);
   if (!spec) usage_error("run", spec.error());
   const bool sim = spec->kind == BusSpec::Kind::sim;
@@ -110,11 +161,19 @@ void run(const RunOptions& options) {
   }
   if (!sim && !options.deviations.empty())
     usage_error("run", "--deviation injects faults into the embedded drive: only with --bus sim");
+  std::optional<std::set<std::string>> rerun_ids;
+  if (!options.rerun.empty()) rerun_ids = failed_ids(options.rerun);
 
   // Vectors, profile, EDS: all bad input is reported before the bus is touched.
   const std::filesystem::path vectors_dir =
-      options.vectors.empty() ? DRIVECHECK_VECTORS_DIR : options.vectors;
-  auto vectors = conformance::load_vector_tree(vectors_dir);
+      options.vectors.empty() ? shipped_vectors_dir() : std::filesystem::path(options.vectors);
+  // Linted as `drivecheck vectors lint` does (schema, ids, sources, profiles); the manuals'
+  // sha256 is lint's business, not the run's.
+  auto vectors = conformance::lint_vector_tree({vectors_dir, std::nullopt});
+  for (const auto& warning : vectors.warnings)
+    fmt::print(stderr, "{}: warning: {}\n",
+               warning.line > 0 ? fmt::format("{}:{}", warning.file, warning.line) : warning.file,
+               warning.message);
   if (!vectors.ok()) {
     for (const auto& error : vectors.errors)
       fmt::print(stderr, "{}\n", error.to_string());
@@ -123,6 +182,7 @@ void run(const RunOptions& options) {
     exit_with(kExitUsage);
     return;
   }
+  exit_if_interrupted("loading the vectors");
   // The profile: as given; else the embedded default on the simulated bus; else chosen from the
   // DUT's 1000h once the bus is open (choose_generic_profile, below).
   const std::string first_profile = !options.profile.empty() ? options.profile
@@ -142,12 +202,22 @@ void run(const RunOptions& options) {
   if (!options.eds.empty()) {
     auto eds = cia306::read_eds_file(options.eds);
     if (!eds) bad_input(eds.error().to_string());
+    // The EDS is linted first and every finding shown (as drivecheck eds lint prints them).
+    // A file the reader cannot make sense of is refused; lint findings about what the EDS
+    // describes (e.g. no error control) are shown and the run goes on: the drive is judged
+    // on the bus, not by its EDS.
+    auto findings = eds->diagnostics;
+    for (auto& finding : cia306::lint_eds(eds->eds, options.eds))
+      findings.push_back(std::move(finding));
+    for (const auto& finding : findings)
+      fmt::print(stderr, "{}\n", finding.to_string());
     if (eds->has_errors()) {
-      for (const auto& d : eds->diagnostics)
-        fmt::print(stderr, "{}\n", d.to_string());
       bad_input(fmt::format("drivecheck run: {} has errors (drivecheck eds lint {})", options.eds,
                             options.eds));
     }
+    if (!findings.empty())
+      fmt::print(stderr, "drivecheck run: {}: {} finding(s) above; the EDS is used\n", options.eds,
+                 findings.size());
     auto od = cia306::to_object_dictionary(eds->eds, static_cast<std::uint8_t>(options.node),
                                            options.eds);
     if (!od) {
@@ -226,10 +296,35 @@ void run(const RunOptions& options) {
   for (auto& vector : od_vectors)
     vectors.vectors.push_back(std::move(vector));
   // The selection first, then its order: a shuffle depends on the seed and the selection only.
-  if (!options.filter.empty()) {
-    std::erase_if(vectors.vectors, [&options](const conformance::Vector& vector) {
-      return !profile::glob_match(options.filter, vector.id);
-    });
+  std::erase_if(vectors.vectors, [&](const conformance::Vector& vector) {
+    if (!selected_by_filters(options.filters, vector)) return true;
+    if (!options.levels.empty() &&
+        std::find(options.levels.begin(), options.levels.end(),
+                  conformance::to_string(vector.level)) == options.levels.end())
+      return true;
+    return rerun_ids && !rerun_ids->contains(vector.id);
+  });
+  const std::string probe_id = "eds/od/undocumented-objects";
+  const bool run_probe =
+      eds_od && selected_by_filters(options.filters, probe_id) &&
+      (options.levels.empty() ||
+       std::find(options.levels.begin(), options.levels.end(), "must") != options.levels.end()) &&
+      (!rerun_ids || rerun_ids->contains(probe_id));
+  if (vectors.vectors.empty() && !run_probe) {
+    // An empty selection is no pass: say which part of the selection left nothing.
+    std::vector<std::string> parts;
+    for (const auto& filter : options.filters)
+      parts.push_back("--filter " + filter);
+    for (const auto& level : options.levels)
+      parts.push_back("--level " + level);
+    if (rerun_ids)
+      parts.push_back(fmt::format("--rerun {} ({} failed)", options.rerun, rerun_ids->size()));
+    fmt::print(stderr,
+               "drivecheck run: no vector matches {} (drivecheck vectors list shows them)\n",
+               parts.empty() ? std::string("(the vector set is empty)")
+                             : fmt::format("{}", fmt::join(parts, " ")));
+    exit_with(kExitUsage);
+    return;
   }
   conformance::apply_order(vectors.vectors, *order);
   if (order->kind != conformance::VectorOrder::Kind::file)
@@ -243,7 +338,7 @@ void run(const RunOptions& options) {
   engine_options.strict = options.strict;
   engine_options.allow_motion = options.allow_motion;
   engine_options.real_bus = !sim;
-  engine_options.filter = options.filter;
+  // The selection is made above (filters, levels, --rerun); the engine runs what it is given.
   engine_options.simulation = drive ? drive->simulation() : nullptr;
   engine_options.eds = eds_od ? &*eds_od : nullptr;
   engine_options.on_vector_started = [&](const conformance::Vector& v) {
@@ -272,6 +367,10 @@ void run(const RunOptions& options) {
   info.eds_sha256 = eds_sha256;
   info.seed = options.seed;
   info.order = conformance::to_string(*order);
+  std::string selection_text = fmt::format("{}", fmt::join(options.filters, " "));
+  for (const auto& level : options.levels)
+    selection_text += (selection_text.empty() ? "level " : " level ") + level;
+  if (rerun_ids) selection_text += (selection_text.empty() ? "" : " ") + ("rerun " + options.rerun);
   if (drive) {
     info.personality = drive->personality();
     info.deviations = drive->deviations();
@@ -279,6 +378,7 @@ void run(const RunOptions& options) {
 
   conformance::RunResult result;
   {
+    exit_if_interrupted("preparing the run");
     conformance::Engine engine(*port, *profile, std::move(engine_options));
     InterruptScope interrupts(engine);
     // The simulated bus runs in this thread; if a simulated node livelocks (events at one
@@ -303,9 +403,8 @@ void run(const RunOptions& options) {
       });
     }
     result = engine.run(vectors.vectors, std::move(info));
-    const std::string probe_id = "eds/od/undocumented-objects";
-    if (eds_od && !result.interrupted && !result.dut_lost &&
-        (options.filter.empty() || profile::glob_match(options.filter, probe_id))) {
+    result.info.filter = selection_text;
+    if (run_probe && !result.interrupted && !result.dut_lost) {
       console.vector_started(probe_id);
       result.vectors.push_back(engine.probe_undocumented_objects(
           [&eds_od](std::uint16_t index) { return eds_od->find(index) != nullptr; },
@@ -368,8 +467,18 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--eds", options->eds, "The drive's EDS/DCF file")
       ->check(CLI::ExistingFile)
       ->type_name("FILE");
-  cmd->add_option("--filter", options->filter, "Only vectors whose id matches, e.g. cia402/fsa/*")
+  cmd->add_option("--filter", options->filters,
+                  "Only vectors whose id or family matches, e.g. cia402/fsa/* or cia301/sdo "
+                  "(repeatable: any of them)")
       ->type_name("GLOB");
+  cmd->add_option("--level", options->levels,
+                  "Only vectors of this requirement level (repeatable: any of them)")
+      ->check(CLI::IsMember({"must", "should", "may"}))
+      ->type_name("must|should|may");
+  cmd->add_option("--rerun", options->rerun,
+                  "Run again only the vectors a JSON report lists as fail or error")
+      ->check(CLI::ExistingFile)
+      ->type_name("REPORT.json");
   cmd->add_flag("--strict", options->strict,
                 "SHOULD and MAY failures are failures (default: warnings)");
   cmd->add_flag("--allow-motion", options->allow_motion,
@@ -395,7 +504,7 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--pcap", options->pcap, "Record every frame to a pcap file for Wireshark")
       ->type_name("FILE");
   cmd->add_option("--vectors", options->vectors,
-                  "Vector directory (default: the source tree's vectors/)")
+                  "Vector directory instead of the shipped one (<prefix>/share/drivecheck/vectors)")
       ->check(CLI::ExistingDirectory)
       ->type_name("DIR");
   cmd->add_option("--deviation", options->deviations,

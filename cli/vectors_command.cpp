@@ -4,9 +4,9 @@
 //         finding on stderr and a summary on stdout; exit 2 on any error, 0 otherwise.
 //   list  prints the catalogue: id, level, family, title, first source; exit 2 if the tree has
 //         errors (they are printed as by lint).
-// DIR defaults to ./vectors when it exists, else the source tree's vectors/.
-// The manuals for the sha256 check: --manuals DIR, else $DRIVECHECK_MANUALS, else
-// /work/shared/manuals when it exists; without any, the sha256 check is skipped (said so).
+// DIR defaults to the shipped vectors (cli/data_dir.hpp: <prefix>/share/drivecheck/vectors).
+// The manuals for the sha256 check: --manuals DIR, else $DRIVECHECK_MANUALS; without either,
+// the sha256 check is skipped and the summary says so.
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -17,12 +17,9 @@
 #include <string>
 
 #include "cli/commands.hpp"
+#include "cli/data_dir.hpp"
 #include "conformance/vector_file.hpp"
 #include "conformance/vector_lint.hpp"
-
-#ifndef DRIVECHECK_VECTORS_DIR
-#error "DRIVECHECK_VECTORS_DIR must be defined by the build (cli/CMakeLists.txt)"
-#endif
 
 namespace drivecheck::cli {
 namespace {
@@ -33,19 +30,7 @@ struct VectorsOptions {
 };
 
 std::string default_vectors_dir() {
-  std::error_code ec;
-  if (std::filesystem::is_directory("vectors", ec)) return "vectors";
-  return DRIVECHECK_VECTORS_DIR;
-}
-
-std::optional<std::filesystem::path> manuals_dir(const std::string& option) {
-  if (!option.empty()) return std::filesystem::path(option);
-  if (const char* env = std::getenv("DRIVECHECK_MANUALS"); env != nullptr && *env != '\0')
-    return std::filesystem::path(env);
-  std::error_code ec;
-  if (std::filesystem::is_directory("/work/shared/manuals", ec))
-    return std::filesystem::path("/work/shared/manuals");
-  return std::nullopt;
+  return shipped_vectors_dir().string();
 }
 
 conformance::LintReport lint(const VectorsOptions& options) {
@@ -78,29 +63,25 @@ void add_vectors_command(CLI::App& app) {
 
   CLI::App* lint_cmd = vectors->add_subcommand(
       "lint", "Check vectors and drive profiles: schema, ids, sources, references");
-  lint_cmd
-      ->add_option("DIR", options->dir,
-                   "Vector directory (default: ./vectors, else the source tree's)")
+  lint_cmd->add_option("DIR", options->dir, "Vector directory (default: the shipped vectors)")
       ->check(CLI::ExistingDirectory);
   lint_cmd
       ->add_option("--manuals", options->manuals,
                    "Directory of the manuals, for the sha256 check (default: "
-                   "$DRIVECHECK_MANUALS, else /work/shared/manuals if present)")
+                   "$DRIVECHECK_MANUALS; without it the check is skipped)")
       ->check(CLI::ExistingDirectory)
       ->type_name("DIR");
   lint_cmd->callback([options] {
     const auto report = lint(*options);
     fmt::print("{} vectors in {} files, {} drive profiles{}: {} error(s), {} warning(s)\n",
                report.vectors.size(), report.files, report.profiles,
-               report.manuals_checked ? ", manuals verified"
-                                      : ", manuals not available (sha256 not checked)",
+               report.manuals_checked ? ", manuals verified" : fmt::format(", {}", kManualsSkipped),
                report.errors.size(), report.warnings.size());
     exit_with(report.ok() ? kExitPass : kExitUsage);
   });
 
   CLI::App* list = vectors->add_subcommand("list", "List the vectors with id, level and source");
-  list->add_option("DIR", options->dir,
-                   "Vector directory (default: ./vectors, else the source tree's)")
+  list->add_option("DIR", options->dir, "Vector directory (default: the shipped vectors)")
       ->check(CLI::ExistingDirectory);
   list->callback([options] {
     const std::string dir = options->dir.empty() ? default_vectors_dir() : options->dir;

@@ -225,6 +225,9 @@ std::string SdoOutcome::describe() const {
   if (ok)
     return data.empty() ? "ok"
                         : fmt::format("ok, {} byte(s) {:02X}", data.size(), fmt::join(data, " "));
+  if (vector_timed_out)
+    return "no answer before the vector's time limit (not the SDO timeout: the server was not "
+           "judged)";
   if (abort) {
     return fmt::format("abort {}",
                        cia301::make_error_code(static_cast<cia301::SdoAbort>(*abort)).message());

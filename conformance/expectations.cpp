@@ -85,6 +85,8 @@ StepStatus VectorRun::poll_statusword(std::string action, std::uint16_t mask, st
     }
     if (now() >= deadline || vector_timed_out() || context_.interrupted.load()) break;
     wait_until(std::min(deadline, std::max(now(), started + every)));
+    // A read after the vector's limit would end unanswered and hide the last real answer.
+    if (vector_timed_out()) break;
   }
   return fail_timed(std::move(action), std::move(expected),
                     fmt::format("{} at the deadline", last));

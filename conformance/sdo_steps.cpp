@@ -55,8 +55,11 @@ SdoOutcome run_transfer(VectorRun& run, can::Bus& bus, cia301::SdoClientTransfer
   }
   while (transfer.running()) {
     if (run.vector_timed_out()) {
+      // The vector's limit, not the server's SDO timeout: say so (a device that answered every
+      // request within 1 ms was reported as "did not answer in time" when a poll ran into it).
       (void)send_all(transfer.abort(std::uint32_t{0x05040000}));
-      outcome.error = cia301::make_error_code(cia301::SdoClientError::timeout);
+      outcome.error = cia301::make_error_code(cia301::SdoClientError::aborted_locally);
+      outcome.vector_timed_out = true;
       return outcome;
     }
     auto frame = run.pump(transfer.next_deadline());

@@ -56,7 +56,10 @@ struct SdoOutcome {
   std::vector<std::uint8_t> data;      // upload
   std::optional<std::uint32_t> abort;  // the server's abort code
   std::error_code error;               // any failure (abort included)
-  std::string describe() const;        // "ok", "abort 06010002h (...)", "no answer ..."
+  // The vector's time limit ended the transfer (before its request or its answer): no
+  // verdict on the server, which may not have had its SDO timeout yet.
+  bool vector_timed_out = false;
+  std::string describe() const;  // "ok", "abort 06010002h (...)", "no answer ..."
 };
 
 class VectorRun {

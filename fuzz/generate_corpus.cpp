@@ -256,7 +256,8 @@ struct ManualSequence {
   std::vector<std::string_view> frames;
 };
 
-// Frames the manuals print, cleaned as /work/shared/manuals/digests/ explains.
+// Frames the manuals print, cleaned as the manuals folder's digests/ explains (the folder
+// ../shared/manuals beside the repository).
 const std::vector<ManualSequence>& manual_sequences() {
   static const std::vector<ManualSequence> sequences = {
       {"festo-sdo-examples",

@@ -457,9 +457,16 @@ class Fuzzer {
       }
     }
     summary_.objects = objects.size();
+    // The profile is what 1000h says (CiA 301 §7.5.2.1: bits 0-15 the device profile number);
+    // whether the cases treat the node as a CiA 402 drive may have been set otherwise.
+    const auto device_profile = summary_.device_type & 0xFFFF;
+    std::string profile_text = device_profile == 0 ? std::string("no standard device profile")
+                                                   : fmt::format("CiA {}", device_profile);
+    if (summary_.cia402 != (device_profile == 402))
+      profile_text += summary_.cia402 ? "; fuzzed as a CiA 402 drive" : "; not fuzzed as a drive";
     say(fmt::format(
-        "node {}: device type {:08X}h{}, heartbeat {} ms, guarding {}, {} objects", options_.node,
-        summary_.device_type, summary_.cia402 ? " (CiA 402)" : "",
+        "node {}: device type {:08X}h ({}), heartbeat {} ms, guarding {}, {} objects",
+        options_.node, summary_.device_type, profile_text,
         std::chrono::duration_cast<std::chrono::milliseconds>(summary_.heartbeat_period).count(),
         summary_.guarding ? "answered" : "not used", objects.size()));
     const CaseGenerator generator(

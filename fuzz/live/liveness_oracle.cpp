@@ -100,7 +100,7 @@ void LivenessOracle::end_observation(can::TimePoint now, bool sdo_answered,
 can::Duration LivenessOracle::window() const {
   using namespace std::chrono_literals;
   const can::Duration heartbeat = config_.heartbeat_period * 5 / 2;
-  return std::max<can::Duration>(100ms, heartbeat);
+  return std::min<can::Duration>(kMaxWindow, std::max<can::Duration>(100ms, heartbeat));
 }
 
 std::optional<Anomaly> LivenessOracle::verdict() const {
@@ -134,7 +134,10 @@ std::optional<Anomaly> LivenessOracle::verdict() const {
                                "device reset itself",
                                boot_ups_, config_.node)};
   }
-  if (config_.heartbeat_period.count() > 0 && heartbeats_ == 0) {
+  const bool heartbeat_due =
+      config_.heartbeat_period.count() > 0 &&
+      observation_end_ - observation_start_ >= config_.heartbeat_period * 5 / 2;
+  if (heartbeat_due && heartbeats_ == 0) {
     return Anomaly{
         AnomalyKind::heartbeat_lost,
         fmt::format("no heartbeat from node {} in {:.3f} s (producer time {} ms)", config_.node,

@@ -80,8 +80,14 @@ class LivenessOracle {
   std::size_t emcy_frames() const { return emcy_; }
   std::size_t boot_ups() const { return boot_ups_; }
   const std::vector<can::Frame>& emcys() const { return emcy_list_; }
-  // The observation window's length (the caller waits at least this long).
+  // The observation window's length (the caller waits at least this long): 2.5 heartbeat
+  // periods, at least 100 ms, at most kMaxWindow.
   can::Duration window() const;
+  // The cap on window(), independent of 1017h: a case that set the producer time to FFFFh
+  // (65.5 s), which a communication reset need not undo, must not make every later case wait
+  // 164 s. A window shorter than 2.5 periods does not require a heartbeat (the SDO answer and
+  // the other checks still judge the node).
+  static constexpr can::Duration kMaxWindow = std::chrono::seconds(2);
   // After the harness reset the node's communication: 1017h as it reads now (guarding is only
   // checked while the heartbeat is off, CiA 301 §7.2.8.3.2).
   void set_heartbeat_period(can::Duration period, bool guarding) {

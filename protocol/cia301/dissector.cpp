@@ -381,6 +381,7 @@ Dissection Dissector::dissect_sdo(const can::Frame& frame, CobIdClass cob, bool 
   auto abort = [&](const AbortTransfer& m) {
     state.client_block_segments = false;
     state.server_block_segments = false;
+    state.server_last_seqno = 0;
     return fmt::format(FMT_COMPILE("abort {} {}"), name(m.mux), describe_sdo_abort(m.code));
   };
   if (from_client) {
@@ -409,16 +410,24 @@ Dissection Dissector::dissect_sdo(const can::Frame& frame, CobIdClass cob, bool 
                   m.size_indicated ? fmt::format(FMT_COMPILE(", {} bytes"), m.size) : "");
             },
             [&](const BlockUploadInitiateRequest& m) {
+              state.server_last_seqno = 0;
               return fmt::format(FMT_COMPILE("block upload initiate {}{}, blksize {}, pst {}"),
                                  name(m.mux), m.crc_supported ? ", CRC" : ", no CRC", m.block_size,
                                  m.protocol_switch_threshold);
             },
             [&](const BlockUploadStart&) {
               state.server_block_segments = true;
+              state.server_last_seqno = 0;
               return std::string("block upload start");
             },
             [&](const BlockUploadAck& m) {
-              state.server_block_segments = true;  // a further sub-block, or the end request
+              // A further sub-block, unless the client acknowledged the server's last segment:
+              // then the server's next frame is the end request (scs=6 ss=1, CiA 301 §7.2.4.3.15),
+              // whose byte 0 (C1h..DDh) would otherwise read as a segment.
+              const bool ended =
+                  state.server_last_seqno != 0 && m.ackseq >= state.server_last_seqno;
+              state.server_block_segments = !ended;
+              state.server_last_seqno = 0;
               return fmt::format(FMT_COMPILE("block upload response ackseq {} blksize {}"),
                                  m.ackseq, m.block_size);
             },
@@ -470,7 +479,10 @@ Dissection Dissector::dissect_sdo(const can::Frame& frame, CobIdClass cob, bool 
                 m.size_indicated ? fmt::format(FMT_COMPILE(", {} bytes"), m.size) : "");
           },
           [&](const BlockSegment& m) {
-            if (m.last) state.server_block_segments = false;
+            if (m.last) {
+              state.server_block_segments = false;
+              state.server_last_seqno = m.seqno;
+            }
             return fmt::format(FMT_COMPILE("block upload segment {}{} data {}"), m.seqno,
                                m.last ? " (last)" : "", hex_bytes(m.data));
           },

@@ -88,6 +88,9 @@ class Dissector {
   struct NodeState {
     bool client_block_segments = false;  // the client sends block download segments
     bool server_block_segments = false;  // the server sends block upload segments
+    // The seqno of the server's last block upload segment (c=1) in the current sub-block,
+    // 0 before it: once the client acknowledges it, the server's next frame is the end request.
+    std::uint8_t server_last_seqno = 0;
     bool guard_request_pending = false;
   };
   DissectorOptions options_;

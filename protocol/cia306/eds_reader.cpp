@@ -584,6 +584,14 @@ class Reader {
   }
 
   std::optional<std::uint32_t> u32_value(const RawKey& key) {
+    // Real vendor EDS files (CANopenNode's example among them) leave these empty: CiA 306
+    // wants a number, but the EDS still describes the objects; the device tells in 1018h.
+    if (key.value.empty() &&
+        (iequals(key.name, "VendorNumber") || iequals(key.name, "ProductNumber"))) {
+      warning(key.line, "identity-empty",
+              fmt::format("{} is empty (CiA 306 wants the number that 1018h holds)", key.name));
+      return std::nullopt;
+    }
     const auto n = cia301::parse_cia306_unsigned(key.value);
     if (!n || *n > 0xFFFFFFFF) {
       error(key.line, "bad-value",

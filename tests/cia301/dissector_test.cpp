@@ -174,6 +174,53 @@ TEST(Dissector, BlockDownloadSegmentsFollowTheTransfer) {
   EXPECT_NE(texts[6].find("block download end response"), std::string::npos) << texts[6];
 }
 
+TEST(Dissector, BlockUploadEndIsNotASegment) {
+  // Given a block upload of 1008h:00 (9 bytes) on node 5 in two sub-blocks of blksize 1,
+  // ending with the server's end request D5h (CiA 301 §7.2.4.3.12-15)
+  Dissector dissector;
+  const char* frames[] = {
+      "605#A408100001000000",  // ccs=5 cc=1 cs=0 initiate, 1008h:00, blksize 1, pst 0
+      "585#C608100009000000",  // scs=6 sc=1 s=1 ss=0 initiate response, 9 bytes
+      "605#A300000000000000",  // ccs=5 cs=3 start upload
+      "585#0141424344454647",  // segment seqno 1
+      "605#A201010000000000",  // ccs=5 cs=2 response ackseq 1 blksize 1
+      "585#8148490000000000",  // segment seqno 1, c=1 (last)
+      "605#A201010000000000",  // ccs=5 cs=2 response ackseq 1 blksize 1
+      "585#D5E3A40000000000",  // scs=6 n=5 ss=1 end request, crc A4E3h
+      "605#A100000000000000",  // ccs=5 cs=1 end response
+  };
+  std::vector<std::string> texts;
+  for (const char* text : frames)
+    texts.push_back(dissector.dissect(frame_of(text)).text);
+  // When dissected
+  // Then both sub-blocks read as segments and the server's end request as a command
+  EXPECT_EQ(texts[3], "block upload segment 1 data 41 42 43 44 45 46 47");
+  EXPECT_EQ(texts[5], "block upload segment 1 (last) data 48 49 00 00 00 00 00");
+  EXPECT_EQ(texts[7].find("block upload segment"), std::string::npos) << texts[7];
+  EXPECT_NE(texts[7].find("block upload end"), std::string::npos) << texts[7];
+  EXPECT_NE(texts[8].find("block upload end"), std::string::npos) << texts[8];
+}
+
+TEST(Dissector, BlockUploadRetransmitsAfterAShortAck) {
+  // Given a block upload whose client acknowledges only segment 1 of 2 (the last)
+  Dissector dissector;
+  const char* frames[] = {
+      "605#A008100002000000",  // ccs=5 cc=0 cs=0 initiate, 1008h:00, blksize 2
+      "585#C208100009000000",  // scs=6 s=1 initiate response, 9 bytes
+      "605#A300000000000000",  // start upload
+      "585#0141424344454647",  // segment seqno 1
+      "585#8248490000000000",  // segment seqno 2, c=1 (last)
+      "605#A201020000000000",  // response ackseq 1 blksize 2: segment 2 is repeated
+      "585#8148490000000000",  // segment seqno 1, c=1 (last)
+  };
+  std::vector<std::string> texts;
+  for (const char* text : frames)
+    texts.push_back(dissector.dissect(frame_of(text)).text);
+  // When dissected
+  // Then the repeated segment reads as a segment
+  EXPECT_EQ(texts[6], "block upload segment 1 (last) data 48 49 00 00 00 00 00");
+}
+
 TEST(Dissector, OtherFrames) {
   // Given an error frame, a 29-bit frame, LSS, and unassigned ids
   EXPECT_EQ(line_of("20000004#0004000000000000"),

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -39,6 +40,23 @@ std::string replaced(std::string text, const std::string& from, const std::strin
   EXPECT_NE(pos, std::string::npos) << from;
   if (pos != std::string::npos) text.replace(pos, from.size(), to);
   return text;
+}
+
+TEST(EdsErrors, EmptyVendorAndProductNumberAreWarnings) {
+  // Given an otherwise valid EDS whose VendorNumber and ProductNumber are empty, as real vendor
+  // files have them
+  std::string text = load("minimal.eds");
+  text = replaced(text, "VendorNumber=0x000001A2", "VendorNumber=");
+  text = replaced(text, "ProductNumber=0x00000001", "ProductNumber=");
+  // When read
+  const auto result = read_eds(text, "vendor.eds");
+  // Then it has no error, and a warning names each empty key
+  EXPECT_EQ(lines(result.diagnostics, Severity::error), Lines{});
+  const auto warnings = lines(result.diagnostics, Severity::warning);
+  const auto count = std::count_if(warnings.begin(), warnings.end(), [](const std::string& w) {
+    return w.find("[identity-empty]") != std::string::npos;
+  });
+  EXPECT_EQ(count, 2) << ::testing::PrintToString(warnings);
 }
 
 TEST(EdsErrors, DuplicateSection) {

@@ -1,7 +1,12 @@
 // Runs the built drivecheck program and checks its command-line contract (DESIGN.md, "The
 // CLI contract"): help, version, exit codes, one-line usage errors, and `decode`.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <csignal>
+#include <filesystem>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -63,7 +68,9 @@ TEST(CliHelp, EverySubcommandHasHelpExitingZero) {
                                                        {"vectors", "lint"},
                                                        {"vectors", "list"},
                                                        {"report"},
-                                                       {"report", "diff"}};
+                                                       {"report", "diff"},
+                                                       {"profiles"},
+                                                       {"deviations"}};
   for (const auto& path : paths) {
     auto args = path;
     args.push_back("--help");
@@ -260,6 +267,187 @@ TEST(CliDecode, MalformedInputsExitTwoNamingTheLine) {
   }
   expect_usage_error(drivecheck({"decode", (dir / "absent.log").string()}),
                      (dir / "absent.log").string() + ": cannot open");
+}
+
+// Runs drivecheck in `dir` with SIGINT already pending and blocked, as a parent that blocked
+// it and then sent Ctrl-C right at the start would leave it; the exit code (128 + signal if
+// killed), stdout and stderr go to files in `dir`.
+int run_with_pending_sigint(const std::filesystem::path& dir, std::vector<std::string> args) {
+  args.insert(args.begin(), DRIVECHECK_EXE);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    if (::chdir(dir.c_str()) != 0) ::_exit(120);
+    const int out = ::open("stdout", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err = ::open("stderr", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    sigset_t interrupt;
+    sigemptyset(&interrupt);
+    sigaddset(&interrupt, SIGINT);
+    ::sigprocmask(SIG_BLOCK, &interrupt, nullptr);
+    ::raise(SIGINT);  // pending: kept across exec
+    std::vector<char*> argv;
+    for (auto& arg : args)
+      argv.push_back(arg.data());
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(121);
+  }
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+TEST(CliRunInterrupt, SigintBeforeTheRunStartsExits130WithoutReports) {
+  // Given a SIGINT that reaches drivecheck run while it loads the vectors
+  test_support::TempDir dir;
+  // When run with the default reports (reports/out/ in the working directory)
+  const int code = run_with_pending_sigint(dir.path(), {"run"});
+  // Then it exits 130, says so, and writes no report
+  EXPECT_EQ(code, 130) << test_support::read_file(dir / "stderr");
+  EXPECT_NE(test_support::read_file(dir / "stderr").find("interrupted"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(dir / "reports")) << "a report was written";
+}
+
+TEST(CliRunSelection, EmptySelectionExitsTwo) {
+  // Given filters that match no vector id, and a level with a filter that leaves nothing
+  // When run
+  // Then each exits 2 saying no vector matches, and writes no report
+  test_support::TempDir dir;
+  const auto json = (dir / "r.json").string();
+  for (const std::vector<std::string>& selection :
+       {std::vector<std::string>{"--filter", "no/such/vector"},
+        std::vector<std::string>{"--filter", "cia301/sdo/abort/*", "--level", "may"}}) {
+    auto args = selection;
+    args.insert(args.begin(), "run");
+    args.insert(args.end(), {"--json", json});
+    const auto result = drivecheck(args);
+    EXPECT_EQ(result.exit_code, 2) << result.err;
+    EXPECT_NE(result.err.find("no vector matches"), std::string::npos) << result.err;
+    EXPECT_FALSE(std::filesystem::exists(json));
+  }
+}
+
+// The ids of a JSON report's vectors.
+std::vector<std::string> report_ids(const std::filesystem::path& json) {
+  const std::string report = test_support::read_file(json);
+  std::vector<std::string> ids;
+  const std::string key = "\"id\": \"";
+  for (auto at = report.find(key); at != std::string::npos; at = report.find(key, at + 1)) {
+    const auto begin = at + key.size();
+    ids.push_back(report.substr(begin, report.find('"', begin) - begin));
+  }
+  return ids;
+}
+
+TEST(CliRunSelection, FamilyNamesAndRepeatedFiltersSelect) {
+  // Given the family names cia301/sdo and cia402/fsa as the matrix shows them
+  test_support::TempDir dir;
+  const auto json = (dir / "r.json").string();
+  // When run with both as filters, and with --level should
+  const auto both =
+      drivecheck({"run", "--filter", "cia301/sdo", "--filter", "cia402/fsa", "--json", json});
+  const auto ids = report_ids(json);
+  const auto should = drivecheck({"run", "--level", "should", "--json", json});
+  const auto should_text = test_support::read_file(json);
+  // Then the run has vectors of both families and of no other, and the level selects
+  EXPECT_EQ(both.exit_code, 0) << both.err;
+  ASSERT_FALSE(ids.empty());
+  bool sdo = false;
+  bool fsa = false;
+  for (const auto& id : ids) {
+    sdo = sdo || id.rfind("cia301/sdo/", 0) == 0;
+    fsa = fsa || id.rfind("cia402/fsa/", 0) == 0;
+    EXPECT_TRUE(id.rfind("cia301/sdo/", 0) == 0 || id.rfind("cia402/fsa/", 0) == 0) << id;
+  }
+  EXPECT_TRUE(sdo && fsa);
+  EXPECT_EQ(should.exit_code, 0) << should.err;
+  EXPECT_EQ(should_text.find("\"level\": \"must\""), std::string::npos);
+  EXPECT_NE(should_text.find("\"level\": \"should\""), std::string::npos);
+}
+
+TEST(CliRunSelection, RerunRunsOnlyTheFailedVectors) {
+  // Given a report of a run with a deviation that fails some vectors
+  test_support::TempDir dir;
+  const auto first = (dir / "first.json").string();
+  const auto again = (dir / "again.json").string();
+  const auto failed = drivecheck(
+      {"run", "--deviation", "sdo-read-only-wrong-abort", "--filter", "cia301/*", "--json", first});
+  ASSERT_EQ(failed.exit_code, 1) << failed.err;
+  std::size_t fails = 0;
+  const std::string first_text = test_support::read_file(first);
+  for (auto at = first_text.find("\"verdict\": \"fail\""); at != std::string::npos;
+       at = first_text.find("\"verdict\": \"fail\"", at + 1))
+    ++fails;
+  // When run again with --rerun against the drive without the deviation
+  const auto rerun = drivecheck({"run", "--rerun", first, "--json", again});
+  // Then only the failed vectors ran, and they pass now
+  EXPECT_EQ(rerun.exit_code, 0) << rerun.err;
+  EXPECT_EQ(report_ids(again).size(), fails);
+  EXPECT_GT(fails, 0U);
+  // And a report without failures leaves nothing to run again: exit 2
+  const auto nothing = drivecheck({"run", "--rerun", again, "--json", first});
+  EXPECT_EQ(nothing.exit_code, 2);
+  EXPECT_NE(nothing.err.find("no vector matches"), std::string::npos) << nothing.err;
+}
+
+TEST(CliListings, ProfilesAndDeviationsAreListed) {
+  // Given the shipped profiles and the reference drive's deviations
+  // When listed
+  const auto profiles = drivecheck({"profiles"});
+  const auto deviations = drivecheck({"deviations"});
+  // Then each names what --profile and --deviation take, and exits 0
+  EXPECT_EQ(profiles.exit_code, 0) << profiles.err;
+  for (const char* name : {"cia402-reference", "festo-cmmp", "kollmorgen-s300-s700",
+                           "irtsa-drive-fb", "esr-triodrive"})
+    EXPECT_NE(profiles.out.find(name), std::string::npos) << name << "\n" << profiles.out;
+  EXPECT_NE(profiles.out.find("5 profiles"), std::string::npos) << profiles.out;
+  EXPECT_EQ(deviations.exit_code, 0) << deviations.err;
+  const auto row = deviations.out.find("\nsdo-read-only-wrong-abort ");
+  ASSERT_NE(row, std::string::npos) << deviations.out;
+  const auto row_text = deviations.out.substr(row, deviations.out.find('\n', row + 1) - row);
+  EXPECT_NE(row_text.find(" cia301/sdo "), std::string::npos) << row_text;
+  EXPECT_NE(row_text.find(" ordinary "), std::string::npos) << row_text;
+  EXPECT_NE(deviations.out.find(" deviations (drivecheck run --deviation NAME)"),
+            std::string::npos);
+}
+
+TEST(CliFuzz, SimulatedBusNeedsNoNodeAndOldPersonalityNameWarns) {
+  // Given the live fuzzer on the embedded drive, without --node, with the old option name
+  test_support::TempDir dir;
+  const auto result = drivecheck({"fuzz", "--bus", "sim", "--duration", "2s", "--personality",
+                                  "festo-cmmp", "--out", (dir / "fuzz").string()});
+  // When it runs / Then it fuzzes node 1 as festo-cmmp, warns about the old name, exits 0
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("--personality is deprecated, use --profile"), std::string::npos)
+      << result.err;
+  EXPECT_NE(result.out.find("node 1 on sim"), std::string::npos) << result.out;
+  // And a real bus still needs --node
+  expect_usage_error(drivecheck({"fuzz", "--bus", "socketcan:vcan0", "--duration", "2s"}),
+                     "--node is required");
+}
+
+TEST(CliRunEds, EmptyVendorNumberIsAcceptedWithAWarning) {
+  // Given the reference drive's EDS with VendorNumber and ProductNumber left empty, as real
+  // vendor EDS files have them
+  test_support::TempDir dir;
+  std::string eds = test_support::read_file(std::string(DRIVECHECK_SOURCE_DIR) +
+                                            "/reference_drive/reference_drive.eds");
+  for (const std::string key : {"VendorNumber=", "ProductNumber="}) {
+    const auto at = eds.find("\n" + key);
+    ASSERT_NE(at, std::string::npos) << key;
+    eds.erase(at + 1 + key.size(), eds.find('\n', at + 1) - (at + 1 + key.size()));
+  }
+  const auto file = dir.write("vendor.eds", eds);
+  // When run with it on the EDS checks of the identity object
+  const auto result = drivecheck({"run", "--eds", file.string(), "--filter", "eds/od/1018*",
+                                  "--json", (dir / "r.json").string()});
+  // Then the run goes on (exit 0) and shows the lint findings first
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("vendor.eds:"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("VendorNumber is empty"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("[identity-empty]"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("finding(s) above; the EDS is used"), std::string::npos) << result.err;
 }
 
 }  // namespace

@@ -25,8 +25,8 @@ TEST(DriveCommand, UnknownPersonalityIsAUsageError) {
   // Given a personality name that is no profile in vectors/drives
   // When drivecheck drive starts
   // Then it exits 2 naming the known profiles, before opening any bus
-  const auto result = drivecheck(
-      {"drive", "--bus", "socketcan:vcan0", "--node", "5", "--personality", "festo-cmmpx"});
+  const auto result =
+      drivecheck({"drive", "--bus", "socketcan:vcan0", "--node", "5", "--profile", "festo-cmmpx"});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("no profile 'festo-cmmpx'"), std::string::npos) << result.err;
   EXPECT_NE(result.err.find("festo-cmmp,"), std::string::npos) << result.err;
@@ -47,11 +47,10 @@ TEST(DriveCommand, KnownPersonalityAndDeviationAreAccepted) {
   // Given a known personality and a known deviation
   // When drivecheck drive starts on an interface this machine cannot open
   // Then both are accepted: the only complaint is the interface (exit 2)
-  const auto result =
-      drivecheck({"drive", "--bus", "socketcan:vcan0", "--node", "5", "--personality",
-                  "kollmorgen-s300-s700", "--deviation", "bootup-missing"});
+  const auto result = drivecheck({"drive", "--bus", "socketcan:vcan0", "--node", "5", "--profile",
+                                  "kollmorgen-s300-s700", "--deviation", "bootup-missing"});
   EXPECT_EQ(result.exit_code, 2);
-  EXPECT_EQ(result.err.find("--personality"), std::string::npos) << result.err;
+  EXPECT_EQ(result.err.find("--profile"), std::string::npos) << result.err;
   EXPECT_EQ(result.err.find("--deviation"), std::string::npos) << result.err;
   EXPECT_NE(result.err.find("vcan0"), std::string::npos) << result.err;
 }

@@ -81,6 +81,67 @@ TEST_F(EngineTest, SdoWriteExpectedAbortPasses) {
   EXPECT_TRUE(peer.finished());
 }
 
+// A server that aborts every request at once: whatever the transfer, the vector sees the abort
+// (never "did not answer in time").
+struct AbortCase {
+  const char* name;
+  const char* step;                   // the vector step (YAML, indented 4)
+  std::vector<const char*> exchange;  // expected frame, then its reply, alternating
+};
+
+TEST_F(EngineTest, EveryAbortAnswerIsSeenAsAnAbort) {
+  const std::vector<AbortCase> cases = {
+      {"segmented download initiate",
+       "    - sdo_write: {index: 0x2000, sub: 1, data: \"01 02 03 04 05 06 07 08\"}\n",
+       {"601#2100200108000000",    // ccs=1 s=1: initiate segmented, 8 bytes
+        "581#8000200102000106"}},  // abort 2000h sub 1, 06010002h
+      {"segmented download segment",
+       "    - sdo_write: {index: 0x2000, sub: 1, data: \"01 02 03 04 05 06 07 08\"}\n",
+       {"601#2100200108000000", "581#6000200100000000",  // initiate, response
+        "601#0001020304050607",                          // segment toggle 0
+        "581#8000200102000106"}},                        // abort 06010002h
+      {"block download initiate",
+       "    - sdo_write: {index: 0x2000, sub: 1, data: \"01 02 03 04 05 06 07 08\"}\n"
+       "      transfer: block\n",
+       {"601#C600200108000000",    // ccs=6 cc=1 s=1 cs=0: block download initiate, 8 bytes
+        "581#8000200102000106"}},  // abort 06010002h
+      {"block upload initiate",
+       "    - sdo_read: {index: 0x2000, sub: 1}\n      transfer: block\n",
+       {"601#A40020017F000000",    // ccs=5 cc=1 cs=0: block upload initiate, blksize 127
+        "581#8000200102000106"}},  // abort 06010002h
+      {"block upload sub-block",
+       "    - sdo_read: {index: 0x2000, sub: 1}\n      transfer: block\n",
+       {"601#A40020017F000000", "581#C600200109000000",  // initiate, response: 9 bytes
+        "601#A300000000000000",                          // start
+        "581#8000200102000106"}},                        // abort instead of a segment
+      {"segmented upload segment",
+       "    - sdo_read: {index: 0x2000, sub: 1}\n",
+       {"601#4000200100000000", "581#4100200109000000",  // initiate, response: 9 bytes
+        "601#6000000000000000",                          // segment request toggle 0
+        "581#8000200102000106"}},                        // abort 06010002h
+      {"abort naming another object",
+       "    - sdo_read: {index: 0x2000, sub: 1}\n",
+       {"601#4000200100000000",    // ccs=2 upload 2000h sub 1
+        "581#8000000002000106"}},  // abort 0000h sub 0, 06010002h
+  };
+  for (const auto& c : cases) {
+    // Given a peer that answers the request with an abort (06010002h)
+    can::SimBus bus({.bitrate = 1'000'000});
+    auto harness = bus.attach("harness");
+    auto peer_port = bus.attach("peer");
+    test_support::ScriptedPeer peer(*peer_port, {0x601});
+    peer.set_mismatch_handler([](const std::string&) {});  // block segments after the abort
+    for (std::size_t i = 0; i + 1 < c.exchange.size(); i += 2)
+      peer.expect(c.exchange[i]).reply(c.exchange[i + 1]);
+    // When the vector expects that abort
+    Engine engine(*harness, profile_, {});
+    const auto result = engine.run_vector(
+        make_vector(std::string(c.step) + "      expect: {abort: [0x06010002]}\n"));
+    // Then it passes: the abort is the answer
+    EXPECT_EQ(result.verdict, Verdict::pass) << c.name << "\n" << result.message;
+  }
+}
+
 TEST_F(EngineTest, WrongAbortCodeFailsWithExpectedActual) {
   // Given a peer that answers a write to a read-only object with 06090030h instead
   test_support::ScriptedPeer peer(*peer_port_);
@@ -290,6 +351,22 @@ TEST_F(EngineTest, ExpectStatuswordFailsAtDeadline) {
   // Then it fails with the last statusword
   EXPECT_EQ(result.verdict, Verdict::fail);
   EXPECT_NE(result.message.find("statusword 0000h"), std::string::npos) << result.message;
+}
+
+TEST_F(EngineTest, PollingADeviceThatAbortsEndsWithItsAbortNotATimeout) {
+  // Given a device without 6041h: every read is aborted at once with 06020000h
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#4041600000000000")  // ccs=2 upload 6041h sub 0
+      .reply("581#8041600000000206");  // abort 06020000h (object does not exist)
+  peer.set_repeat(true);
+  // When a vector limited to 50 ms polls the statusword for up to 1 s
+  const auto result =
+      run(make_vector("    - expect_statusword: {mask: 0x0040, value: 0x0040}\n      within: 1s\n",
+                      "  timeout: 50ms\n"));
+  // Then it fails with the device's answer, the abort; no request went unanswered
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(result.message.find("06020000"), std::string::npos) << result.message;
+  EXPECT_EQ(result.message.find("did not answer in time"), std::string::npos) << result.message;
 }
 
 TEST_F(EngineTest, VectorTimeoutEndsAWait) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -89,6 +90,24 @@ TEST(LiveFuzzer, StandardDriveShowsNoAnomaly) {
   for (const auto& a : summary.anomalies)
     ADD_FAILURE() << "case " << a.case_number << " " << a.case_kind << ": " << a.anomaly.detail;
   EXPECT_GE(summary.elapsed, 15s);
+}
+
+TEST(LiveFuzzer, DeviceTypeLineNamesTheProfileOf1000h) {
+  // Given the reference drive (1000h names CiA 402), fuzzed as if it were no drive
+  ServoTarget target({});
+  auto options = options_for(fresh_dir("device_type"), 1s);
+  options.cia402 = false;
+  std::vector<std::string> lines;
+  options.progress = [&lines](std::string_view line) { lines.emplace_back(line); };
+  // When the fuzzer starts
+  (void)run_live_fuzzer(target, options);
+  // Then its device line names the profile 1000h gives, and how the node is fuzzed
+  const auto device_line = std::find_if(lines.begin(), lines.end(), [](const std::string& line) {
+    return line.find("device type") != std::string::npos;
+  });
+  ASSERT_NE(device_line, lines.end());
+  EXPECT_NE(device_line->find("(CiA 402; not fuzzed as a drive)"), std::string::npos)
+      << *device_line;
 }
 
 TEST(LiveFuzzer, SdoHangIsFoundMinimisedAndReplayed) {

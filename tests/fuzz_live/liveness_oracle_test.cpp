@@ -121,6 +121,15 @@ TEST(LiveLivenessOracle, MissingHeartbeatIsLost) {
   EXPECT_FALSE(judge(oracle, {}, {at(150ms, kHeartbeat)}, true, true));
 }
 
+TEST(LiveLivenessOracle, LongHeartbeatTimeDoesNotStretchTheWindow) {
+  // Given a case that set 1017h to FFFFh (65.5 s), which the reset did not undo
+  LivenessOracle oracle({.node = kNode, .heartbeat_period = 65535ms});
+  // When the oracle gives its window and judges a short observation without heartbeat
+  // Then the window is capped, and the missing heartbeat is no anomaly within it
+  EXPECT_LE(oracle.window(), LivenessOracle::kMaxWindow);
+  EXPECT_FALSE(judge(oracle, {}, {}, true, true));
+}
+
 TEST(LiveLivenessOracle, GuardingCheckedOnlyWhenAnsweredAtStart) {
   // Given a node that does not answer the guarding request
   // When the oracle judges with and without guarding configured
