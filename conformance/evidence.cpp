@@ -7,6 +7,7 @@
 #include "conformance/samples.hpp"
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/sdo_abort.hpp"
+#include "protocol/cia301/sdo_client.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
@@ -99,7 +100,7 @@ void VectorRun::sample(std::uint16_t index, std::uint8_t sub, std::span<const st
 
 void VectorRun::check(std::string action, std::string expected, std::string actual, bool ok) {
   result_.checks.push_back(
-      Check{step_index_, std::move(action), std::move(expected), std::move(actual), ok});
+      Check{step_index_, std::move(action), std::move(expected), std::move(actual), ok, {}});
 }
 
 std::string VectorRun::recent_frames(std::size_t from_index, std::size_t max) const {
@@ -113,7 +114,8 @@ std::string VectorRun::recent_frames(std::size_t from_index, std::size_t max) co
                      fmt::join(texts, ", "), "");
 }
 
-StepStatus VectorRun::fail(std::string action, std::string expected, std::string actual) {
+StepStatus VectorRun::fail(std::string action, std::string expected, std::string actual,
+                           Observation observed) {
   if (vector_timed_out() && actual.find("vector timeout") == std::string::npos)
     actual += fmt::format(" (vector timeout {} reached)",
                           profile::format_duration(resolve(vector_.timeout)));
@@ -122,6 +124,7 @@ StepStatus VectorRun::fail(std::string action, std::string expected, std::string
       step_index_ < vector_.steps.size() ? vector_.steps[step_index_].line : vector_.line, expected,
       actual);
   check(std::move(action), std::move(expected), std::move(actual), false);
+  result_.checks.back().observed = std::move(observed);
   return StepStatus::failed;
 }
 
@@ -140,6 +143,18 @@ std::string SdoOutcome::describe() const {
                        cia301::make_error_code(static_cast<cia301::SdoAbort>(*abort)).message());
   }
   return error.message();
+}
+
+Observation SdoOutcome::observed() const {
+  Observation observation;
+  if (ok) {
+    observation.accepted = true;
+  } else if (abort) {
+    observation.abort = *abort;
+  } else if (error == cia301::make_error_code(cia301::SdoClientError::timeout)) {
+    observation.nothing = true;
+  }
+  return observation;
 }
 
 StepStatus VectorRun::run_steps() {

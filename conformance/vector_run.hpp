@@ -52,6 +52,8 @@ struct SdoOutcome {
   std::optional<std::uint32_t> abort;  // the server's abort code
   std::error_code error;               // any failure (abort included)
   std::string describe() const;        // "ok", "abort 06010002h (...)", "no answer ..."
+  // A failed transfer as an observation: its abort code, or nothing (no answer).
+  Observation observed() const;
 };
 
 class VectorRun {
@@ -80,7 +82,9 @@ class VectorRun {
   // The last frames from other nodes, for Actual: texts ("585#..., 701#05").
   std::string recent_frames(std::size_t from_index, std::size_t max = 4) const;
   // Fails with `expected`/`actual` (sets the failure message).
-  StepStatus fail(std::string action, std::string expected, std::string actual);
+  // `observed`: what the DUT did, typed (result.hpp), for a deviation's `observed:`.
+  StepStatus fail(std::string action, std::string expected, std::string actual,
+                  Observation observed = {});
   StepStatus harness_error(std::string action, std::string message);
 
   // ---- sdo_steps.cpp ----
