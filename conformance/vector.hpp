@@ -86,7 +86,10 @@ struct AbortExpect {
   std::string describe() const;
   // The named set (its codes and citation from the table); nullopt for an unknown name.
   static std::optional<AbortExpect> named(std::string_view set_name);
-  friend bool operator==(const AbortExpect&, const AbortExpect&) = default;
+  // Equal in meaning (the YAML line is not compared).
+  friend bool operator==(const AbortExpect& a, const AbortExpect& b) {
+    return a.codes == b.codes && a.set == b.set && a.citation == b.citation && a.clause == b.clause;
+  }
 };
 
 // What an SDO step accepts as the answer.

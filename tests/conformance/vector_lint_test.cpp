@@ -112,6 +112,7 @@ TEST_F(LintTree, DeviationIdsMustBeVectors) {
   std::filesystem::create_directories(root_ / "vectors" / "drives");
   write("drives/p.yaml", R"(name: p
 title: P
+features: []
 deviations:
   - id: d
     vectors: ["a/b", "a/c"]
@@ -127,7 +128,7 @@ deviations:
   const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
   // Then the unknown id is an error at the deviation's line, the empty one a warning
   ASSERT_EQ(report.errors.size(), 1U);
-  EXPECT_NE(report.errors[0].to_string().find("p.yaml:4: deviation d: no vector 'a/c'"),
+  EXPECT_NE(report.errors[0].to_string().find("p.yaml:5: deviation d: no vector 'a/c'"),
             std::string::npos)
       << report.errors[0].to_string();
   ASSERT_EQ(report.warnings.size(), 1U);
