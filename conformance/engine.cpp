@@ -217,17 +217,24 @@ class Engine::Impl {
     for (const auto& object : kEnvelope) {
       const auto outcome = run.sdo_upload({object.index, object.sub});
       result.checks.push_back(
-          Check{0, "envelope",
+          Check{0,
+                "envelope",
                 fmt::format("{:04X}h sub {} ({}) recorded", object.index, object.sub, object.name),
-                outcome.describe(), true});
+                outcome.describe(),
+                true,
+                {}});
     }
     // The harness becomes a heartbeat producer; the DUT consumes it (1016h sub 1:
     // node-ID in bits 16..23, time in ms in bits 0..15, 3x our period). What 1016h sub 1 held
     // before is put back at the end of the run (restore_heartbeat_consumer).
     const auto before = run.sdo_upload({0x1016, 1});
     if (before.ok && before.data.size() == 4) original_consumer_ = before.data;
-    result.checks.push_back(Check{0, "envelope", "1016h sub 1 recorded (restored after the run)",
-                                  before.describe(), true});
+    result.checks.push_back(Check{0,
+                                  "envelope",
+                                  "1016h sub 1 recorded (restored after the run)",
+                                  before.describe(),
+                                  true,
+                                  {}});
     start_heartbeat();
     const auto period_ms = static_cast<std::uint32_t>(
         std::chrono::duration_cast<std::chrono::milliseconds>(options_.harness_heartbeat).count());
@@ -238,9 +245,12 @@ class Engine::Impl {
         static_cast<std::uint8_t>(consumer >> 16), static_cast<std::uint8_t>(consumer >> 24)};
     const auto outcome = run.sdo_download({0x1016, 1}, bytes);
     result.checks.push_back(
-        Check{0, "envelope",
+        Check{0,
+              "envelope",
               fmt::format("1016h sub 1 := {:08X}h (consume the harness heartbeat)", consumer),
-              outcome.describe(), true});
+              outcome.describe(),
+              true,
+              {}});
     for (auto& frame : scratch.frames)
       result.frames.push_back(std::move(frame));
   }
@@ -430,7 +440,7 @@ VectorResult Engine::probe_undocumented_objects(
   const auto actual = found.empty()
                           ? std::string("none undescribed")
                           : fmt::format("{} undescribed: {}", found.size(), fmt::join(found, ", "));
-  result.checks.push_back(Check{0, "probe", expected, actual, found.empty()});
+  result.checks.push_back(Check{0, "probe", expected, actual, found.empty(), {}});
   decide_verdict(result, probe, impl_->profile_, found.empty() ? Outcome::pass : Outcome::fail,
                  fmt::format("{}: probe: Expected {}; Actual {}\n  Expected: {}\n  Actual:   {}",
                              probe.file, expected, actual, expected, actual),

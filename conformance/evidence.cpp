@@ -8,6 +8,7 @@
 #include "conformance/samples.hpp"
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/sdo_abort.hpp"
+#include "protocol/cia301/sdo_client.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
@@ -134,8 +135,10 @@ can::TimePoint VectorRun::request_time() {
   return last_echo_ ? std::max(step_started_, *last_echo_) : step_started_;
 }
 
-StepStatus VectorRun::fail_timed(std::string action, std::string expected, std::string actual) {
-  if (harness_late_.empty()) return fail(std::move(action), std::move(expected), std::move(actual));
+StepStatus VectorRun::fail_timed(std::string action, std::string expected, std::string actual,
+                                 Observation observed) {
+  if (harness_late_.empty())
+    return fail(std::move(action), std::move(expected), std::move(actual), std::move(observed));
   message_ = fmt::format(
       "error: harness late in step {} {} (line {}): {}; the check is not charged to the device:\n"
       "  Expected: {}\n  Actual:   {}",
@@ -183,7 +186,7 @@ static std::size_t step_number(std::size_t index, std::size_t steps) {
 
 void VectorRun::check(std::string action, std::string expected, std::string actual, bool ok) {
   result_.checks.push_back(Check{step_number(step_index_, vector_.steps.size()), std::move(action),
-                                 std::move(expected), std::move(actual), ok, now()});
+                                 std::move(expected), std::move(actual), ok, now(), {}});
 }
 
 std::string VectorRun::recent_frames(std::size_t from_index, std::size_t max) const {
@@ -197,7 +200,8 @@ std::string VectorRun::recent_frames(std::size_t from_index, std::size_t max) co
                      fmt::join(texts, ", "), "");
 }
 
-StepStatus VectorRun::fail(std::string action, std::string expected, std::string actual) {
+StepStatus VectorRun::fail(std::string action, std::string expected, std::string actual,
+                           Observation observed) {
   if (vector_timed_out() && actual.find("vector timeout") == std::string::npos)
     actual += fmt::format(" (vector timeout {} reached)",
                           profile::format_duration(resolve(vector_.timeout)));
@@ -209,6 +213,7 @@ StepStatus VectorRun::fail(std::string action, std::string expected, std::string
   message_ = fmt::format("{}:{}: {}: Expected {}; Actual {}\n  Expected: {}\n  Actual:   {}",
                          vector_.file, line, where, expected, actual, expected, actual);
   check(std::move(action), std::move(expected), std::move(actual), false);
+  result_.checks.back().observed = std::move(observed);
   return StepStatus::failed;
 }
 
@@ -233,6 +238,18 @@ std::string SdoOutcome::describe() const {
                        cia301::make_error_code(static_cast<cia301::SdoAbort>(*abort)).message());
   }
   return error.message();
+}
+
+Observation SdoOutcome::observed() const {
+  Observation observation;
+  if (ok) {
+    observation.accepted = true;
+  } else if (abort) {
+    observation.abort = *abort;
+  } else if (error == cia301::make_error_code(cia301::SdoClientError::timeout)) {
+    observation.nothing = true;
+  }
+  return observation;
 }
 
 StepStatus VectorRun::run_steps() {

@@ -7,6 +7,7 @@
 
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/emcy.hpp"
+#include "protocol/cia301/sdo_abort.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
@@ -14,6 +15,12 @@ namespace {
 
 std::string ms(can::Duration duration) {
   return fmt::format("{:.3f} ms", std::chrono::duration<double, std::milli>(duration).count());
+}
+
+Observation nothing() {
+  Observation observation;
+  observation.nothing = true;
+  return observation;
 }
 
 std::string cob_text(const CobIdSpec& cob, std::uint8_t node) {
@@ -69,6 +76,7 @@ StepStatus VectorRun::poll_statusword(std::string action, std::uint16_t mask, st
                                       std::string expected, can::TimePoint deadline) {
   const auto every = resolve({{}, "poll"});
   std::string last = "no statusword read";
+  Observation observed = nothing();
   while (true) {
     const auto started = now();
     const auto outcome = sdo_upload({0x6041, 0});
@@ -80,16 +88,19 @@ StepStatus VectorRun::poll_statusword(std::string action, std::uint16_t mask, st
         return StepStatus::ok;
       }
       last = fmt::format("statusword {:04X}h ({})", sw, cia402::describe_statusword(sw));
+      observed = Observation{};
+      observed.statusword = sw;
     } else {
       last = fmt::format("reading 6041h: {}", outcome.describe());
+      observed = outcome.observed();
     }
     if (now() >= deadline || vector_timed_out() || context_.interrupted.load()) break;
     wait_until(std::min(deadline, std::max(now(), started + every)));
     // A read after the vector's limit would end unanswered and hide the last real answer.
     if (vector_timed_out()) break;
   }
-  return fail_timed(std::move(action), std::move(expected),
-                    fmt::format("{} at the deadline", last));
+  return fail_timed(std::move(action), std::move(expected), fmt::format("{} at the deadline", last),
+              observed);
 }
 
 StepStatus VectorRun::run_expectation(const Step& step) {
@@ -101,15 +112,49 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     const auto within = resolve(e->within);
     const auto from = watch_start(e->since);
     const auto base = e->since.empty() ? request_time() : marks_.at(e->since).at;
-    const auto expected = fmt::format("a frame matching {} within {}", e->pattern.text,
-                                      profile::format_duration(within));
-    const auto hit = watch(from, base + within,
-                           [&](const can::Frame& f) { return e->pattern.matches(f, node()); });
-    if (!hit)
+    std::vector<std::string> patterns{e->pattern.text};
+    for (const auto& alternative : e->alternatives)
+      patterns.push_back(alternative.text);
+    auto expected = fmt::format("a frame matching {} within {}", fmt::join(patterns, " or "),
+                                profile::format_duration(within));
+    if (e->abort) expected += fmt::format(", {}", e->abort->describe());
+    const auto hit = watch(from, base + within, [&](const can::Frame& f) {
+      return e->pattern.matches(f, node()) ||
+             std::any_of(
+                 e->alternatives.begin(), e->alternatives.end(),
+                 [&](const FrameSpec& alternative) { return alternative.matches(f, node()); });
+    });
+    if (!hit) {
+      // Nothing matched; an SDO abort the DUT's server sent meanwhile is the typed observation.
+      Observation observed = nothing();
+      for (std::size_t i = from; i < received_.size(); ++i) {
+        const auto& f = received_[i].frame;
+        if (!f.is_extended() && !f.is_remote() && f.id == 0x580U + node() && f.length() == 8 &&
+            f.data[0] == 0x80)
+          observed.abort = static_cast<std::uint32_t>(f.data[4] | f.data[5] << 8 | f.data[6] << 16 |
+                                                      static_cast<std::uint32_t>(f.data[7]) << 24);
+      }
       return fail_timed(name, expected,
-                        fmt::format("nothing matching within {}; {}",
-                                    profile::format_duration(within), recent_frames(from)));
+                  fmt::format("nothing matching within {}; {}", profile::format_duration(within),
+                              recent_frames(from)),
+                  observed);
+    }
     const auto& frame = received_[*hit];
+    if (e->abort && e->pattern.matches(frame.frame, node())) {
+      // The pattern is an SDO abort with the code as don't-care (loader): the set decides.
+      const auto payload = frame.frame.payload();
+      const auto code = static_cast<std::uint32_t>(payload[4] | payload[5] << 8 | payload[6] << 16 |
+                                                   static_cast<std::uint32_t>(payload[7]) << 24);
+      if (!e->abort->accepts(code)) {
+        Observation observed;
+        observed.abort = code;
+        return fail(
+            name, expected,
+            fmt::format("{} after {}: abort {}", frame.frame, ms(frame.timestamp - base),
+                        cia301::make_error_code(static_cast<cia301::SdoAbort>(code)).message()),
+            observed);
+      }
+    }
     if (!e->mark.empty()) set_mark(e->mark, frame.timestamp, *hit + 1);
     check(name, expected, fmt::format("{} after {}", frame.frame, ms(frame.timestamp - base)),
           true);
@@ -154,7 +199,8 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       return !f.is_extended() && !f.is_remote() && f.id == 0x700U + node() && f.length() == 1 &&
              f.data[0] == 0;
     });
-    if (!hit) return fail_timed(name, expected, fmt::format("no boot-up; {}", recent_frames(from)));
+    if (!hit)
+      return fail_timed(name, expected, fmt::format("no boot-up; {}", recent_frames(from)), nothing());
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected, fmt::format("after {}", ms(received_[*hit].timestamp - base)), true);
     return StepStatus::ok;
@@ -179,7 +225,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
           return !f.is_extended() && !f.is_remote() && f.id == 0x700U + node() && f.length() == 1 &&
                  (f.data[0] & 0x7F) == state;
         });
-    if (!hit) return fail_timed(name, expected, fmt::format("none; {}", recent_frames(from)));
+    if (!hit) return fail_timed(name, expected, fmt::format("none; {}", recent_frames(from)), nothing());
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected, fmt::format("after {}", ms(received_[*hit].timestamp - base)), true);
     return StepStatus::ok;
@@ -206,7 +252,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       return true;
     });
     if (!hit)
-      return fail_timed(name, expected, fmt::format("no such EMCY; {}", recent_frames(from)));
+      return fail_timed(name, expected, fmt::format("no such EMCY; {}", recent_frames(from)), nothing());
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected,
           fmt::format("{} after {}", received_[*hit].frame, ms(received_[*hit].timestamp - base)),
@@ -236,6 +282,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
         fmt::format("{:04X}h sub {} & {:X}h == {:X}h within {}", e->index, e->sub, e->mask,
                     e->value & e->mask, profile::format_duration(resolve(e->within)));
     std::string last = "nothing read";
+    Observation observed = nothing();
     while (true) {
       const auto started = now();
       const auto outcome = sdo_upload({e->index, e->sub});
@@ -247,13 +294,16 @@ StepStatus VectorRun::run_expectation(const Step& step) {
           return StepStatus::ok;
         }
         last = fmt::format("{:X}h", raw);
+        observed = Observation{};
+        observed.value = static_cast<std::int64_t>(raw);
       } else {
         last = outcome.describe();
+        observed = outcome.observed();
       }
       if (now() >= deadline || vector_timed_out() || context_.interrupted.load()) break;
       wait_until(std::min(deadline, std::max(now(), started + every)));
     }
-    return fail_timed(name, expected, fmt::format("last read: {}", last));
+    return fail_timed(name, expected, fmt::format("last read: {}", last), observed);
   }
   if (const auto* e = std::get_if<MeasureStep>(&action)) {
     const auto from = marks_.find(e->from);
@@ -291,9 +341,10 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       const auto hit = watch(from, deadline, matches);
       if (!hit)
         return fail_timed(name, expected,
-                          fmt::format("frame {} of {} missing within {}{}", n + 1, e->count,
-                                      profile::format_duration(period + tolerance),
-                                      previous ? " of the previous one" : " of the step start"));
+                    fmt::format("frame {} of {} missing within {}{}", n + 1, e->count,
+                                profile::format_duration(period + tolerance),
+                                previous ? " of the previous one" : " of the step start"),
+                    nothing());
       const auto at = received_[*hit].timestamp;
       if (previous) {
         const auto interval = at - *previous;

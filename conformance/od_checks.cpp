@@ -140,9 +140,10 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
     } else if (!dynamic) {
       SdoReadStep read{object.index, object.sub, Transfer::automatic, {}, false, {}};
       read.expect.kind = SdoExpect::Kind::abort;
-      read.expect.aborts = {0x06010001};
+      read.expect.abort = *AbortExpect::named("read-write-only");
       vectors.push_back(make(object, "read-wo",
-                             fmt::format("A read of write-only {} MUST abort 06010001h", name),
+                             fmt::format("A read of write-only {} MUST abort ({})", name,
+                                         read.expect.abort.describe()),
                              Step{read, {}, 0}));
     }
     if (!cia301::is_writable(object.access) && info.size != 0 && info.size <= 8) {
@@ -151,9 +152,10 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
       write.sub = object.sub;
       write.data.assign(info.size, 0);
       write.expect.kind = SdoExpect::Kind::abort;
-      write.expect.aborts = {0x06010002};
+      write.expect.abort = *AbortExpect::named("write-read-only");
       vectors.push_back(make(object, "write-ro",
-                             fmt::format("A write to read-only {} MUST abort 06010002h", name),
+                             fmt::format("A write to read-only {} MUST abort ({})", name,
+                                         write.expect.abort.describe()),
                              Step{write, {}, 0}));
     }
     if (cia301::is_writable(object.access) && range) {
@@ -164,15 +166,21 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
         write.value = ValueSpec{value, {}};
         write.size = info.size;
         write.expect.kind = SdoExpect::Kind::abort;
-        write.expect.aborts = {0x06090030, 0x06090031, 0x06090032};
-        if (is_mapping_count(object)) {  // the CiA 301 mapping procedure's answers, too
-          write.expect.aborts.insert(write.expect.aborts.end(),
-                                     {0x06040042, 0x06010000, 0x06040043, 0x08000022});
+        write.expect.abort = *AbortExpect::named(
+            std::string_view(check) == "below-min" ? "value-too-low" : "value-too-high");
+        if (is_mapping_count(object)) {
+          // The mapping count: the value codes and the CiA 301 mapping procedure's answers.
+          write.expect.abort = AbortExpect{};
+          write.expect.abort.codes = {0x06010000, 0x06040042, 0x06040043, 0x06090030,
+                                      0x06090031, 0x06090032, 0x08000022};
+          write.expect.abort.clause =
+              "CiA 301 §7.5.2.36, §7.5.2.38 (a count above the entries: 06040042h; refused in "
+              "the present state: 06010000h, 06040043h, 08000022h) and §7.2.4.3.17 (0609003xh)";
         }
-        vectors.push_back(
-            make(object, check,
-                 fmt::format("Writing {} ({}) to {} MUST abort 0609003xh", value, what, name),
-                 Step{write, {}, 0}));
+        vectors.push_back(make(object, check,
+                               fmt::format("Writing {} ({}) to {} MUST abort ({})", value, what,
+                                           name, write.expect.abort.describe()),
+                               Step{write, {}, 0}));
       };
       if (object.min && *object.min > range->first)
         limit_vector(*object.min - 1, "below-min", "min - 1");

@@ -46,6 +46,23 @@ struct EvidenceFrame {
   std::string decoded;        // the dissector's one-line meaning
 };
 
+// What the DUT did where a check failed, as data (beside the Actual: text), so that a profile
+// deviation's `observed:` (protocol/profile/drive_profile.hpp) can be compared with it exactly.
+// The steps fill what they saw: an SDO step its abort code, the value it read, no answer or a
+// transfer accepted where an abort was expected; a raw expect_frame on an SDO abort the code;
+// a watching step that saw nothing `nothing` (an expect_frame also the code of an SDO abort
+// the DUT sent meanwhile); expect_state/expect_statusword the last
+// statusword; poll the last value. Empty (all unset) where the step has nothing typed to say.
+struct Observation {
+  std::optional<std::uint32_t> abort;       // the SDO abort code the DUT answered
+  std::optional<std::int64_t> value;        // the value read (as the step interprets it)
+  std::optional<std::uint16_t> statusword;  // the last statusword read
+  bool nothing = false;                     // no answer / no matching frame within the time allowed
+  bool accepted = false;  // the SDO transfer succeeded where the step expected an abort
+  bool empty() const { return !abort && !value && !statusword && !nothing && !accepted; }
+  friend bool operator==(const Observation&, const Observation&) = default;
+};
+
 // One checked expectation: what the step required and what was seen.
 struct Check {
   // The step, numbered from 1 as the vector file lists them (the same number as in the
@@ -58,6 +75,7 @@ struct Check {
   // Bus time at which the check was decided: the frame judged, or the deadline that passed
   // (the timing diagram and the transcript mark it for a failed check). Absent: not recorded.
   std::optional<can::TimePoint> at = std::nullopt;
+  Observation observed;  // failed checks: what the DUT did, typed
 };
 
 // A timing the vector measured (measure, expect_periodic, within-bounds of interest).

@@ -140,7 +140,7 @@ StepStatus VectorRun::write_controlword(std::uint16_t value, std::string action)
   const auto outcome = sdo_download({0x6040, 0}, bytes);
   const auto expected = fmt::format("controlword 6040h := {:04X}h ({}) accepted", value,
                                     cia402::describe_controlword(value));
-  if (!outcome.ok) return fail(std::move(action), expected, outcome.describe());
+  if (!outcome.ok) return fail(std::move(action), expected, outcome.describe(), outcome.observed());
   check(std::move(action), expected, "ok", true);
   return StepStatus::ok;
 }
@@ -193,12 +193,9 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     const auto what = fmt::format("write {:04X}h sub {} := {:02X}", write->index, write->sub,
                                   fmt::join(data, " "));
     if (write->expect.kind == SdoExpect::Kind::abort) {
-      const auto expected = fmt::format("{}: abort with one of {{{:08X}h}}", what,
-                                        fmt::join(write->expect.aborts, "h, "));
-      const bool ok =
-          outcome.abort && std::find(write->expect.aborts.begin(), write->expect.aborts.end(),
-                                     *outcome.abort) != write->expect.aborts.end();
-      if (!ok) return fail(name, expected, outcome.describe());
+      const auto expected = fmt::format("{}: {}", what, write->expect.abort.describe());
+      const bool ok = outcome.abort && write->expect.abort.accepts(*outcome.abort);
+      if (!ok) return fail(name, expected, outcome.describe(), outcome.observed());
       check(name, expected, outcome.describe(), true);
       return StepStatus::ok;
     }
@@ -209,7 +206,7 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
       return StepStatus::ok;
     }
     const auto expected = fmt::format("{}: ok", what);
-    if (!outcome.ok) return fail(name, expected, outcome.describe());
+    if (!outcome.ok) return fail(name, expected, outcome.describe(), outcome.observed());
     check(name, expected, "ok", true);
     return StepStatus::ok;
   }
@@ -218,11 +215,16 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     const auto what = fmt::format("read {:04X}h sub {}", read->index, read->sub);
     const auto& expect = read->expect;
     if (expect.kind == SdoExpect::Kind::abort) {
-      const auto expected =
-          fmt::format("{}: abort with one of {{{:08X}h}}", what, fmt::join(expect.aborts, "h, "));
-      const bool ok = outcome.abort && std::find(expect.aborts.begin(), expect.aborts.end(),
-                                                 *outcome.abort) != expect.aborts.end();
-      if (!ok) return fail(name, expected, outcome.describe());
+      const auto expected = fmt::format("{}: {}", what, expect.abort.describe());
+      const bool ok = outcome.abort && expect.abort.accepts(*outcome.abort);
+      if (!ok) {
+        auto observed = outcome.observed();
+        if (outcome.ok && !outcome.data.empty() && outcome.data.size() <= 8)
+          observed.value = read->is_signed
+                               ? cia301::load_signed(outcome.data)
+                               : static_cast<std::int64_t>(cia301::load_unsigned(outcome.data));
+        return fail(name, expected, outcome.describe(), observed);
+      }
       check(name, expected, outcome.describe(), true);
       return StepStatus::ok;
     }
@@ -232,7 +234,8 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
       check(name, expected, outcome.describe(), true);
       return StepStatus::ok;
     }
-    if (!outcome.ok) return fail(name, fmt::format("{}: ok", what), outcome.describe());
+    if (!outcome.ok)
+      return fail(name, fmt::format("{}: ok", what), outcome.describe(), outcome.observed());
     const auto& data = outcome.data;
     const std::uint64_t raw =
         cia301::load_unsigned(std::span(data.data(), std::min<std::size_t>(data.size(), 8)));
@@ -293,7 +296,11 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
       case SdoExpect::Kind::ok_or_abort:
         break;
     }
-    if (!ok) return fail(name, expected, actual);
+    if (!ok) {
+      Observation observed;
+      if (!data.empty() && data.size() <= 8) observed.value = value;
+      return fail(name, expected, actual, observed);
+    }
     check(name, expected, actual, true);
     return StepStatus::ok;
   }

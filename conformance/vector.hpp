@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -69,6 +70,28 @@ struct NodeSpec {
 
 enum class Transfer : std::uint8_t { automatic, expedited, segmented, block };
 
+// The abort codes an expectation accepts (vectors/FORMAT.md "Accepted abort sets"): a named
+// set of protocol/cia301/sdo_abort_sets.inc (`abort: write-read-only`), or a literal list
+// (`abort: [0x06090030]`) that `clause:` justifies (the lint refuses a literal list without it).
+struct AbortExpect {
+  std::vector<std::uint32_t> codes;  // the set's codes or the literal list; empty: any code
+  std::string set;                   // the set's name; empty: a literal list
+  std::string citation;              // the set's citation (filled from the table)
+  std::string clause;                // `clause:` as written; empty if none
+  std::size_t line = 0;              // YAML line of `abort:`
+  bool any() const { return codes.empty(); }
+  bool accepts(std::uint32_t code) const;
+  // "abort in write-read-only {06010000h, 06010002h, 08000000h} (CTT 2.3, 4.3; CiA 301
+  // §7.2.4.3.17)", "abort in {06090030h} (CiA 301 §7.5.2.4)", "any abort (...)".
+  std::string describe() const;
+  // The named set (its codes and citation from the table); nullopt for an unknown name.
+  static std::optional<AbortExpect> named(std::string_view set_name);
+  // Equal in meaning (the YAML line is not compared).
+  friend bool operator==(const AbortExpect& a, const AbortExpect& b) {
+    return a.codes == b.codes && a.set == b.set && a.citation == b.citation && a.clause == b.clause;
+  }
+};
+
 // What an SDO step accepts as the answer.
 struct SdoExpect {
   // ok_or_abort: the DUT confirms or aborts, either passes (CiA 301 leaves it the choice: a
@@ -81,7 +104,7 @@ struct SdoExpect {
   std::int64_t high = 0;
   std::size_t size = 0;
   std::vector<std::uint8_t> data;
-  std::vector<std::uint32_t> aborts;  // accepted abort codes (a set, CTT style)
+  AbortExpect abort;  // Kind::abort
   friend bool operator==(const SdoExpect&, const SdoExpect&) = default;
 };
 
@@ -141,6 +164,15 @@ struct MarkStep {
 // ---- expectations ----
 struct ExpectFrameStep {
   FrameSpec pattern;
+  // `abort:` beside an SDO abort pattern (byte 0 80h, code bytes 4..7 `..`): the frame's code
+  // must be in the set. nullopt: the pattern alone decides (then a fixed abort code in it needs
+  // `clause:`).
+  std::optional<AbortExpect> abort;
+  std::string clause;  // `clause:` for a pattern with a literal abort code
+  // `or:` other patterns that also meet the expectation (a clause that allows a refusal or a
+  // recovery, e.g. an abort with any code or a block acknowledge asking for retransmission).
+  // `abort:` judges only a frame that matched `pattern`.
+  std::vector<FrameSpec> alternatives;
   DurationSpec within{{}, "response"};
   std::string mark;
   std::string since;

@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "conformance/device_values.hpp"
+#include "protocol/cia301/sdo_abort_sets.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
@@ -69,6 +70,31 @@ bool FrameSpec::matches(const can::Frame& frame, std::uint8_t node) const {
     if (bytes[i] && *bytes[i] != payload[i]) return false;
   }
   return true;
+}
+
+bool AbortExpect::accepts(std::uint32_t code) const {
+  return any() || std::find(codes.begin(), codes.end(), code) != codes.end();
+}
+
+std::string AbortExpect::describe() const {
+  const std::string why = !citation.empty() && !clause.empty()
+                              ? fmt::format("{}; {}", citation, clause)
+                              : (citation.empty() ? clause : citation);
+  const std::string codes_text =
+      any() ? std::string("{any abort code}") : fmt::format("{{{:08X}h}}", fmt::join(codes, "h, "));
+  const std::string name = set.empty() ? codes_text : fmt::format("{} {}", set, codes_text);
+  return why.empty() ? fmt::format("abort in {}", name)
+                     : fmt::format("abort in {} ({})", name, why);
+}
+
+std::optional<AbortExpect> AbortExpect::named(std::string_view set_name) {
+  const auto set = cia301::find_sdo_abort_set(set_name);
+  if (!set) return std::nullopt;
+  AbortExpect expect;
+  expect.codes.assign(set->codes().begin(), set->codes().end());
+  expect.set = std::string(set->name);
+  expect.citation = std::string(set->citation);
+  return expect;
 }
 
 // ---- value syntax ----
@@ -305,7 +331,7 @@ const std::vector<StepSyntax>& step_syntax() {
       {"controlword", {}},
       {"simulate", {}},
       {"mark", {}},
-      {"expect_frame", {"within", "mark", "since"}},
+      {"expect_frame", {"within", "mark", "since", "abort", "clause", "or"}},
       {"expect_silence", {"for", "since"}},
       {"expect_bootup", {"within", "mark", "since"}},
       {"expect_heartbeat", {"within", "mark", "since"}},
@@ -504,19 +530,40 @@ class Parser {
     return ValueSpec{*value, {}};
   }
 
-  std::vector<std::uint32_t> abort_codes(const YAML::Node& node, std::string_view what) {
-    std::vector<std::uint32_t> codes;
-    const auto one = [&](const YAML::Node& item) {
-      if (auto code = integer<std::uint32_t>(item, what, 1, 0xFFFFFFFF)) codes.push_back(*code);
-    };
-    if (node.IsSequence()) {
-      for (const auto& item : node)
-        one(item);
+  // `abort: <set-name>` (a row of sdo_abort_sets.inc) or `abort: [0x06090030, ...]` (a literal
+  // list, which `clause:` must justify: the lint checks that).
+  AbortExpect abort_expect(const YAML::Node& node, const YAML::Node* clause,
+                           std::string_view what) {
+    AbortExpect expect;
+    if (node.IsScalar()) {
+      const auto& text = node.Scalar();
+      if (!text.empty() && std::isdigit(static_cast<unsigned char>(text.front()))) {
+        error(node, fmt::format("{}: '{}': a literal code is written as a list ([{}]) with "
+                                "clause:, or name a set ({})",
+                                what, text, text, cia301::sdo_abort_set_names()));
+      } else if (auto named = AbortExpect::named(text)) {
+        expect = std::move(*named);
+      } else {
+        error(node, fmt::format("{}: unknown abort set '{}' (sets: {})", what, text,
+                                cia301::sdo_abort_set_names()));
+      }
+    } else if (node.IsSequence()) {
+      for (const auto& item : node) {
+        if (auto code = integer<std::uint32_t>(item, what, 1, 0xFFFFFFFF))
+          expect.codes.push_back(*code);
+      }
       if (node.size() == 0) error(node, fmt::format("{}: the list of abort codes is empty", what));
     } else {
-      one(node);
+      error(node, fmt::format("{}: expected a set name or a list of codes", what));
     }
-    return codes;
+    expect.line = line_of(node);
+    if (clause != nullptr && *clause) {
+      if (auto text = scalar(*clause, "clause")) {
+        if (text->empty()) error(*clause, "clause: empty");
+        expect.clause = *text;
+      }
+    }
+    return expect;
   }
 
   Transfer transfer(const YAML::Node& node) {
@@ -571,14 +618,18 @@ class Parser {
       return expect;
     }
     const std::vector<std::string_view> keys =
-        read ? std::vector<std::string_view>{"value", "mask", "range", "size", "data", "abort"}
-             : std::vector<std::string_view>{"abort"};
+        read ? std::vector<std::string_view>{"value", "mask",  "range", "size",
+                                             "data",  "abort", "clause"}
+             : std::vector<std::string_view>{"abort", "clause"};
     if (!check_map(node, "expect", keys)) return expect;
     std::size_t kinds = 0;
     if (node["abort"]) {
       ++kinds;
       expect.kind = SdoExpect::Kind::abort;
-      expect.aborts = abort_codes(node["abort"], "abort");
+      const YAML::Node clause = node["clause"];
+      expect.abort = abort_expect(node["abort"], &clause, "abort");
+    } else if (node["clause"]) {
+      error(node["clause"], "expect: 'clause' goes with 'abort'");
     }
     if (node["value"]) {
       ++kinds;
@@ -799,6 +850,41 @@ class Parser {
         return std::nullopt;
       }
       step.pattern = std::move(*pattern);
+      if (const auto node = modifier("abort")) {
+        step.abort = abort_expect(node, nullptr, "expect_frame abort");
+        const auto& bytes = step.pattern.bytes;
+        const bool abort_pattern = !step.pattern.remote && bytes.size() == 8 && bytes[0] &&
+                                   *bytes[0] == 0x80 &&
+                                   std::all_of(bytes.begin() + 4, bytes.end(),
+                                               [](const auto& b) { return !b.has_value(); });
+        if (!abort_pattern)
+          error(value, fmt::format("expect_frame: with abort: the pattern must be an SDO abort "
+                                   "with its code as don't-care (80......{}), not '{}'",
+                                   "........", step.pattern.text));
+      }
+      if (const auto node = modifier("or")) {
+        if (!node.IsSequence() || node.size() == 0) {
+          error(node, "expect_frame or: expected a list of frame patterns");
+        } else {
+          for (const auto& item : node) {
+            auto alt_text = scalar(item, "expect_frame or");
+            if (!alt_text) continue;
+            auto alt = parse_frame_spec(*alt_text, true);
+            if (!alt) {
+              error(item, fmt::format("expect_frame or: {}", alt.error()));
+              continue;
+            }
+            step.alternatives.push_back(std::move(*alt));
+          }
+        }
+      }
+      if (const auto node = modifier("clause")) {
+        if (auto clause_text = scalar(node, "clause")) {
+          if (clause_text->empty()) error(node, "clause: empty");
+          step.clause = *clause_text;
+          if (step.abort) step.abort->clause = *clause_text;
+        }
+      }
       if (const auto node = modifier("within"))
         step.within = duration(node, "within").value_or(step.within);
       if (const auto node = modifier("since")) step.since = mark_reference(node, "since");

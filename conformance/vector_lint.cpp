@@ -44,7 +44,7 @@ struct Touch {
 
 bool expects_absence(const SdoExpect& expect) {
   if (expect.kind != SdoExpect::Kind::abort) return false;
-  return std::any_of(expect.aborts.begin(), expect.aborts.end(),
+  return std::any_of(expect.abort.codes.begin(), expect.abort.codes.end(),
                      [](std::uint32_t code) { return code == 0x06020000 || code == 0x06090011; });
 }
 
@@ -121,6 +121,12 @@ bool condition_met(std::string_view condition, const Vector& vector) {
   return false;
 }
 
+bool is_sdo_response_cob(const CobIdSpec& cob) {
+  if (cob.extended) return false;
+  if (cob.plus_node) return cob.base == 0x580;
+  return cob.base > 0x580 && cob.base <= 0x5FF;
+}
+
 }  // namespace
 
 std::vector<TextError> check_object_needs(const Vector& vector) {
@@ -164,6 +170,44 @@ std::vector<TextError> check_object_needs(const Vector& vector) {
                      touch.how, touch.index, touch.sub, row->name, what, fix)});
   }
   return errors;
+}
+
+std::string check_abort_expectation(const Step& step) {
+  const auto literal = [](const AbortExpect& abort) {
+    return abort.set.empty() && abort.clause.empty();
+  };
+  if (const auto* write = std::get_if<SdoWriteStep>(&step.action)) {
+    if (write->expect.kind == SdoExpect::Kind::abort && literal(write->expect.abort))
+      return "sdo_write expect: a literal list of abort codes needs clause: (the clause that "
+             "gives exactly these codes); or name a set of sdo_abort_sets.inc";
+  }
+  if (const auto* read = std::get_if<SdoReadStep>(&step.action)) {
+    if (read->expect.kind == SdoExpect::Kind::abort && literal(read->expect.abort))
+      return "sdo_read expect: a literal list of abort codes needs clause: (the clause that "
+             "gives exactly these codes); or name a set of sdo_abort_sets.inc";
+  }
+  if (const auto* frame = std::get_if<ExpectFrameStep>(&step.action)) {
+    const auto fixed_code = [](const FrameSpec& pattern) {
+      const auto& bytes = pattern.bytes;
+      const bool abort_frame = is_sdo_response_cob(pattern.cob) && !pattern.remote &&
+                               bytes.size() == 8 && bytes[0] && *bytes[0] == 0x80;
+      return abort_frame && std::any_of(bytes.begin() + 4, bytes.end(),
+                                        [](const auto& b) { return b.has_value(); });
+    };
+    if (!frame->abort && frame->clause.empty() && fixed_code(frame->pattern))
+      return fmt::format(
+          "expect_frame '{}' is an SDO abort with a fixed code: give abort: <set> (with the "
+          "code bytes as ..) or clause: naming the clause that gives exactly this code",
+          frame->pattern.text);
+    for (const auto& alternative : frame->alternatives) {
+      if (frame->clause.empty() && fixed_code(alternative))
+        return fmt::format(
+            "expect_frame or: '{}' is an SDO abort with a fixed code: make it "
+            "the main pattern with abort: <set>, or give clause:",
+            alternative.text);
+    }
+  }
+  return {};
 }
 
 Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
@@ -301,6 +345,13 @@ LintReport lint_vector_tree(const LintOptions& options) {
       if (auto message = check_citation(source, manuals); !message.empty() && loaded)
         report.errors.push_back({vector.file, static_cast<int>(source.line), message});
     }
+    // Accepted abort codes: a named set, or a literal list with the clause that gives exactly
+    // those codes; a raw SDO abort frame with a fixed code likewise.
+    for (const auto& step : vector.steps) {
+      if (auto message = check_abort_expectation(step); !message.empty())
+        report.errors.push_back({vector.file, static_cast<int>(step.line),
+                                 fmt::format("vector {}: {}", vector.id, message)});
+    }
     // A bus_off step as long as the whole vector leaves no time to see the drive's reaction.
     for (const auto& step : vector.steps) {
       const auto* bus_off = std::get_if<BusOffStep>(&step.action);
@@ -338,15 +389,23 @@ LintReport lint_vector_tree(const LintOptions& options) {
                 {where, 0, fmt::format("deviation {}: {}", deviation.id, message)});
           }
         }
-        for (const auto& glob : deviation.vectors) {
-          const bool used =
-              std::any_of(set.vectors.begin(), set.vectors.end(),
-                          [&](const Vector& v) { return profile::glob_match(glob, v.id); }) ||
-              matches_od_check(glob, drive->objects);
-          if (!used)
-            report.warnings.push_back(
-                {where, 0,
-                 fmt::format("deviation {}: glob '{}' matches no vector", deviation.id, glob)});
+        if (deviation.vectors.empty())
+          report.warnings.push_back(
+              {where, deviation.line,
+               fmt::format("deviation {}: covers no vector (documentation only: no failure "
+                           "is ever judged a deviation by it)",
+                           deviation.id)});
+        // Exact ids (the loader refuses globs): each must be a vector of the tree or a
+        // generated object check of the profile's objects.
+        for (const auto& entry : deviation.vectors) {
+          const bool known = std::any_of(set.vectors.begin(), set.vectors.end(),
+                                         [&](const Vector& v) { return v.id == entry.id; }) ||
+                             matches_od_check(entry.id, drive->objects);
+          if (!known)
+            report.errors.push_back(
+                {where, deviation.line,
+                 fmt::format("deviation {}: no vector '{}' (a deviation names exact vector ids)",
+                             deviation.id, entry.id)});
         }
       }
       // Commissioning: sources cite listed manuals, globs match vectors, and a write to an

@@ -5,9 +5,11 @@
 //  - every manual a source cites is listed in <dir>/manuals.yaml and the line range lies within
 //    the manual's line count; when the manuals directory is available, each listed manual
 //    exists there and its sha256 is the one in manuals.yaml (the citations point at that text);
-//  - every drive profile in <dir>/drives/ loads (protocol/profile), its deviation sources cite
-//    listed manuals within range, and each deviation glob matches at least one vector
-//    (a warning: a glob that matches nothing explains nothing);
+//  - abort expectations name a set of protocol/cia301/sdo_abort_sets.inc, or give `clause:`
+//    beside a literal list; raw SDO abort frames with a fixed code likewise;
+//  - every drive profile in <dir>/drives/ loads (protocol/profile: deviations name exact ids
+//    and their observation), its deviation sources cite listed manuals within range, and each
+//    deviation's vector id is a vector of the tree or a generated object check (an error);
 //  - a profile's commissioning writes cite listed manuals within range, write no object its
 //    `objects:` list read-only, and its globs match vectors (a warning otherwise);
 //  - every `profiles:` name of a vector is a profile in <dir>/drives/;
@@ -69,6 +71,10 @@ LintReport lint_vector_tree(const LintOptions& options);
 
 // The object-need findings of one vector (see above): file:line errors, empty when fine.
 std::vector<TextError> check_object_needs(const Vector& vector);
+// "" when the step's abort expectation is fine; else why not: an sdo_read/sdo_write `abort:`
+// literal list without `clause:`, or an expect_frame SDO abort (580h+N, byte 0 80h) with a
+// fixed code and neither `abort:` nor `clause:`.
+std::string check_abort_expectation(const Step& step);
 
 // Checks a source citation against the manual list ("" when fine).
 std::string check_citation(const Source& source, const std::vector<ManualEntry>& manuals);

@@ -59,7 +59,9 @@ struct SdoOutcome {
   // The vector's time limit ended the transfer (before its request or its answer): no
   // verdict on the server, which may not have had its SDO timeout yet.
   bool vector_timed_out = false;
-  std::string describe() const;  // "ok", "abort 06010002h (...)", "no answer ..."
+  std::string describe() const;        // "ok", "abort 06010002h (...)", "no answer ..."
+  // A failed transfer as an observation: its abort code, or nothing (no answer).
+  Observation observed() const;
 };
 
 class VectorRun {
@@ -88,12 +90,15 @@ class VectorRun {
   // The last frames from other nodes, for Actual: texts ("585#..., 701#05").
   std::string recent_frames(std::size_t from_index, std::size_t max = 4) const;
   // Fails with `expected`/`actual` (sets the failure message).
-  StepStatus fail(std::string action, std::string expected, std::string actual);
+  // `observed`: what the DUT did, typed (result.hpp), for a deviation's `observed:`.
+  StepStatus fail(std::string action, std::string expected, std::string actual,
+                  Observation observed = {});
   StepStatus harness_error(std::string action, std::string message);
   // A timing check failed: when the harness was late in this vector (harness_late() says
   // why), the check is not charged to the device: `error: harness late` (a harness error);
   // otherwise fail(). FORMAT.md "Timing".
-  StepStatus fail_timed(std::string action, std::string expected, std::string actual);
+  StepStatus fail_timed(std::string action, std::string expected, std::string actual,
+                        Observation observed = {});
   // Why the harness was late in this vector so far ("" = it never was): a `send:` frame or a
   // poll that went out later than the step asked by more than $timing.harness_slack, or a
   // wait that ended that much late.

@@ -232,6 +232,18 @@ class Writer {
       plain(*keyword);
     }
   }
+  // `abort:` as written: the set's name, or the literal list.
+  void abort(const AbortExpect& abort) {
+    key("abort");
+    if (!abort.set.empty()) {
+      plain(abort.set);
+      return;
+    }
+    out_ << YAML::Flow << YAML::BeginSeq;
+    for (const std::uint32_t code : abort.codes)
+      plain(fmt::format("0x{:08X}", code));
+    out_ << YAML::EndSeq;
+  }
   void expect(const SdoExpect& expect) {
     key("expect");
     if (expect.kind == SdoExpect::Kind::ok) {
@@ -269,11 +281,11 @@ class Writer {
         quoted(hex_bytes(expect.data));
         break;
       case SdoExpect::Kind::abort:
-        key("abort");
-        out_ << YAML::Flow << YAML::BeginSeq;
-        for (const std::uint32_t code : expect.aborts)
-          plain(fmt::format("0x{:08X}", code));
-        out_ << YAML::EndSeq;
+        abort(expect.abort);
+        if (!expect.abort.clause.empty()) {
+          key("clause");
+          quoted(expect.abort.clause);
+        }
         break;
     }
     out_ << YAML::EndMap;
@@ -354,6 +366,18 @@ class Writer {
   void action(const ExpectFrameStep& s) {
     key("expect_frame");
     quoted(s.pattern.text);
+    if (s.abort) abort(*s.abort);
+    if (!s.alternatives.empty()) {
+      key("or");
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (const FrameSpec& alternative : s.alternatives)
+        quoted(alternative.text);
+      out_ << YAML::EndSeq;
+    }
+    if (!s.clause.empty()) {
+      key("clause");
+      quoted(s.clause);
+    }
     duration_key("within", s.within);
     name_key("mark", s.mark);
     name_key("since", s.since);

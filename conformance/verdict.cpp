@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <string>
+#include <vector>
 
 namespace drivecheck::conformance {
 
@@ -64,6 +66,44 @@ std::string not_applicable_reason(const Vector& vector, const profile::DriveProf
   return {};
 }
 
+bool observation_matches(const profile::DeviationObservation& documented, const Check& check) {
+  using Kind = profile::DeviationObservation::Kind;
+  const Observation& seen = check.observed;
+  switch (documented.kind) {
+    case Kind::abort:
+      return seen.abort == documented.abort;
+    case Kind::value:
+      return seen.value == documented.value;
+    case Kind::nothing:
+      return seen.nothing;
+    case Kind::accepted:
+      return seen.accepted;
+    case Kind::state: {
+      const auto& pattern = cia402::pattern_of(documented.state);
+      return seen.statusword && (*seen.statusword & pattern.mask) == pattern.value;
+    }
+    case Kind::statusword:
+      return seen.statusword && (*seen.statusword & documented.mask) == documented.statusword;
+    case Kind::text:
+      return check.actual.find(documented.text) != std::string::npos;
+  }
+  return false;
+}
+
+std::string describe(const Check& check) {
+  const Observation& seen = check.observed;
+  std::vector<std::string> parts;
+  if (seen.abort) parts.push_back(fmt::format("abort {:08X}h", *seen.abort));
+  if (seen.value) parts.push_back(fmt::format("value {}", *seen.value));
+  if (seen.statusword)
+    parts.push_back(fmt::format("statusword {:04X}h ({})", *seen.statusword,
+                                cia402::describe_statusword(*seen.statusword)));
+  if (seen.nothing) parts.push_back("nothing in time");
+  if (seen.accepted) parts.push_back("the transfer accepted");
+  if (parts.empty()) return fmt::format("\"{}\"", check.actual);
+  return fmt::format("{}", fmt::join(parts, ", "));
+}
+
 void decide_verdict(VectorResult& result, const Vector& vector,
                     const profile::DriveProfile& profile, Outcome outcome,
                     const std::string& message, bool strict) {
@@ -82,15 +122,35 @@ void decide_verdict(VectorResult& result, const Vector& vector,
     case Outcome::fail:
       break;
   }
-  if (const auto* deviation = profile.deviation_for(vector.id)) {
-    result.verdict = Verdict::deviation;
-    result.deviation_id = deviation->id;
-    result.deviation_source = fmt::format("{}", fmt::join(deviation->sources, "; "));
-    result.message = fmt::format("{}\n{}", deviation->description, message);
-    return;
+  // A documented deviation covers the failure only when it lists the vector and the failing
+  // check shows the observation its manual documents; anything else stays a failure.
+  const auto failing = std::find_if(result.checks.begin(), result.checks.end(),
+                                    [](const Check& c) { return !c.ok; });
+  std::string near;
+  for (const auto* deviation : profile.deviations_for(vector.id)) {
+    const auto& documented = deviation->observed_for(*deviation->find(vector.id));
+    const bool matches =
+        failing != result.checks.end() &&
+        std::any_of(documented.begin(), documented.end(), [&](const auto& observation) {
+          return observation_matches(observation, *failing);
+        });
+    if (matches) {
+      result.verdict = Verdict::deviation;
+      result.deviation_id = deviation->id;
+      result.deviation_source = fmt::format("{}", fmt::join(deviation->sources, "; "));
+      result.message = fmt::format("{}\n{}", deviation->description, message);
+      return;
+    }
+    std::vector<std::string> texts;
+    for (const auto& observation : documented)
+      texts.push_back(observation.describe());
+    near += fmt::format(
+        "\nnot the documented deviation {} ({}): it documents {}, the DUT showed {}", deviation->id,
+        fmt::join(deviation->sources, "; "), fmt::join(texts, " or "),
+        failing == result.checks.end() ? std::string("no failing check") : describe(*failing));
   }
   result.verdict = Verdict::fail;
-  result.message = message;
+  result.message = message + near;
   result.warning = vector.level != Level::must && !strict;
 }
 

@@ -36,11 +36,21 @@ std::vector<profile::ObjectNeed> object_needs(const Vector& vector);
 // What running the steps gave.
 enum class Outcome : std::uint8_t { pass, fail, harness_error };
 
+// Whether the failing check shows the observation a deviation documents (abort code, value,
+// nothing, accepted, state or statusword from Check::observed; text from its Actual).
+bool observation_matches(const profile::DeviationObservation& documented, const Check& check);
+// The failing check's observation in words: "abort 06090030h", "value -1000", "nothing in
+// time", or its Actual quoted when it has no typed observation.
+std::string describe(const Check& check);
+
 // Sets verdict, message, deviation and warning of `result` from the outcome:
 //   pass → pass; harness_error → error (message as given);
-//   fail → deviation when a profile deviation's glob matches the id (message: its description,
-//          deviation_id/source set; the failure's Expected/Actual kept after it), else fail;
-//          a should/may fail (not a deviation) is a warning unless `strict`.
+//   fail → deviation when a profile deviation lists the vector id and the first failing check
+//          of result.checks shows the observation it documents (message: its description,
+//          deviation_id/source set; the failure's Expected/Actual kept after it); else fail,
+//          and each deviation that listed the id but documents another observation is named in
+//          the message with what it documents and what the DUT showed; a should/may fail (not
+//          a deviation) is a warning unless `strict`.
 void decide_verdict(VectorResult& result, const Vector& vector,
                     const profile::DriveProfile& profile, Outcome outcome,
                     const std::string& message, bool strict);

@@ -92,7 +92,6 @@ constexpr std::uint32_t kAbortLengthMismatch = 0x06070010;
 constexpr std::uint32_t kAbortLengthHigh = 0x06070012;
 constexpr std::uint32_t kAbortLengthLow = 0x06070013;
 constexpr std::uint32_t kAbortNoSubIndex = 0x06090011;
-constexpr std::uint32_t kAbortGeneral = 0x08000000;
 
 // Heartbeat / NMT state bytes.
 constexpr std::uint8_t kStateStopped = 0x04;
@@ -309,7 +308,7 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       if (code == kAbortWriteReadOnly && d.has(Deviation::sdo_read_only_wrong_abort)) {
         store_u32(out, 4, kAbortNoObject);
       } else if (code == kAbortNoObject && d.has(Deviation::sdo_no_object_wrong_abort)) {
-        store_u32(out, 4, kAbortGeneral);
+        store_u32(out, 4, kAbortNoSubIndex);
       }
       if (d.has(Deviation::sdo_abort_wrong_multiplexer)) {
         out.data[1] = 0;

@@ -347,27 +347,119 @@ PdoDefault read_pdo_default(const Reader& r, const YAML::Node& node) {
   return p;
 }
 
+DeviationObservation read_observation(const Reader& r, const YAML::Node& node) {
+  const MapView map(
+      r, node, "observed",
+      {"abort", "value", "missing", "no_answer", "accepted", "state", "statusword", "text"});
+  if (map.node().size() != 1)
+    r.fail(node,
+           "observed: give exactly one of abort, value, missing, no_answer, accepted, "
+           "state, statusword, text");
+  DeviationObservation o;
+  const std::string key = map.node().begin()->first.Scalar();
+  const YAML::Node v = map.require(key, "observed");
+  if (key == "abort") {
+    o.kind = DeviationObservation::Kind::abort;
+    o.abort = static_cast<std::uint32_t>(integer(r, v, "observed.abort", 1, 0xFFFFFFFF));
+  } else if (key == "value") {
+    o.kind = DeviationObservation::Kind::value;
+    o.value = integer(r, v, "observed.value", std::numeric_limits<std::int64_t>::min(),
+                      std::numeric_limits<std::int64_t>::max());
+  } else if (key == "missing") {
+    if (scalar(r, v, "observed.missing") != "frame")
+      r.fail(v, "observed.missing: the only value is 'frame'");
+    o.kind = DeviationObservation::Kind::nothing;
+  } else if (key == "no_answer") {
+    if (!boolean(r, v, "observed.no_answer")) r.fail(v, "observed.no_answer: only 'true'");
+    o.kind = DeviationObservation::Kind::nothing;
+  } else if (key == "accepted") {
+    if (!boolean(r, v, "observed.accepted")) r.fail(v, "observed.accepted: only 'true'");
+    o.kind = DeviationObservation::Kind::accepted;
+  } else if (key == "state") {
+    const std::string name = scalar(r, v, "observed.state");
+    bool found = false;
+    std::string known;
+    for (const auto& pattern : cia402::kStatePatterns) {
+      std::string kebab(pattern.name);
+      std::replace(kebab.begin(), kebab.end(), ' ', '-');
+      known += (known.empty() ? "" : ", ") + kebab;
+      if (kebab == name) {
+        o.state = pattern.state;
+        found = true;
+      }
+    }
+    if (!found) r.fail(v, fmt::format("observed.state: '{}' is not a state ({})", name, known));
+    o.kind = DeviationObservation::Kind::state;
+  } else if (key == "statusword") {
+    const MapView sw(r, v, "observed.statusword", {"mask", "value"});
+    o.kind = DeviationObservation::Kind::statusword;
+    o.mask = static_cast<std::uint16_t>(integer(r, sw.require("mask", "observed.statusword"),
+                                                "observed.statusword.mask", 1, 0xFFFF));
+    o.statusword = static_cast<std::uint16_t>(integer(r, sw.require("value", "observed.statusword"),
+                                                      "observed.statusword.value", 0, 0xFFFF));
+    if ((o.statusword & ~o.mask) != 0)
+      r.fail(v, "observed.statusword: value has bits outside the mask");
+  } else {
+    o.kind = DeviationObservation::Kind::text;
+    o.text = nonempty_scalar(r, v, "observed.text");
+  }
+  return o;
+}
+
+std::vector<DeviationObservation> read_observations(const Reader& r, const YAML::Node& node) {
+  std::vector<DeviationObservation> out;
+  if (node.IsSequence()) {
+    for (const auto& item : node)
+      out.push_back(read_observation(r, item));
+    if (out.empty()) r.fail(node, "observed: the list is empty");
+  } else {
+    out.push_back(read_observation(r, node));
+  }
+  return out;
+}
+
 Deviation read_deviation(const Reader& r, const YAML::Node& node) {
   const MapView map(r, node, "deviations entry",
-                    {"id", "vectors", "source", "description", "contradiction"});
+                    {"id", "vectors", "observed", "source", "description", "contradiction"});
   Deviation d;
+  d.line = Reader::line_of(node);
   const YAML::Node id_node = map.require("id", "deviations entry");
   d.id = scalar(r, id_node, "deviations.id");
   if (!is_lower_name(d.id, true)) {
     r.fail(id_node, fmt::format("deviations.id: '{}' must be [a-z0-9._-]+", d.id));
   }
+  if (auto v = map.get("observed")) d.observed = read_observations(r, *v);
   const YAML::Node vectors = map.require("vectors", "deviations entry");
   require_sequence(r, vectors, "deviations.vectors");
   for (const auto& item : vectors) {
-    std::string glob = scalar(r, item, "deviations.vectors");
-    if (!is_valid_glob(glob)) {
-      r.fail(item, fmt::format("deviations.vectors: '{}' is not a glob of vector ids "
-                               "([a-z0-9/._-], * and ?)",
-                               glob));
+    DeviationVector entry;
+    YAML::Node id = item;
+    if (item.IsMap()) {
+      const MapView vector_map(r, item, "deviations.vectors entry", {"id", "observed"});
+      id = vector_map.require("id", "deviations.vectors entry");
+      if (auto v = vector_map.get("observed")) entry.observed = read_observations(r, *v);
     }
-    d.vectors.push_back(std::move(glob));
+    entry.id = scalar(r, id, "deviations.vectors");
+    if (entry.id.find_first_of("*?") != std::string::npos) {
+      r.fail(id, fmt::format("deviations.vectors: '{}' is a glob; a deviation names the exact "
+                             "vector ids its manual documents",
+                             entry.id));
+    }
+    if (!is_valid_glob(entry.id) || entry.id.empty()) {
+      r.fail(id,
+             fmt::format("deviations.vectors: '{}' is not a vector id ([a-z0-9/._-])", entry.id));
+    }
+    for (const auto& seen : d.vectors) {
+      if (seen.id == entry.id)
+        r.fail(id, fmt::format("deviations.vectors: '{}' is listed twice", entry.id));
+    }
+    if (entry.observed.empty() && d.observed.empty()) {
+      r.fail(id, fmt::format("deviation {}: vector '{}' has no observed: (give the deviation's "
+                             "or the vector's, the observation the manual documents)",
+                             d.id, entry.id));
+    }
+    d.vectors.push_back(std::move(entry));
   }
-  if (d.vectors.empty()) r.fail(vectors, "deviations.vectors must name at least one vector glob");
   d.sources = sources(r, map.require("source", "deviations entry"), "deviations.source");
   d.description =
       nonempty_scalar(r, map.require("description", "deviations entry"), "deviations.description");
@@ -1123,6 +1215,50 @@ std::string hex(std::uint64_t value, int digits) {
   return fmt::format("0x{:0{}X}", value, digits);
 }
 
+void emit_observation(YAML::Emitter& out, const DeviationObservation& o) {
+  out << YAML::Flow << YAML::BeginMap;
+  switch (o.kind) {
+    case DeviationObservation::Kind::abort:
+      out << YAML::Key << "abort" << YAML::Value << hex(o.abort, 8);
+      break;
+    case DeviationObservation::Kind::value:
+      out << YAML::Key << "value" << YAML::Value << o.value;
+      break;
+    case DeviationObservation::Kind::nothing:
+      out << YAML::Key << "no_answer" << YAML::Value << "true";
+      break;
+    case DeviationObservation::Kind::accepted:
+      out << YAML::Key << "accepted" << YAML::Value << "true";
+      break;
+    case DeviationObservation::Kind::state: {
+      std::string kebab(cia402::to_string(o.state));
+      std::replace(kebab.begin(), kebab.end(), ' ', '-');
+      out << YAML::Key << "state" << YAML::Value << kebab;
+      break;
+    }
+    case DeviationObservation::Kind::statusword:
+      out << YAML::Key << "statusword" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+          << "mask" << YAML::Value << hex(o.mask, 4) << YAML::Key << "value" << YAML::Value
+          << hex(o.statusword, 4) << YAML::EndMap;
+      break;
+    case DeviationObservation::Kind::text:
+      out << YAML::Key << "text" << YAML::Value << YAML::DoubleQuoted << o.text;
+      break;
+  }
+  out << YAML::EndMap;
+}
+
+void emit_observations(YAML::Emitter& out, const std::vector<DeviationObservation>& list) {
+  if (list.size() == 1) {
+    emit_observation(out, list.front());
+    return;
+  }
+  out << YAML::Flow << YAML::BeginSeq;
+  for (const auto& o : list)
+    emit_observation(out, o);
+  out << YAML::EndSeq;
+}
+
 void emit_int_list(YAML::Emitter& out, const std::vector<int>& values) {
   out << YAML::Flow << YAML::BeginSeq;
   for (int v : values)
@@ -1370,9 +1506,35 @@ Expected<CobIdSpec, std::string> parse_cob_id_spec(std::string_view text) {
   return spec;
 }
 
-bool Deviation::matches(std::string_view vector_id) const {
-  return std::any_of(vectors.begin(), vectors.end(),
-                     [&](const std::string& glob) { return glob_match(glob, vector_id); });
+const DeviationVector* Deviation::find(std::string_view vector_id) const {
+  for (const auto& v : vectors)
+    if (v.id == vector_id) return &v;
+  return nullptr;
+}
+
+const std::vector<DeviationObservation>& Deviation::observed_for(
+    const DeviationVector& vector) const {
+  return vector.observed.empty() ? observed : vector.observed;
+}
+
+std::string DeviationObservation::describe() const {
+  switch (kind) {
+    case Kind::abort:
+      return fmt::format("abort {:08X}h", abort);
+    case Kind::value:
+      return fmt::format("value {}", value);
+    case Kind::nothing:
+      return "nothing (no frame or answer in time)";
+    case Kind::accepted:
+      return "the transfer accepted";
+    case Kind::state:
+      return fmt::format("state {}", cia402::to_string(state));
+    case Kind::statusword:
+      return fmt::format("statusword & {:04X}h == {:04X}h", mask, statusword);
+    case Kind::text:
+      return fmt::format("Actual containing \"{}\"", text);
+  }
+  return {};
 }
 
 std::optional<can::Duration> DriveProfile::timing_value(std::string_view key) const {
@@ -1388,10 +1550,11 @@ bool Commissioning::applies_to(std::string_view vector_id) const {
          std::none_of(except.begin(), except.end(), match);
 }
 
-const Deviation* DriveProfile::deviation_for(std::string_view vector_id) const {
+std::vector<const Deviation*> DriveProfile::deviations_for(std::string_view vector_id) const {
+  std::vector<const Deviation*> found;
   for (const auto& d : deviations)
-    if (d.matches(vector_id)) return &d;
-  return nullptr;
+    if (d.find(vector_id) != nullptr) found.push_back(&d);
+  return found;
 }
 
 Personality DriveProfile::effective_personality() const {
@@ -1668,10 +1831,23 @@ std::string to_yaml(const DriveProfile& p) {
   for (const auto& d : p.deviations) {
     out << YAML::BeginMap;
     out << YAML::Key << "id" << YAML::Value << YAML::DoubleQuoted << d.id;
-    out << YAML::Key << "vectors" << YAML::Value << YAML::Flow << YAML::BeginSeq;
-    for (const auto& g : d.vectors)
-      out << YAML::DoubleQuoted << g;
+    out << YAML::Key << "vectors" << YAML::Value << YAML::BeginSeq;
+    for (const auto& v : d.vectors) {
+      if (v.observed.empty()) {
+        out << YAML::DoubleQuoted << v.id;
+        continue;
+      }
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "id" << YAML::Value << YAML::DoubleQuoted
+          << v.id;
+      out << YAML::Key << "observed" << YAML::Value;
+      emit_observations(out, v.observed);
+      out << YAML::EndMap;
+    }
     out << YAML::EndSeq;
+    if (!d.observed.empty()) {
+      out << YAML::Key << "observed" << YAML::Value;
+      emit_observations(out, d.observed);
+    }
     emit_sources(out, d.sources);
     out << YAML::Key << "description" << YAML::Value << YAML::DoubleQuoted << d.description;
     if (!d.contradiction.empty()) {

@@ -35,8 +35,12 @@
 // pdo_defaults[i]: {pdo (rpdo1..rpdo512, tpdo1..tpdo512), cob_id ("180+N", "0x180+N", "201",
 //   or an integer), transmission (0..255), inhibit_time (100 us units), event_timer (ms),
 //   mapping: [0x60410010, ...] (index << 16 | sub << 8 | bits), source}; pdo unique.
-// deviations[i]: {id ([a-z0-9._-]+), vectors: [globs], source (text or list), description,
-//   contradiction}; id, vectors, source and description required.
+// deviations[i]: {id ([a-z0-9._-]+), vectors: [exact vector ids, or {id, observed}],
+//   observed (a map or a list of maps, DeviationObservation below), source (text or list),
+//   description, contradiction}; id, vectors, source and description required, and every
+//   vector needs an observation (its own or the deviation's). A `*` or `?` in a vector id is
+//   an error: a deviation names the vectors it covers. `vectors: []` documents the manual's
+//   deviation without covering any verdict (the lint warns).
 // commissioning: {vectors: [globs] (required, at least one), except: [globs], writes: [{index
 //   (1..FFFFh), sub (default 0), value (integer, must fit `size`), size (bytes 1..4, required),
 //   source (text or list, required), why (text, required)}] (required, at least one)};
@@ -63,6 +67,7 @@
 
 #include "protocol/can/bus.hpp"
 #include "protocol/cia301/data_type.hpp"
+#include "protocol/cia402/state_machine.hpp"
 #include "protocol/common/expected.hpp"
 #include "protocol/profile/personality.hpp"
 #include "protocol/profile/vocabulary.hpp"
@@ -117,14 +122,55 @@ struct PdoDefault {
   friend bool operator==(const PdoDefault&, const PdoDefault&) = default;
 };
 
+// The deviant observation a manual documents (vectors/FORMAT.md "Deviations"), compared with
+// the failing check's typed observation (conformance/result.hpp Observation) by the verdict:
+//   {abort: 0x06090030}        the SDO transfer was aborted with this code
+//   {value: 2}                 the value read (or polled) was this
+//   {missing: frame} / {no_answer: true}   nothing came (no frame, no SDO answer) in time
+//   {accepted: true}           the SDO transfer succeeded where an abort was expected
+//   {state: switch-on-disabled}  the last statusword showed this CiA 402 state
+//   {statusword: {mask: 0x6F, value: 0x27}}  the last statusword, masked, was this
+//   {text: "substring"}        last resort: the failing check's Actual contains this text
+struct DeviationObservation {
+  enum class Kind : std::uint8_t { abort, value, nothing, accepted, state, statusword, text };
+  Kind kind = Kind::text;
+  std::uint32_t abort = 0;
+  std::int64_t value = 0;
+  cia402::State state = cia402::State::switch_on_disabled;
+  std::uint16_t mask = 0xFFFF;  // statusword
+  std::uint16_t statusword = 0;
+  std::string text;
+  // "abort 06090030h", "value 2", "nothing (no frame or answer)", "state switch on disabled",
+  // "statusword & 006Fh == 0027h", "Actual containing \"...\"".
+  std::string describe() const;
+  friend bool operator==(const DeviationObservation&, const DeviationObservation&) = default;
+};
+
+// One vector a deviation covers: an exact id, with its own documented observation(s) where
+// they differ from the deviation's.
+struct DeviationVector {
+  std::string id;
+  std::vector<DeviationObservation> observed;  // empty: the deviation's `observed`
+  friend bool operator==(const DeviationVector&, const DeviationVector&) = default;
+};
+
 struct Deviation {
   std::string id;
-  std::vector<std::string> vectors;  // globs of vector ids
+  std::vector<DeviationVector> vectors;        // exact vector ids (no globs)
+  std::vector<DeviationObservation> observed;  // what the manual documents (any one of them)
   std::vector<std::string> sources;
   std::string description;
   std::string contradiction;  // both readings and the one chosen; empty if none
-  bool matches(std::string_view vector_id) const;
-  friend bool operator==(const Deviation&, const Deviation&) = default;
+  int line = 0;               // YAML line of the entry (not serialised, not compared)
+  // The entry for `vector_id`; nullptr if the deviation does not list it.
+  const DeviationVector* find(std::string_view vector_id) const;
+  // The observations documented for `vector` (its own, else the deviation's).
+  const std::vector<DeviationObservation>& observed_for(const DeviationVector& vector) const;
+  friend bool operator==(const Deviation& a, const Deviation& b) {
+    return a.id == b.id && a.vectors == b.vectors && a.observed == b.observed &&
+           a.sources == b.sources && a.description == b.description &&
+           a.contradiction == b.contradiction;
+  }
 };
 
 // One SDO write of the commissioning (vectors/FORMAT.md "Commissioning").
@@ -174,8 +220,9 @@ struct DriveProfile {
   bool detects(std::string_view feature) const { return detect.contains(std::string(feature)); }
   // The profile's value of a timing name, else its default; nullopt for an unknown name.
   std::optional<can::Duration> timing_value(std::string_view name) const;
-  // The first deviation with a glob matching `vector_id`; nullptr if none.
-  const Deviation* deviation_for(std::string_view vector_id) const;
+  // The deviations that list `vector_id`, in file order (several may: the verdict takes the
+  // first whose observation matches).
+  std::vector<const Deviation*> deviations_for(std::string_view vector_id) const;
   // The personality with its defaults resolved from the profile (identity, modes, option codes).
   Personality effective_personality() const;
 

@@ -69,7 +69,7 @@ TEST_F(EngineTest, SdoWriteExpectedAbortPasses) {
   // When the vector expects that abort
   const auto result =
       run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
-                      "{abort: [0x06010002]}\n"));
+                      "{abort: write-read-only}\n"));
   // Then it passes, with the check and both frames as evidence
   EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
   ASSERT_EQ(result.checks.size(), 1U);
@@ -142,6 +142,81 @@ TEST_F(EngineTest, EveryAbortAnswerIsSeenAsAnAbort) {
   }
 }
 
+TEST_F(EngineTest, EveryCodeOfTheNamedSetPasses) {
+  // Given peers that answer a write to read-only 6041h with each code of write-read-only
+  for (const char* reply : {"581#8041600000000106",     // abort 6041h sub 0, 06010000h
+                            "581#8041600002000106",     // abort 6041h sub 0, 06010002h
+                            "581#8041600000000008"}) {  // abort 6041h sub 0, 08000000h
+    test_support::ScriptedPeer peer(*peer_port_);
+    peer.expect("601#2B41600000000000")  // ccs=1 n=2 e=1 s=1, 6041h sub 0, data 0000h
+        .reply(reply);
+    // When the vector expects the set
+    const auto result =
+        run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n"
+                        "      expect: {abort: write-read-only}\n"));
+    // Then each passes
+    EXPECT_EQ(result.verdict, Verdict::pass) << reply << ": " << result.message;
+  }
+}
+
+TEST_F(EngineTest, RawAbortFrameJudgedByTheSet) {
+  // Given peers that answer an upload of missing 1FFFh with 08000000h (in the set) and with
+  // 06090011h (not in object-does-not-exist)
+  const std::string steps =
+      "    - send: \"601#40FF1F0000000000\"\n"          // ccs=2, upload 1FFFh sub 0
+      "    - expect_frame: \"581#80FF1F00........\"\n"  // abort 1FFFh sub 0, code: the set
+      "      abort: object-does-not-exist\n";
+  {
+    test_support::ScriptedPeer peer(*peer_port_);
+    peer.expect("601#40FF1F0000000000").reply("581#80FF1F0000000008");  // 08000000h
+    const auto result = run(make_vector(steps));
+    // Then the code inside the set passes
+    EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+  }
+  {
+    test_support::ScriptedPeer peer(*peer_port_);
+    peer.expect("601#40FF1F0000000000").reply("581#80FF1F0011000906");  // 06090011h
+    const auto result = run(make_vector(steps));
+    // And the code outside it fails, naming the set, with the code as the observation
+    EXPECT_EQ(result.verdict, Verdict::fail);
+    EXPECT_NE(result.message.find("abort in object-does-not-exist {06020000h, 08000000h} "
+                                  "(CTT 2.6; CiA 301 §7.2.4.3.17)"),
+              std::string::npos)
+        << result.message;
+    EXPECT_EQ(result.checks.back().observed.abort, 0x06090011U);
+  }
+}
+
+TEST_F(EngineTest, DeviationOnlyForTheDocumentedAbort) {
+  // Given a profile documenting that a write to 6041h is aborted with 06090030h
+  auto parsed = profile::parse_profile(
+      "name: t\ntitle: T\nfeatures: [sdo.segmented]\ndeviations:\n  - id: d\n    vectors: "
+      "[t/x]\n    observed: {abort: 0x06090030}\n    source: \"CiA 301 §1\"\n    description: "
+      "documented\n",
+      {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  const auto vector = make_vector(
+      "    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n"
+      "      expect: {abort: write-read-only}\n");
+  const auto judge = [&](const char* reply) {
+    test_support::ScriptedPeer peer(*peer_port_);
+    peer.expect("601#2B41600000000000").reply(reply);
+    Engine engine(*harness_, *parsed, {});
+    return engine.run_vector(vector);
+  };
+  // When the DUT answers the documented code / another code outside the set
+  const auto documented = judge("581#8041600030000906");  // abort 06090030h
+  const auto other = judge("581#8041600031000906");       // abort 06090031h
+  // Then the first is the deviation, the second a failure naming the deviation it missed
+  EXPECT_EQ(documented.verdict, Verdict::deviation) << documented.message;
+  EXPECT_EQ(other.verdict, Verdict::fail);
+  EXPECT_NE(other.message.find("not the documented deviation d"), std::string::npos)
+      << other.message;
+  EXPECT_NE(other.message.find("it documents abort 06090030h, the DUT showed abort 06090031h"),
+            std::string::npos)
+      << other.message;
+}
+
 TEST_F(EngineTest, WrongAbortCodeFailsWithExpectedActual) {
   // Given a peer that answers a write to a read-only object with 06090030h instead
   test_support::ScriptedPeer peer(*peer_port_);
@@ -150,13 +225,16 @@ TEST_F(EngineTest, WrongAbortCodeFailsWithExpectedActual) {
   // When the vector expects 06010002h
   const auto result =
       run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
-                      "{abort: [0x06010002]}\n"));
+                      "{abort: write-read-only}\n"));
   // Then it fails, and the message shows both codes
   EXPECT_EQ(result.verdict, Verdict::fail);
-  EXPECT_NE(
-      result.message.find("Expected: write 6041h sub 0 := 00 00: abort with one of {06010002h}"),
-      std::string::npos)
+  EXPECT_NE(result.message.find("Expected: write 6041h sub 0 := 00 00: abort in write-read-only "
+                                "{06010000h, 06010002h, 08000000h} (CTT 2.3, 4.3; CiA 301 "
+                                "§7.2.4.3.17)"),
+            std::string::npos)
       << result.message;
+  // And the failing check carries the code as data
+  EXPECT_EQ(result.checks.back().observed.abort, 0x06090030U);
   EXPECT_NE(result.message.find("Actual:   abort 06090030h"), std::string::npos) << result.message;
   ASSERT_FALSE(result.checks.empty());
   EXPECT_FALSE(result.checks.back().ok);
@@ -754,8 +832,10 @@ TEST_F(EngineTest, OdChecksCatchAWrongAccessType) {
   const auto result = engine.run_vector(vectors[1]);
   // Then it fails with Expected abort 06010002h / Actual ok
   EXPECT_EQ(result.verdict, Verdict::fail);
-  EXPECT_NE(result.message.find("abort with one of {06010002h}"), std::string::npos)
+  EXPECT_NE(result.message.find("abort in write-read-only {06010000h, 06010002h, 08000000h}"),
+            std::string::npos)
       << result.message;
+  EXPECT_TRUE(result.checks.back().observed.accepted);
   EXPECT_NE(result.message.find("Actual:   ok"), std::string::npos) << result.message;
 }
 
@@ -772,7 +852,7 @@ TEST_F(EngineTest, OdChecksAcceptMappingProcedureAbortsForMappingCount) {
   // Then the mapping count's above-max also accepts 06040042h and 06010000h, 6065h's does not
   const auto aborts_of = [&](const std::string& id) {
     for (const auto& v : vectors) {
-      if (v.id == id) return std::get<SdoWriteStep>(v.steps.at(0).action).expect.aborts;
+      if (v.id == id) return std::get<SdoWriteStep>(v.steps.at(0).action).expect.abort.codes;
     }
     ADD_FAILURE() << id << " not generated";
     return std::vector<std::uint32_t>{};

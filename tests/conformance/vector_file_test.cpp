@@ -83,6 +83,61 @@ TEST(VectorFile, UnknownStepModifierIsAnError) {
   EXPECT_NE(error.find("v.yaml:7: expect_bootup: unknown key 'withn'"), std::string::npos) << error;
 }
 
+TEST(VectorFile, AbortNamesASetOrAListWithItsClause) {
+  // Given an abort expectation by set name, one by literal list with clause, and a raw abort
+  // frame judged by a set with an alternative frame
+  const auto set = parse_vectors(std::string(kHead) + R"(  steps:
+    - sdo_write: {index: 0x1000, sub: 0, value: 0, size: 4}
+      expect: {abort: write-read-only}
+    - sdo_read: {index: 0x1003, sub: 9}
+      expect: {abort: [0x06090030], clause: "CiA 301 §7.5.2.4"}
+    - expect_frame: "580+N#80171000........"
+      abort: any
+      or: ["580+N#A200............"]
+)",
+                                 "v.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  // When loaded; Then the set's codes and citation, the list with its clause, the frame's set
+  const auto& steps = set.vectors.at(0).steps;
+  const auto& write = std::get<SdoWriteStep>(steps.at(0).action).expect.abort;
+  EXPECT_EQ(write.set, "write-read-only");
+  EXPECT_EQ(write.codes, (std::vector<std::uint32_t>{0x06010000, 0x06010002, 0x08000000}));
+  EXPECT_EQ(write.describe(),
+            "abort in write-read-only {06010000h, 06010002h, 08000000h} (CTT 2.3, 4.3; CiA 301 "
+            "§7.2.4.3.17)");
+  const auto& read = std::get<SdoReadStep>(steps.at(1).action).expect.abort;
+  EXPECT_TRUE(read.set.empty());
+  EXPECT_EQ(read.clause, "CiA 301 §7.5.2.4");
+  EXPECT_EQ(read.describe(), "abort in {06090030h} (CiA 301 §7.5.2.4)");
+  const auto& frame = std::get<ExpectFrameStep>(steps.at(2).action);
+  ASSERT_TRUE(frame.abort);
+  EXPECT_TRUE(frame.abort->any());
+  EXPECT_TRUE(frame.abort->accepts(0x12345678));
+  ASSERT_EQ(frame.alternatives.size(), 1U);
+  EXPECT_EQ(frame.alternatives[0].text, "580+N#A200............");
+}
+
+TEST(VectorFile, UnknownAbortSetNamesLineAndTheSets) {
+  // Given a misspelt set name; When parsed; Then its line, the name and the known sets
+  const auto error = only_error(std::string(kHead) +
+                                "  steps:\n    - sdo_read: {index: 0x1000, sub: 1}\n"
+                                "      expect: {abort: sub-index-missing}\n");
+  EXPECT_NE(error.find("v.yaml:7: abort: unknown abort set 'sub-index-missing' (sets: "),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("sub-index-does-not-exist"), std::string::npos) << error;
+}
+
+TEST(VectorFile, FrameAbortNeedsTheCodeAsDontCare) {
+  // Given abort: beside an SDO abort pattern with a fixed code; When parsed; Then an error
+  const auto error = only_error(std::string(kHead) +
+                                "  steps:\n    - expect_frame: \"580+N#8017100000000305\"\n"
+                                "      abort: toggle\n");
+  EXPECT_NE(error.find("v.yaml:6: expect_frame: with abort: the pattern must be an SDO abort"),
+            std::string::npos)
+      << error;
+}
+
 TEST(VectorFile, StepWithTwoActionsIsAnError) {
   // Given a step with send and wait; When parsed; Then an error at the second action
   const auto error =

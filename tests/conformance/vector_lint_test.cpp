@@ -62,6 +62,79 @@ TEST_F(LintTree, CitationPastTheManualsEnd) {
   EXPECT_TRUE(report.manuals_checked);
 }
 
+TEST_F(LintTree, AbortCodesNeedASetOrAClause) {
+  // Given a literal abort list without clause, a raw abort frame with a fixed code, and the same
+  // two with clause: / a set
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  write("v.yaml", R"(- id: a/literal
+  title: t
+  source: "CiA 301 §1"
+  steps:
+    - sdo_write: {index: 0x1000, sub: 0, value: 0, size: 4}
+      expect: {abort: [0x06010002]}
+- id: a/frame
+  title: t
+  source: "CiA 301 §1"
+  steps:
+    - expect_frame: "580+N#8000100002000106"
+- id: a/fine
+  title: t
+  source: "CiA 301 §1"
+  steps:
+    - sdo_write: {index: 0x1000, sub: 0, value: 0, size: 4}
+      expect: {abort: [0x06010002], clause: "CiA 301 §7.2.4.3.17"}
+    - expect_frame: "580+N#8000100002000106"
+      clause: "CiA 301 §7.2.4.3.17"
+    - expect_frame: "580+N#80001000........"
+      abort: write-read-only
+    - expect_frame: "580+N#80001000........"
+)");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
+  // Then exactly the two without set or clause are errors, at their steps' lines
+  ASSERT_EQ(report.errors.size(), 2U);
+  EXPECT_NE(report.errors[0].to_string().find(
+                "v.yaml:5: vector a/literal: sdo_write expect: a literal list of abort codes "
+                "needs clause:"),
+            std::string::npos)
+      << report.errors[0].to_string();
+  EXPECT_NE(report.errors[1].to_string().find(
+                "v.yaml:11: vector a/frame: expect_frame '580+N#8000100002000106' is an SDO "
+                "abort with a fixed code"),
+            std::string::npos)
+      << report.errors[1].to_string();
+}
+
+TEST_F(LintTree, DeviationIdsMustBeVectors) {
+  // Given a profile whose deviation names one existing vector and one that does not exist
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  write("v.yaml", "- id: a/b\n  title: t\n  source: \"CiA 301 §1\"\n  steps: [{wait: 1ms}]\n");
+  std::filesystem::create_directories(root_ / "vectors" / "drives");
+  write("drives/p.yaml", R"(name: p
+title: P
+features: []
+deviations:
+  - id: d
+    vectors: ["a/b", "a/c"]
+    observed: {value: 1}
+    source: "m.txt §1 L1-2"
+    description: x
+  - id: e
+    vectors: []
+    source: "m.txt §1 L1-2"
+    description: y
+)");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
+  // Then the unknown id is an error at the deviation's line, the empty one a warning
+  ASSERT_EQ(report.errors.size(), 1U);
+  EXPECT_NE(report.errors[0].to_string().find("p.yaml:5: deviation d: no vector 'a/c'"),
+            std::string::npos)
+      << report.errors[0].to_string();
+  ASSERT_EQ(report.warnings.size(), 1U);
+  EXPECT_NE(report.warnings[0].message.find("deviation e: covers no vector"), std::string::npos);
+}
+
 TEST_F(LintTree, UnlistedManualAndChangedManual) {
   // Given a wrong sha256 in manuals.yaml and a citation of an unlisted manual
   write("manuals.yaml", manuals(std::string(64, '0')));

@@ -15,9 +15,21 @@ title: "P"
 features: [sdo.segmented, cia402]
 deviations:
   - id: no-16
-    vectors: ["cia402/fsa/transition-16*"]
+    vectors: ["cia402/fsa/transition-16/from-qsa"]
+    observed: {state: switch-on-disabled}
     source: "CiA 402-2 §1"
     description: "quick stop always ends in switch on disabled"
+  - id: homing-offset-negated
+    vectors: [{id: "cia402/homing/method-35/position", observed: {value: 1000}}]
+    source: "000_33c1d912b8b6010a.txt §7.2.1 L6025-6040"
+    description: "homing sets 6064h to the home offset"
+  - id: fixed-abort
+    vectors: ["cia301/sdo/abort/x", "cia301/sdo/abort/y", "cia301/sdo/abort/z",
+              "cia301/sdo/abort/w", "cia301/sdo/abort/v"]
+    observed: [{abort: 0x06090030}, {no_answer: true}, {accepted: true},
+               {statusword: {mask: 0x00FF, value: 0x0027}}, {text: "late by"}]
+    source: "CiA 301 §1"
+    description: "documented answers"
 )",
       {.file_name = "p.yaml", .base_dir = std::nullopt, .check_name = false});
   EXPECT_TRUE(parsed) << parsed.error().to_string();
@@ -69,9 +81,25 @@ TEST(Applicability, BusOffStepNeedsTheSimulatedBus) {
   EXPECT_EQ(not_applicable_reason(vector, p, {true, true, true}), "");
 }
 
-TEST(Verdict, FailureMatchedByDeviationGlob) {
-  // Given a failing vector whose id a deviation's glob matches
+// A result whose one check failed with `observed` (and `actual`).
+VectorResult failed_with(Observation observed, std::string actual = "x") {
   VectorResult result;
+  Check passed{0, "sdo_write", "ok", "ok", true, {}};
+  Check failed{1, "expect_state", "e", std::move(actual), false, observed};
+  result.checks = {passed, failed};
+  return result;
+}
+
+Observation statusword(std::uint16_t sw) {
+  Observation o;
+  o.statusword = sw;
+  return o;
+}
+
+TEST(Verdict, DocumentedObservationIsADeviation) {
+  // Given a failing vector a deviation lists, whose failing check shows the documented state
+  auto result = failed_with(statusword(0x0250));
+  // When the verdict is decided
   decide_verdict(result, make_vector("cia402/fsa/transition-16/from-qsa"), make_profile(),
                  Outcome::fail, "Expected: x", false);
   // Then a documented deviation with its id, source and description
@@ -79,6 +107,90 @@ TEST(Verdict, FailureMatchedByDeviationGlob) {
   EXPECT_EQ(result.deviation_id, "no-16");
   EXPECT_EQ(result.deviation_source, "CiA 402-2 §1");
   EXPECT_NE(result.message.find("quick stop always ends"), std::string::npos);
+}
+
+TEST(Verdict, OtherObservationStaysAFailure) {
+  // Given the listed vector failing with another state (operation enabled, not the documented
+  // switch on disabled)
+  auto result = failed_with(statusword(0x0237));
+  // When the verdict is decided
+  decide_verdict(result, make_vector("cia402/fsa/transition-16/from-qsa"), make_profile(),
+                 Outcome::fail, "Expected: x", false);
+  // Then a failure naming the deviation that was near and why it did not match
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_TRUE(result.deviation_id.empty());
+  EXPECT_NE(result.message.find("not the documented deviation no-16"), std::string::npos)
+      << result.message;
+  EXPECT_NE(result.message.find("state switch on disabled"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("statusword 0237h (operation enabled)"), std::string::npos)
+      << result.message;
+}
+
+TEST(Verdict, BrokenHomingIsNotTheDocumentedDeviation) {
+  // Given a deviation documenting 6064h = 1000 after homing, and a drive that reads -1000
+  Observation minus;
+  minus.value = -1000;
+  auto broken = failed_with(minus);
+  Observation plus;
+  plus.value = 1000;
+  auto documented = failed_with(plus);
+  // When the verdicts are decided
+  decide_verdict(broken, make_vector("cia402/homing/method-35/position"), make_profile(),
+                 Outcome::fail, "Expected: value 0", false);
+  decide_verdict(documented, make_vector("cia402/homing/method-35/position"), make_profile(),
+                 Outcome::fail, "Expected: value 0", false);
+  // Then -1000 fails (exit 1), 1000 is the documented deviation
+  EXPECT_EQ(broken.verdict, Verdict::fail);
+  EXPECT_NE(broken.message.find("it documents value 1000, the DUT showed value -1000"),
+            std::string::npos)
+      << broken.message;
+  RunResult run;
+  run.vectors = {broken};
+  EXPECT_EQ(exit_code(run), 1);
+  EXPECT_EQ(documented.verdict, Verdict::deviation);
+  EXPECT_EQ(documented.deviation_id, "homing-offset-negated");
+}
+
+TEST(Verdict, UnlistedVectorIsAFailureEvenWithTheDocumentedObservation) {
+  // Given a vector no deviation lists, failing with a documented observation of another vector
+  auto result = failed_with(statusword(0x0250));
+  // When the verdict is decided
+  decide_verdict(result, make_vector("cia402/fsa/transition-16/from-qs"), make_profile(),
+                 Outcome::fail, "m", false);
+  // Then it fails
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_EQ(result.message, "m");
+}
+
+TEST(Verdict, EachObservationKindMatchesOnlyItself) {
+  // Given failing checks of every observation kind
+  Observation abort;
+  abort.abort = 0x06090030;
+  Observation other_abort;
+  other_abort.abort = 0x06090031;
+  Observation nothing;
+  nothing.nothing = true;
+  Observation accepted;
+  accepted.accepted = true;
+  const std::pair<VectorResult, Verdict> cases[] = {
+      {failed_with(abort), Verdict::deviation},
+      {failed_with(other_abort), Verdict::fail},
+      {failed_with(nothing), Verdict::deviation},
+      {failed_with(accepted), Verdict::deviation},
+      {failed_with(statusword(0x1627)), Verdict::deviation},
+      {failed_with(statusword(0x1637)), Verdict::fail},
+      {failed_with({}, "answered late by 3 ms"), Verdict::deviation},
+      {failed_with({}, "answered early"), Verdict::fail},
+  };
+  // When each is judged against a deviation documenting abort 06090030h, no answer, accepted,
+  // statusword & 00FFh == 0027h or the text "late by"
+  for (const auto& [given, want] : cases) {
+    auto result = given;
+    decide_verdict(result, make_vector("cia301/sdo/abort/x"), make_profile(), Outcome::fail, "m",
+                   false);
+    // Then only the documented ones are the deviation
+    EXPECT_EQ(result.verdict, want) << result.message;
+  }
 }
 
 TEST(Verdict, ShouldFailureIsWarningUnlessStrict) {

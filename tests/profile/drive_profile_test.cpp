@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <random>
@@ -111,19 +112,44 @@ TEST(DriveProfileLoad, TimingOverridesAndDefaults) {
   EXPECT_FALSE(p->timing_value("unknown").has_value());
 }
 
-TEST(DriveProfileLoad, DeviationForMatchesGlob) {
-  // Given a deviation with globs / When a vector id is looked up / Then the glob decides
+TEST(DriveProfileLoad, DeviationsListExactIdsWithTheirObservation) {
+  // Given a deviation with exact ids, one with its own observation
   auto p = parse(std::string(kMinimal) + R"(deviations:
   - id: no-transition-16
-    vectors: ["cia402/fsa/transition-16*", "cia402/option/quick-stop-6"]
+    vectors: ["cia402/fsa/transition-16/x", {id: "cia402/option/quick-stop-6", observed: {value: 2}}]
+    observed: {state: switch-on-disabled}
     source: "000_33c1d912b8b6010a.txt §6.1.6 L5841-5922"
     description: "605Ah fixed"
+  - id: also-16
+    vectors: ["cia402/fsa/transition-16/x"]
+    observed: [{abort: 0x06090030}, {missing: frame}, {no_answer: true}, {accepted: true},
+               {statusword: {mask: 0x6F, value: 0x27}}, {text: "late"}]
+    source: s
+    description: d
 )");
   ASSERT_TRUE(p.has_value()) << p.error().to_string();
-  ASSERT_NE(p->deviation_for("cia402/fsa/transition-16/x"), nullptr);
-  EXPECT_EQ(p->deviation_for("cia402/fsa/transition-16/x")->id, "no-transition-16");
-  EXPECT_NE(p->deviation_for("cia402/option/quick-stop-6"), nullptr);
-  EXPECT_EQ(p->deviation_for("cia402/fsa/transition-15"), nullptr);
+  // When vector ids are looked up
+  const auto found = p->deviations_for("cia402/fsa/transition-16/x");
+  // Then only listed ids are found, in file order, each with its documented observation
+  ASSERT_EQ(found.size(), 2u);
+  EXPECT_EQ(found[0]->id, "no-transition-16");
+  const auto& own = found[0]->observed_for(*found[0]->find("cia402/fsa/transition-16/x"));
+  ASSERT_EQ(own.size(), 1u);
+  EXPECT_EQ(own[0].kind, DeviationObservation::Kind::state);
+  EXPECT_EQ(own[0].state, cia402::State::switch_on_disabled);
+  const auto& q = found[0]->observed_for(*found[0]->find("cia402/option/quick-stop-6"));
+  ASSERT_EQ(q.size(), 1u);
+  EXPECT_EQ(q[0].kind, DeviationObservation::Kind::value);
+  EXPECT_EQ(q[0].value, 2);
+  EXPECT_EQ(found[1]->observed.size(), 6u);
+  EXPECT_EQ(found[1]->observed[1].kind, DeviationObservation::Kind::nothing);
+  EXPECT_EQ(found[1]->observed[4].describe(), "statusword & 006Fh == 0027h");
+  EXPECT_TRUE(p->deviations_for("cia402/fsa/transition-16/y").empty());
+  EXPECT_TRUE(p->deviations_for("cia402/fsa/transition-16").empty());
+  // And the profile survives a round trip through YAML
+  auto again = parse(to_yaml(*p));
+  ASSERT_TRUE(again.has_value()) << again.error().to_string();
+  EXPECT_EQ(*again, *p);
 }
 
 struct ErrorCase {
@@ -220,20 +246,39 @@ INSTANTIATE_TEST_SUITE_P(
                   with("pdo_defaults:\n  - {pdo: tpdo1, cob_id: 180+N, mapping: [0x60640020, "
                        "0x606C0020, 0x60410010], source: s}\n"),
                   8, "more than 64 bits"},
-        ErrorCase{"DeviationBadGlob",
-                  with("deviations:\n  - id: x\n    vectors: [\"CiA402/*\"]\n    source: s\n"
+        ErrorCase{"DeviationBadId",
+                  with("deviations:\n  - id: x\n    observed: {value: 1}\n"
+                       "    vectors: [\"CiA402/x\"]\n    source: s\n    description: d\n"),
+                  10, "not a vector id"},
+        ErrorCase{"DeviationGlobRefused",
+                  with("deviations:\n  - id: x\n    observed: {value: 1}\n"
+                       "    vectors: [\"cia402/fsa/*\"]\n    source: s\n    description: d\n"),
+                  10, "is a glob"},
+        ErrorCase{"DeviationWithoutObserved",
+                  with("deviations:\n  - id: x\n    vectors: [\"cia402/a\"]\n    source: s\n"
                        "    description: d\n"),
-                  9, "not a glob"},
+                  9, "has no observed"},
+        ErrorCase{"DeviationObservedTwoKinds",
+                  with("deviations:\n  - id: x\n    observed: {value: 1, abort: 0x06090030}\n"
+                       "    vectors: [a]\n    source: s\n    description: d\n"),
+                  9, "exactly one of"},
+        ErrorCase{"DeviationObservedUnknownState",
+                  with("deviations:\n  - id: x\n    observed: {state: enabled}\n"
+                       "    vectors: [a]\n    source: s\n    description: d\n"),
+                  9, "is not a state"},
         ErrorCase{"DeviationNoDescription",
-                  with("deviations:\n  - id: x\n    vectors: [\"cia402/*\"]\n    source: s\n"), 8,
-                  "missing required key 'description'"},
+                  with("deviations:\n  - id: x\n    vectors: [{id: a, observed: {value: 1}}]\n"
+                       "    source: s\n"),
+                  8, "missing required key 'description'"},
         ErrorCase{"DeviationIdTwice",
-                  with("deviations:\n  - {id: x, vectors: [a], source: s, description: d}\n"
-                       "  - {id: x, vectors: [b], source: s, description: d}\n"),
+                  with("deviations:\n  - {id: x, vectors: [a], observed: {value: 1}, source: s, "
+                       "description: d}\n"
+                       "  - {id: x, vectors: [b], observed: {value: 1}, source: s, "
+                       "description: d}\n"),
                   9, "used twice"},
         ErrorCase{"DeviationUnknownKey",
-                  with("deviations:\n  - {id: x, vectors: [a], source: s, description: d, "
-                       "severity: low}\n"),
+                  with("deviations:\n  - {id: x, vectors: [a], observed: {value: 1}, source: s, "
+                       "description: d, severity: low}\n"),
                   8, "unknown key 'severity'"},
         ErrorCase{"PersonalityUnknownKey", with("personality:\n  emcy_twice: true\n"), 8,
                   "unknown key 'emcy_twice'"},
@@ -394,7 +439,7 @@ pdo_defaults:
   - {pdo: tpdo1, cob_id: 0x180+N, transmission: 255, event_timer: 10, mapping: [0x60410010], source: s}
   - {pdo: rpdo2, cob_id: "301", transmission: 1, inhibit_time: 5, mapping: [], source: s}
 deviations:
-  - {id: x, vectors: ["a/*", "b?"], source: [s, t], description: "d: e", contradiction: "c"}
+  - {id: x, vectors: ["a/b", {id: c, observed: {abort: 0x06090030}}], observed: [{value: -2}, {state: fault}], source: [s, t], description: "d: e", contradiction: "c"}
 personality:
   identity: {product_code: 7}
   manufacturer_modes: [{value: -3, behaves_as: 1, logic: irtsa-mpp, name: "user jog"}]
@@ -671,7 +716,11 @@ TEST(ShippedProfiles, FestoQuickStopFixedNoTransition16) {
   EXPECT_EQ(p->option_codes.at(OptionCode::quick_stop), (std::vector<int>{2}));
   EXPECT_FALSE(p->supports("transition.16"));
   EXPECT_FALSE(p->supports("mode.csp"));
-  EXPECT_NE(p->deviation_for("cia402/fsa/transition-16/enable-from-quick-stop"), nullptr);
+  // The deviation is documented; no vector observes it (transition.16 makes them N/A)
+  const auto no16 = std::find_if(p->deviations.begin(), p->deviations.end(),
+                                 [](const Deviation& d) { return d.id == "no-transition-16"; });
+  ASSERT_NE(no16, p->deviations.end());
+  EXPECT_TRUE(no16->vectors.empty());
   EXPECT_EQ(p->effective_personality().hardware_enable, HardwareEnable::transition_2);
 }
 

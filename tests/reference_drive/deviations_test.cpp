@@ -174,11 +174,12 @@ TEST(DeviationSdo, ReadOnlyWriteAccepted) {
 TEST(DeviationSdo, NoObjectWrongAbort) {
   // Given the standard drive and one with sdo-no-object-wrong-abort
   // When 5FFFh (absent) is read
-  // Then the standard aborts 06020000h, the deviant 08000000h
+  // Then the standard aborts 06020000h, the deviant 06090011h (outside object-does-not-exist:
+  // 08000000h would be a code the CTT accepts)
   DriveRig standard;
   DriveRig bad(5, deviant(Deviation::sdo_no_object_wrong_abort));
   EXPECT_EQ(standard.read(0x5FFF, 0).abort, 0x06020000u);
-  EXPECT_EQ(bad.read(0x5FFF, 0).abort, 0x08000000u);
+  EXPECT_EQ(bad.read(0x5FFF, 0).abort, 0x06090011u);
 }
 
 TEST(DeviationSdo, InvalidCommandIgnored) {
