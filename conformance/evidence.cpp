@@ -42,6 +42,18 @@ std::optional<can::TimedFrame> VectorRun::pump(can::TimePoint deadline) {
         last_statusword_ = static_cast<std::uint16_t>(pdo_sample.value);
     }
     if (frame->own) continue;
+    // Isolation: what the DUT confirmed writing while the vector's steps ran.
+    if (tracking_writes_) {
+      if (const auto ref = confirmed_download(frame->frame, node())) {
+        if (ref->index == 0x1010) {
+          stored_.insert(ref->sub);
+        } else if (ref->index == 0x1011) {
+          restored_defaults_ = true;
+        } else {
+          written_.insert(*ref);
+        }
+      }
+    }
     ++dut_frames_;
     received_.push_back(*frame);
     return frame;
@@ -117,12 +129,17 @@ StepStatus VectorRun::fail(std::string action, std::string expected, std::string
   if (vector_timed_out() && actual.find("vector timeout") == std::string::npos)
     actual += fmt::format(" (vector timeout {} reached)",
                           profile::format_duration(resolve(vector_.timeout)));
-  message_ = fmt::format(
-      "step {} {} (line {}):\n  Expected: {}\n  Actual:   {}", step_index_ + 1, action,
-      step_index_ < vector_.steps.size() ? vector_.steps[step_index_].line : vector_.line, expected,
-      actual);
+  message_ = fmt::format("step {} {} (line {}):\n  Expected: {}\n  Actual:   {}", step_index_ + 1,
+                         action, step_line(), expected, actual);
   check(std::move(action), std::move(expected), std::move(actual), false);
   return StepStatus::failed;
+}
+
+std::size_t VectorRun::step_line() const {
+  if (step_index_ < vector_.steps.size()) return vector_.steps[step_index_].line;
+  const std::size_t in_finally = step_index_ - vector_.steps.size();
+  if (in_finally < vector_.finally_steps.size()) return vector_.finally_steps[in_finally].line;
+  return vector_.line;
 }
 
 StepStatus VectorRun::harness_error(std::string action, std::string message) {
@@ -145,6 +162,7 @@ std::string SdoOutcome::describe() const {
 StepStatus VectorRun::run_steps() {
   result_.started = now();
   if (const auto status = setup(); status != StepStatus::ok) return status;
+  steps_started_ = true;
   for (step_index_ = 0; step_index_ < vector_.steps.size(); ++step_index_) {
     const Step& step = vector_.steps[step_index_];
     action_ = std::string(action_name(step.action));

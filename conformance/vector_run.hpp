@@ -13,11 +13,13 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <system_error>
 #include <vector>
 
 #include "conformance/engine.hpp"
+#include "conformance/isolation.hpp"
 #include "conformance/pdo_tracker.hpp"
 #include "conformance/result.hpp"
 #include "conformance/vector.hpp"
@@ -27,6 +29,17 @@
 #include "protocol/profile/drive_profile.hpp"
 
 namespace drivecheck::conformance {
+
+// A change a vector made that the engine could not undo (isolation.hpp): it stands until a
+// later read shows the value before again (e.g. after a reset) or a later write puts it back.
+struct Leak {
+  ObjectRef ref;
+  Bytes expected;                     // the value before the vector
+  std::optional<Bytes> actual;        // what the object held when the restore failed
+  std::optional<std::uint8_t> store;  // the vector stored it (1010h sub n): stored too
+  std::string vector_id;
+  std::string describe() const;  // "1017h sub 0 still holds C8 00 (was 00 00) from vector X"
+};
 
 // What every vector of a run shares.
 struct EngineContext {
@@ -42,6 +55,10 @@ struct EngineContext {
   // $timing.nmt_spacing (VectorRun::send_nmt).
   std::optional<can::TimePoint> last_nmt;
   bool last_nmt_raw = false;
+  // Isolation (isolation.hpp): the leaks that stand, and the harness notes of the run so far
+  // (Engine::run moves them into RunResult::harness_notes).
+  std::map<ObjectRef, Leak> leaks;
+  std::vector<std::string> notes;
 };
 
 enum class StepStatus : std::uint8_t { ok, failed, harness_error };
@@ -79,14 +96,18 @@ class VectorRun {
   std::uint8_t node() const { return context_.options.node; }
   // The last frames from other nodes, for Actual: texts ("585#..., 701#05").
   std::string recent_frames(std::size_t from_index, std::size_t max = 4) const;
+  // The YAML line of the current step (in `steps:` or `finally:`), else the vector's.
+  std::size_t step_line() const;
   // Fails with `expected`/`actual` (sets the failure message).
   StepStatus fail(std::string action, std::string expected, std::string actual);
   StepStatus harness_error(std::string action, std::string message);
 
   // ---- sdo_steps.cpp ----
   SdoOutcome sdo_upload(cia301::Multiplexer mux, Transfer transfer = Transfer::automatic);
+  // `timeout`: the response time allowed (default $timing.sdo_response).
   SdoOutcome sdo_download(cia301::Multiplexer mux, std::span<const std::uint8_t> data,
-                          Transfer transfer = Transfer::automatic);
+                          Transfer transfer = Transfer::automatic,
+                          std::optional<can::Duration> timeout = std::nullopt);
   StepStatus run_stimulus(const Step& step);
 
   // ---- expectations.cpp ----
@@ -101,10 +122,24 @@ class VectorRun {
   StepStatus commission();
   void teardown();
 
+  // ---- isolation (setup.cpp) ----
+  // Before the steps: re-checks the standing leaks (cleared when the value before is back, or
+  // when writing it back now succeeds), then reads the objects the vector may change.
+  void check_leaks();
+  void take_snapshot();
+  // `finally:` steps, with their own time budget; a failure is a harness note.
+  void run_finally();
+  // After teardown: puts back what the vector changed (and stored); a failure is a leak.
+  void restore();
+  // The leaks that stood while this vector ran ("" when none): a failure becomes an error.
+  const std::string& standing_leaks() const { return standing_leaks_; }
+
   // Runs the whole vector: setup, steps, teardown; returns the outcome and message.
   StepStatus run_steps();
 
   const std::string& message() const { return message_; }
+  // Setup got through: the steps began (`finally:` runs only then).
+  bool steps_started() const { return steps_started_; }
   bool dut_spoke() const { return dut_frames_ > 0; }
   std::size_t current_step() const { return step_index_; }
 
@@ -115,6 +150,10 @@ class VectorRun {
   };
   StepStatus write_controlword(std::uint16_t value, std::string action);
   StepStatus reach_drive_state(cia402::State target);
+  // Sends `command` and confirms the NMT state it asks for (FORMAT.md "Setup"): by the
+  // heartbeat's state byte when the DUT produces one, else by behaviour.
+  StepStatus reach_nmt_state(cia301::NmtState target);
+  void note(std::string text);
   StepStatus await_bootup(std::string action);
   std::size_t watch_start(const std::string& since) const;
   std::optional<std::size_t> watch(std::size_t from, can::TimePoint deadline,
@@ -136,6 +175,14 @@ class VectorRun {
   std::size_t step_index_ = 0;
   std::string action_;  // current step's action
   std::string message_;
+  // Isolation: the snapshot, and what the DUT confirmed while the vector's steps ran.
+  bool tracking_writes_ = false;
+  std::map<ObjectRef, Bytes> snapshot_;
+  std::set<ObjectRef> written_;
+  std::set<std::uint8_t> stored_;   // 1010h sub-indices a confirmed "save" went to
+  bool restored_defaults_ = false;  // a confirmed 1011h download
+  std::string standing_leaks_;
+  bool steps_started_ = false;
 };
 
 }  // namespace drivecheck::conformance

@@ -48,6 +48,12 @@ class EngineTest : public ::testing::Test {
     Engine engine(*harness_, profile_, std::move(options));
     return engine.run_vector(vector);
   }
+  // Scripted peers answer exactly the frames of their script: no isolation snapshot/restore.
+  static EngineOptions scripted() {
+    EngineOptions options;
+    options.isolation = false;
+    return options;
+  }
   std::string failure(const VectorResult& result) {
     return result.checks.empty()
                ? result.message
@@ -68,7 +74,8 @@ TEST_F(EngineTest, SdoWriteExpectedAbortPasses) {
   // When the vector expects that abort
   const auto result =
       run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
-                      "{abort: [0x06010002]}\n"));
+                      "{abort: [0x06010002]}\n"),
+          scripted());
   // Then it passes, with the check and both frames as evidence
   EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
   ASSERT_EQ(result.checks.size(), 1U);
@@ -88,7 +95,8 @@ TEST_F(EngineTest, WrongAbortCodeFailsWithExpectedActual) {
   // When the vector expects 06010002h
   const auto result =
       run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
-                      "{abort: [0x06010002]}\n"));
+                      "{abort: [0x06010002]}\n"),
+          scripted());
   // Then it fails, and the message shows both codes
   EXPECT_EQ(result.verdict, Verdict::fail);
   EXPECT_NE(
@@ -622,10 +630,13 @@ TEST_F(EngineTest, OdChecksCatchAWrongAccessType) {
   test_support::ScriptedPeer peer(*peer_port_);
   peer.expect("000#8101")              // NMT reset node, node 1
       .reply("701#00")                 // boot-up
+      .expect("000#8001")              // NMT enter pre-operational, commanded after the boot-up
+      .expect("601#4017100000000000")  // upload 1017h: the heartbeat, or SDO served
+      .reply("581#8017100000000206")   // abort 06020000h: no 1017h (SDO served: not stopped)
       .expect("601#2B41600000000000")  // ccs=1 n=2 e=1 s=1, 6041h sub 0, data 0000h
       .reply("581#6041600000000000");  // scs=3: download confirmed (wrong: 6041h is ro)
-  // When the write-ro check runs against that DUT
-  Engine engine(*harness_, *parsed, {});
+  // When the write-ro check runs against that DUT (no isolation: the script has every frame)
+  Engine engine(*harness_, *parsed, scripted());
   const auto result = engine.run_vector(vectors[1]);
   // Then it fails with Expected abort 06010002h / Actual ok
   EXPECT_EQ(result.verdict, Verdict::fail);
