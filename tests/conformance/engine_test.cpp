@@ -273,6 +273,32 @@ TEST_F(EngineTest, DriveStateWalksTheStandardPath) {
   EXPECT_TRUE(peer.finished());
 }
 
+TEST_F(EngineTest, DriveStateWalkNamesTheTransitionThatDidNotHappen) {
+  // Given a CiA 402 profile and a peer playing a drive that stays in SWITCH ON DISABLED after
+  // shutdown (transition 2 does not happen)
+  auto parsed = profile::parse_profile(
+      "name: m\ntitle: M\nfeatures: [cia402]\n",
+      {.file_name = "m.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.set_mismatch_handler([](const std::string&) {});
+  peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // 6041h = 0240h (SOD)
+  peer.expect("601#2B40600000000000").reply("581#6040600000000000");  // 6040h := 0000h, ok
+  peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // 6041h = 0240h (SOD)
+  peer.expect("601#2B40600006000000").reply("581#6040600000000000");  // 6040h := 0006h, ok
+  for (int i = 0; i < 100; ++i)
+    peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // still 0240h
+  // When a vector asks for ready-to-switch-on
+  Engine engine(*harness_, *parsed, {});
+  const auto result =
+      engine.run_vector(make_vector("    - wait: 1ms\n", "  drive_state: ready-to-switch-on\n"));
+  // Then it is an error (the vector never ran) that names transition 2 and what was seen
+  EXPECT_EQ(result.verdict, Verdict::error);
+  EXPECT_NE(result.message.find("transition 2 (0006h"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("did not happen within 200ms: statusword 0240h"), std::string::npos)
+      << result.message;
+}
+
 TEST_F(EngineTest, ExpectStatePollsUntilReached) {
   // Given a drive that shows NOT READY first, then SWITCH ON DISABLED
   test_support::ScriptedPeer peer(*peer_port_);
