@@ -41,7 +41,16 @@ std::optional<can::TimedFrame> VectorRun::pump(can::TimePoint deadline) {
       if (pdo_sample.origin == SampleOrigin::tpdo && pdo_sample.signal == "statusword")
         last_statusword_ = static_cast<std::uint16_t>(pdo_sample.value);
     }
-    if (frame->own) continue;
+    if (frame->own) {
+      if (tracking_writes_) {
+        if (const auto request = sdo_download_request(frame->frame, node());
+            request && request->expedited_data) {
+          request_sizes_[ObjectRef{request->mux.index, request->mux.sub_index}] =
+              request->expedited_data->size();
+        }
+      }
+      continue;
+    }
     // Isolation: what the DUT confirmed writing while the vector's steps ran.
     if (tracking_writes_) {
       if (const auto ref = confirmed_download(frame->frame, node())) {

@@ -316,6 +316,20 @@ std::string Leak::describe() const {
       store ? fmt::format(", stored with 1010h sub {}", *store) : std::string(), vector_id);
 }
 
+SdoOutcome VectorRun::write_back(cia301::Multiplexer mux, Bytes& data) {
+  SdoOutcome outcome = sdo_download(mux, data);
+  // Refused for its length (CiA 301 §7.2.4.3.17: 06070010h, 06070012h too long) with zero
+  // bytes at the end: the value was read padded (an upload answered 4 bytes for a shorter
+  // object); the zero padding goes, down to the length the DUT takes.
+  while (!outcome.ok && outcome.abort &&
+         (*outcome.abort == 0x06070010 || *outcome.abort == 0x06070012) && data.size() > 1 &&
+         data.back() == 0) {
+    data.pop_back();
+    outcome = sdo_download(mux, data);
+  }
+  return outcome;
+}
+
 void VectorRun::check_leaks() {
   standing_leaks_.clear();
   if (!context_.options.isolation) return;
@@ -327,7 +341,8 @@ void VectorRun::check_leaks() {
     bool back = now_value.ok && now_value.data == leak.expected;
     std::string how = "read back";
     if (!back) {
-      const SdoOutcome put = sdo_download({ref.index, ref.sub}, leak.expected);
+      Bytes data = leak.expected;
+      const SdoOutcome put = write_back({ref.index, ref.sub}, data);
       back = put.ok;
       how = "written back";
       if (back && leak.store) {
@@ -353,6 +368,7 @@ void VectorRun::check_leaks() {
 void VectorRun::take_snapshot() {
   snapshot_.clear();
   written_.clear();
+  request_sizes_.clear();
   stored_.clear();
   tracking_writes_ = false;
   if (!context_.options.isolation) return;
@@ -442,12 +458,25 @@ void VectorRun::restore() {
       if (entry != nullptr && read_only(entry->access())) input.read_only.insert(ref);
     }
   }
+  // A value read longer than the vector wrote it, with zeros past that length (a DUT that
+  // pads 1- and 2-byte values to 4 in its upload response), goes back as long as it was written.
+  for (const auto& [ref, size] : request_sizes_) {
+    const auto trim = [size = size](Bytes& value) {
+      if (value.size() > size &&
+          std::all_of(value.begin() + static_cast<std::ptrdiff_t>(size), value.end(),
+                      [](std::uint8_t byte) { return byte == 0; }))
+        value.resize(size);
+    };
+    if (const auto it = input.before.find(ref); it != input.before.end()) trim(it->second);
+    if (const auto it = input.after.find(ref); it != input.after.end()) trim(it->second);
+  }
   const RestorePlan plan = plan_restore(input);
   std::vector<std::string> done;
   std::set<ObjectRef> failed;
   for (const RestoreWrite& write : plan.writes) {
-    const SdoOutcome outcome = sdo_download({write.ref.index, write.ref.sub}, write.data);
-    done.push_back(fmt::format("{} := {} ({}): {}", to_string(write.ref), hex_bytes(write.data),
+    Bytes data = write.data;
+    const SdoOutcome outcome = write_back({write.ref.index, write.ref.sub}, data);
+    done.push_back(fmt::format("{} := {} ({}): {}", to_string(write.ref), hex_bytes(data),
                                write.why, outcome.describe()));
     if (!outcome.ok) failed.insert(write.ref);
   }
@@ -474,7 +503,7 @@ void VectorRun::restore() {
   for (const ObjectRef& ref : leaked) {
     Leak leak;
     leak.ref = ref;
-    leak.expected = snapshot_.at(ref);
+    leak.expected = input.before.at(ref);
     if (const auto after = input.after.find(ref); after != input.after.end())
       leak.actual = after->second;
     if (store_failed || !stored_.empty())

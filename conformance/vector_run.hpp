@@ -154,6 +154,8 @@ class VectorRun {
   // heartbeat's state byte when the DUT produces one, else by behaviour.
   StepStatus reach_nmt_state(cia301::NmtState target);
   void note(std::string text);
+  // An SDO download of a value read back, shortened when the DUT refuses its zero padding.
+  SdoOutcome write_back(cia301::Multiplexer mux, Bytes& data);
   StepStatus await_bootup(std::string action);
   std::size_t watch_start(const std::string& since) const;
   std::optional<std::size_t> watch(std::size_t from, can::TimePoint deadline,
@@ -179,6 +181,9 @@ class VectorRun {
   bool tracking_writes_ = false;
   std::map<ObjectRef, Bytes> snapshot_;
   std::set<ObjectRef> written_;
+  // The length of the last expedited download the harness sent to each object: the write back
+  // uses it where an upload answered longer (a DUT that pads 1- and 2-byte values to 4).
+  std::map<ObjectRef, std::size_t> request_sizes_;
   std::set<std::uint8_t> stored_;   // 1010h sub-indices a confirmed "save" went to
   bool restored_defaults_ = false;  // a confirmed 1011h download
   std::string standing_leaks_;
