@@ -88,7 +88,8 @@ class Engine::Impl {
         pdo_(profile_, options_.node),
         capabilities_(options_.eds),
         context_{bus_,     profile_, options_,     dissector_, interrupted, stalled,
-                 progress, pdo_,     std::nullopt, false,      {}} {
+                 progress, pdo_,     std::nullopt, false,      {},          {},
+                 {}} {
     bus_.set_frame_handler({});
     bus_.set_loopback(true);
     if (options_.harness_node == options_.node)
@@ -141,7 +142,14 @@ class Engine::Impl {
     // Ctrl-C while the steps ran: whatever the steps made of the stopped bus is no verdict on
     // the DUT. Sampled before the teardown, so that a vector decided before it stays decided.
     const bool interrupted = status != StepStatus::ok && context_.interrupted.load();
+    // Cleanup (FORMAT.md "Isolation"), whatever the outcome: the drive safe first after
+    // motion, the vector's `finally:` steps, the teardown, then the engine's restore.
+    if (run.steps_started()) {
+      if (!vector.finally_steps.empty()) run.teardown();
+      run.run_finally();
+    }
     run.teardown();
+    run.restore();
     run.drain();
     if (interrupted) {
       const std::size_t step = run.current_step();
@@ -179,6 +187,15 @@ class Engine::Impl {
                             : status == StepStatus::failed ? Outcome::fail
                                                            : Outcome::harness_error;
     decide_verdict(result, vector, profile_, outcome, run.message(), options_.strict);
+    if (result.verdict == Verdict::fail && !run.standing_leaks().empty()) {
+      // The failure may be an earlier vector's change that could not be undone.
+      result.verdict = Verdict::error;
+      result.warning = false;
+      result.message = fmt::format(
+          "not judged: a change of an earlier vector could not be undone ({}); the failure may "
+          "be its doing:\n{}",
+          run.standing_leaks(), result.message);
+    }
     keep_head_and_tail(result);
     result.finished = bus_.now();
     result.wall_seconds =
@@ -533,6 +550,13 @@ RunResult Engine::run(const std::vector<Vector>& vectors, RunInfo info) {
       break;
     }
   }
+  // Isolation: what the engine put back or could not (each with its vector id).
+  auto& context = impl_->context_;
+  for (auto& text : context.notes)
+    result.harness_notes.push_back(std::move(text));
+  context.notes.clear();
+  for (const auto& [ref, leak] : context.leaks)
+    result.harness_notes.push_back("at the end of the run: " + leak.describe());
   impl_->restore_heartbeat_consumer(result);
   for (auto& note : impl_->capabilities_.notes())
     result.harness_notes.push_back(std::move(note));

@@ -11,14 +11,27 @@
 //      reset node) / none; then the profile's commissioning writes (FORMAT.md
 //      "Commissioning"; not after setup none), the NMT state (`nmt:`), then the CiA 402 state
 //      (`drive_state:`) by the standard path.
+//      The NMT state is always commanded (Pre-operational too, after a boot-up) and confirmed:
+//      by the heartbeat's state byte when the DUT produces one (1017h non-zero), else by
+//      behaviour (SDO answered: not stopped; Stopped: an upload of 1000h gets no answer). A
+//      state not reached, or a CiA 402 transition of the walk that did not happen, is an error
+//      naming it (the vector never ran). Before the NMT state: the standing leaks are checked
+//      and the objects the vector may change are read (isolation.hpp).
 //   3. steps, in order, each with its own deadline (`within:` etc.) and the vector's `timeout:`
 //      over all; the first failed check ends the steps.
-//   4. teardown (always): with CiA 402, after a motion vector or when the last statusword read
+//   4. `finally:` steps (when the steps started), with a time budget of their own; a failure
+//      there is a harness note, not the verdict.
+//   5. teardown (always): with CiA 402, after a motion vector or when the last statusword read
 //      showed OPERATION ENABLED: quick stop (0002h) then disable voltage (0000h).
-//   5. verdict (verdict.hpp): pass / fail / deviation (a profile deviation's glob matches) /
+//   6. restore (isolation.hpp): every object the DUT confirmed a write of goes back to its
+//      value before the vector, and what the vector stored (1010h) is stored again; what
+//      cannot be put back is a leak (a harness note with the vector id).
+//   7. verdict (verdict.hpp): pass / fail / deviation (a profile deviation's documented observation matches) /
 //      not applicable (also when a `$dut.<name>` value does not exist on the DUT) /
 //      error (harness error: an unknown mark, a simulate input the drive does not know, a send
-//      the bus refused); should/may failures are warnings unless strict.
+//      the bus refused); should/may failures are warnings unless strict. A failure while a
+//      leak of an earlier vector stands is an error (message: which object holds what from
+//      which vector).
 //
 // Time: waiting is receive(deadline) on the port, so on the simulated bus it advances simulated
 // time and runs the drive; on SocketCAN it blocks in poll(). The engine turns loopback on and
@@ -65,7 +78,10 @@ struct EngineOptions {
   bool strict = false;    // should/may failures are failures
   bool allow_motion = false;
   bool real_bus = false;  // SocketCAN: safety measures (motion guard, heartbeat, envelope)
-  std::string filter;     // glob over vector ids; empty: all
+  // Isolation (isolation.hpp): snapshot before and restore after each vector, leaks. Off only
+  // for tests that script every frame of a peer.
+  bool isolation = true;
+  std::string filter;  // glob over vector ids; empty: all
   // Consecutive applicable vectors without a single frame from the DUT before it counts as lost.
   std::size_t max_silent_vectors = 3;
   std::uint8_t harness_node = 127;  // heartbeat producer id on a real bus (126 if the DUT is 127)

@@ -56,9 +56,28 @@ std::optional<can::TimedFrame> VectorRun::pump(can::TimePoint deadline) {
         last_statusword_ = static_cast<std::uint16_t>(pdo_sample.value);
     }
     if (frame->own) {
+      if (tracking_writes_) {
+        if (const auto request = sdo_download_request(frame->frame, node());
+            request && request->expedited_data) {
+          request_sizes_[ObjectRef{request->mux.index, request->mux.sub_index}] =
+              request->expedited_data->size();
+        }
+      }
       on_echo(frame->timestamp);
       if (!in_time || until_echo_) return std::nullopt;
       continue;
+    }
+    // Isolation: what the DUT confirmed writing while the vector's steps ran.
+    if (tracking_writes_) {
+      if (const auto ref = confirmed_download(frame->frame, node())) {
+        if (ref->index == 0x1010) {
+          stored_.insert(ref->sub);
+        } else if (ref->index == 0x1011) {
+          restored_defaults_ = true;
+        } else {
+          written_.insert(*ref);
+        }
+      }
     }
     ++dut_frames_;
     received_.push_back(*frame);
@@ -208,13 +227,20 @@ StepStatus VectorRun::fail(std::string action, std::string expected, std::string
   // The first line says it all on one line (CI systems show only that, as JUnit's failure
   // message): where in the vector file, which step, Expected and Actual. The block follows.
   const std::size_t step = step_number(step_index_, vector_.steps.size());
-  const std::size_t line = step != 0 ? vector_.steps[step_index_].line : vector_.line;
+  const std::size_t line = step_line();
   const std::string where = step != 0 ? fmt::format("step {} {}", step, action) : action;
   message_ = fmt::format("{}:{}: {}: Expected {}; Actual {}\n  Expected: {}\n  Actual:   {}",
                          vector_.file, line, where, expected, actual, expected, actual);
   check(std::move(action), std::move(expected), std::move(actual), false);
   result_.checks.back().observed = std::move(observed);
   return StepStatus::failed;
+}
+
+std::size_t VectorRun::step_line() const {
+  if (step_index_ < vector_.steps.size()) return vector_.steps[step_index_].line;
+  const std::size_t in_finally = step_index_ - vector_.steps.size();
+  if (in_finally < vector_.finally_steps.size()) return vector_.finally_steps[in_finally].line;
+  return vector_.line;
 }
 
 StepStatus VectorRun::harness_error(std::string action, std::string message) {
@@ -272,6 +298,7 @@ StepStatus VectorRun::run_steps() {
                                  std::make_move_iterator(to));
   result_.frames.erase(from, to);
   if (setup_status != StepStatus::ok) return setup_status;
+  steps_started_ = true;
   if (const auto status = resolve_device_values(); status != StepStatus::ok) return status;
   can::TimePoint previous_end = now();
   // An SDO stimulus (sdo_write, sdo_read, controlword) is a request: the DUT may react to it

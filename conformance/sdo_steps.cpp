@@ -94,9 +94,9 @@ SdoOutcome VectorRun::sdo_upload(cia301::Multiplexer mux, Transfer transfer) {
 }
 
 SdoOutcome VectorRun::sdo_download(cia301::Multiplexer mux, std::span<const std::uint8_t> data,
-                                   Transfer transfer) {
+                                   Transfer transfer, std::optional<can::Duration> timeout) {
   cia301::SdoClientOptions options;
-  options.timeout = resolve({{}, "sdo_response"});
+  options.timeout = timeout.value_or(resolve({{}, "sdo_response"}));
   options.block_fallback = transfer != Transfer::block;
   cia301::SdoClientTransfer sdo(node(), options);
   const auto first = sdo.start_download(mux, data, now(), mode_of(transfer));

@@ -7,6 +7,7 @@
 #include <span>
 
 #include "conformance/vector_run.hpp"
+#include "protocol/cia301/error_control.hpp"
 #include "protocol/cia301/nmt_master.hpp"
 #include "protocol/cia402/controlword.hpp"
 #include "protocol/profile/vocabulary.hpp"
@@ -36,51 +37,137 @@ StepStatus VectorRun::reach_drive_state(cia402::State target) {
     return harness_error(action, fmt::format("state {} cannot be reached by controlword",
                                              cia402::to_string(target)));
   }
-  const auto await = [&](cia402::State state) {
+  // Each transition of the walk: the controlword accepted, then the new state confirmed in
+  // 6041h within $timing.state_change. The DUT not following is an error, not a failure: the
+  // vector never ran (its own subject is elsewhere; the cia402/fsa vectors judge transitions).
+  const auto transition = [&](const char* number, cia402::Command command,
+                              cia402::State state) -> StepStatus {
+    const auto word = cia402::controlword_of(command);
     const auto& pattern = cia402::pattern_of(state);
-    return poll_statusword(
-        action, pattern.mask, pattern.value,
-        fmt::format("state {} within {}", pattern.name, profile::format_duration(state_change)),
-        now() + state_change);
+    const auto what = fmt::format("transition {} ({:04X}h {}) to {}", number, word,
+                                  cia402::describe_controlword(word), pattern.name);
+    if (auto s = write_controlword(word, action); s != StepStatus::ok)
+      return harness_error(action, fmt::format("{} did not happen: controlword refused: {}", what,
+                                               result_.checks.back().actual));
+    if (auto s = poll_statusword(
+            action, pattern.mask, pattern.value,
+            fmt::format("state {} within {}", pattern.name, profile::format_duration(state_change)),
+            now() + state_change);
+        s != StepStatus::ok) {
+      return harness_error(action, fmt::format("{} did not happen within {}: {}", what,
+                                               profile::format_duration(state_change),
+                                               result_.checks.back().actual));
+    }
+    return StepStatus::ok;
   };
-  // From wherever the drive is: fault reset if in FAULT, then disable voltage to SWITCH ON
-  // DISABLED, then the standard path 2, 3, 4 (and 11 for QUICK STOP ACTIVE).
+  // From wherever the drive is: fault reset if in FAULT (15), then disable voltage to SWITCH ON
+  // DISABLED (7, 9, 10 or 12), then the standard path 2, 3, 4 (and 11 for QUICK STOP ACTIVE).
   const auto read = sdo_upload({0x6041, 0});
-  if (!read.ok) return fail(action, "statusword 6041h readable", read.describe());
+  if (!read.ok) return harness_error(action, "statusword 6041h unreadable: " + read.describe());
   if (read.data.size() == 2) {
     const auto sw = static_cast<std::uint16_t>(read.data[0] | read.data[1] << 8);
     const auto state = cia402::decode_statusword(sw);
     if (state == cia402::State::fault || state == cia402::State::fault_reaction_active) {
-      if (auto s = write_controlword(0x0000, action); s != StepStatus::ok) return s;
-      if (auto s = write_controlword(cia402::controlword_of(cia402::Command::fault_reset), action);
+      if (auto s = write_controlword(0x0000, action); s != StepStatus::ok)
+        return harness_error(action,
+                             "controlword 0000h refused in FAULT: " + result_.checks.back().actual);
+      if (auto s =
+              transition("15", cia402::Command::fault_reset, cia402::State::switch_on_disabled);
           s != StepStatus::ok)
         return s;
     }
   }
-  if (auto s = write_controlword(cia402::controlword_of(cia402::Command::disable_voltage), action);
+  if (auto s = transition("7/9/10/12", cia402::Command::disable_voltage,
+                          cia402::State::switch_on_disabled);
       s != StepStatus::ok)
     return s;
-  if (auto s = await(cia402::State::switch_on_disabled); s != StepStatus::ok) return s;
   if (target == cia402::State::switch_on_disabled) return StepStatus::ok;
-  if (auto s = write_controlword(cia402::controlword_of(cia402::Command::shutdown), action);
+  if (auto s = transition("2", cia402::Command::shutdown, cia402::State::ready_to_switch_on);
       s != StepStatus::ok)
     return s;
-  if (auto s = await(cia402::State::ready_to_switch_on); s != StepStatus::ok) return s;
   if (target == cia402::State::ready_to_switch_on) return StepStatus::ok;
-  if (auto s = write_controlword(cia402::controlword_of(cia402::Command::switch_on), action);
+  if (auto s = transition("3", cia402::Command::switch_on, cia402::State::switched_on);
       s != StepStatus::ok)
     return s;
-  if (auto s = await(cia402::State::switched_on); s != StepStatus::ok) return s;
   if (target == cia402::State::switched_on) return StepStatus::ok;
-  if (auto s = write_controlword(cia402::controlword_of(cia402::Command::enable_operation), action);
+  if (auto s = transition("4", cia402::Command::enable_operation, cia402::State::operation_enabled);
       s != StepStatus::ok)
     return s;
-  if (auto s = await(cia402::State::operation_enabled); s != StepStatus::ok) return s;
   if (target == cia402::State::operation_enabled) return StepStatus::ok;
-  if (auto s = write_controlword(cia402::controlword_of(cia402::Command::quick_stop), action);
-      s != StepStatus::ok)
-    return s;
-  return await(cia402::State::quick_stop_active);
+  return transition("11", cia402::Command::quick_stop, cia402::State::quick_stop_active);
+}
+
+void VectorRun::note(std::string text) {
+  context_.notes.push_back(std::move(text));
+}
+
+StepStatus VectorRun::reach_nmt_state(cia301::NmtState target) {
+  const std::string action = "setup nmt";
+  cia301::NmtMaster master;
+  const cia301::NmtCommand command =
+      target == cia301::NmtState::operational ? cia301::NmtCommand::start
+      : target == cia301::NmtState::stopped   ? cia301::NmtCommand::stop
+                                              : cia301::NmtCommand::enter_pre_operational;
+  const auto frame = master.command(command, node());
+  const std::string name(cia301::to_string(target));
+  // Whether the DUT produces a heartbeat: 1017h as read or written in this vector (the
+  // commissioning may write it), else read now while SDO is served for sure (before a stop).
+  const auto read_heartbeat_time = [&]() -> SdoOutcome {
+    const SdoOutcome outcome = sdo_upload({0x1017, 0});  // sets heartbeat_time_ when ok
+    if (outcome.ok && outcome.data.size() != 2) heartbeat_time_.reset();
+    return outcome;
+  };
+  if (target == cia301::NmtState::stopped && !heartbeat_time_) (void)read_heartbeat_time();
+  const auto from = received_.size();
+  if (auto ec = send_nmt(frame))
+    return harness_error(action, fmt::format("cannot send {}: {}", frame, ec.message()));
+  // NMT is not acknowledged: give the frame its time on the wire, and the DUT a moment.
+  wait_until(now() + std::chrono::milliseconds(1));
+  const auto heartbeat_on = [&] { return heartbeat_time_ && *heartbeat_time_ > can::Duration{}; };
+  if (target != cia301::NmtState::stopped && !heartbeat_on()) {
+    // Behaviour: an SDO answer (any, an abort included) shows the DUT is not stopped.
+    const SdoOutcome outcome = read_heartbeat_time();
+    if (!outcome.ok && !outcome.abort) {
+      return harness_error(
+          action, fmt::format("{} ({}) not confirmed: the DUT does not answer SDO (upload of "
+                              "1017h: {}), as in Stopped",
+                              name, can::to_candump(frame), outcome.describe()));
+    }
+  }
+  if (heartbeat_on()) {
+    // The heartbeat's state byte (CiA 301 §7.2.8.3.2.2): one with the target state after the
+    // command, within 1.5 periods and the response time.
+    const auto within = *heartbeat_time_ * 3 / 2 + resolve({{}, "response"});
+    const auto hit = watch(from, now() + within, [&](const can::Frame& f) {
+      const auto heartbeat = cia301::decode_heartbeat(f);
+      return heartbeat && heartbeat->node == node() && heartbeat->state == target;
+    });
+    if (!hit) {
+      return harness_error(
+          action,
+          fmt::format("{} ({}) not confirmed: no heartbeat {:03X}#{:02X} within "
+                      "{}; {}",
+                      name, can::to_candump(frame), 0x700 + node(), static_cast<unsigned>(target),
+                      profile::format_duration(within), recent_frames(from)));
+    }
+    check(action, fmt::format("NMT state {} shown by the heartbeat", name), "seen", true);
+    return StepStatus::ok;
+  }
+  if (target == cia301::NmtState::stopped) {
+    // Behaviour: in Stopped the SDO server is silent (CiA 301 §7.3.2.2). Node guarding would
+    // show the state too, but its request toggles the DUT's guarding bit for the vector.
+    const SdoOutcome outcome = sdo_upload({0x1000, 0});
+    if (outcome.ok || outcome.abort) {
+      return harness_error(
+          action, fmt::format("{} ({}) not confirmed: the DUT answers SDO (upload of 1000h: {}), "
+                              "which it does not in Stopped (CiA 301 §7.3.2.2)",
+                              name, can::to_candump(frame), outcome.describe()));
+    }
+    check(action, "NMT state stopped: SDO not served", "no answer to an upload of 1000h", true);
+    return StepStatus::ok;
+  }
+  check(action, fmt::format("NMT state {}: SDO served", name), "1017h upload answered", true);
+  return StepStatus::ok;
 }
 
 StepStatus VectorRun::commission() {
@@ -116,7 +203,6 @@ StepStatus VectorRun::setup() {
     if (const auto error = context_.options.simulation->reset_inputs(); !error.empty())
       return harness_error("setup", fmt::format("cannot reset the simulated inputs: {}", error));
   }
-  bool booted = false;
   switch (vector_.setup) {
     case Setup::none:
       break;
@@ -129,6 +215,7 @@ StepStatus VectorRun::setup() {
       // 1011h sub 1 := "load" (6C 6F 61 64), then reset node (CiA 301 §7.5.2.14).
       const std::array<std::uint8_t, 4> load{0x6C, 0x6F, 0x61, 0x64};
       const auto outcome = sdo_download({0x1011, 1}, load);
+      restored_defaults_ = true;
       if (!outcome.ok)
         return fail("setup restore-defaults", "1011h sub 1 := \"load\" accepted",
                     outcome.describe());
@@ -137,12 +224,10 @@ StepStatus VectorRun::setup() {
     case Setup::reset_node:
       if (auto s = command(cia301::NmtCommand::reset_node); s != StepStatus::ok) return s;
       if (auto s = await_bootup("setup reset-node"); s != StepStatus::ok) return s;
-      booted = true;
       break;
     case Setup::reset_communication:
       if (auto s = command(cia301::NmtCommand::reset_communication); s != StepStatus::ok) return s;
       if (auto s = await_bootup("setup reset-communication"); s != StepStatus::ok) return s;
-      booted = true;
       break;
   }
   // The profile's commissioning (FORMAT.md "Commissioning"): after a reset, before the NMT
@@ -150,25 +235,14 @@ StepStatus VectorRun::setup() {
   if (vector_.setup != Setup::none) {
     if (auto s = commission(); s != StepStatus::ok) return s;
   }
-  if (vector_.nmt) {
-    switch (*vector_.nmt) {
-      case cia301::NmtState::pre_operational:
-        if (!booted) {
-          if (auto s = command(cia301::NmtCommand::enter_pre_operational); s != StepStatus::ok)
-            return s;
-        }
-        break;
-      case cia301::NmtState::operational:
-        if (auto s = command(cia301::NmtCommand::start); s != StepStatus::ok) return s;
-        break;
-      case cia301::NmtState::stopped:
-        if (auto s = command(cia301::NmtCommand::stop); s != StepStatus::ok) return s;
-        break;
-      case cia301::NmtState::boot_up:
-        break;
-    }
-    // NMT is not acknowledged: give the frame its time on the wire, and the DUT a moment.
-    wait_until(now() + std::chrono::milliseconds(1));
+  // Isolation (isolation.hpp): leaks of earlier vectors, then the snapshot, while the DUT is
+  // in the state its reset left (SDO served), before the NMT state of the vector.
+  check_leaks();
+  take_snapshot();
+  // The NMT state, always commanded (also Pre-operational after a boot-up: a DUT may start
+  // itself) and confirmed.
+  if (vector_.nmt && *vector_.nmt != cia301::NmtState::boot_up) {
+    if (auto s = reach_nmt_state(*vector_.nmt); s != StepStatus::ok) return s;
   }
   if (vector_.drive_state) {
     if (auto s = reach_drive_state(*vector_.drive_state); s != StepStatus::ok) return s;
@@ -221,6 +295,223 @@ void VectorRun::teardown() {
     }
   }
   (void)write_controlword(0x0000);
+}
+
+// ---- isolation (isolation.hpp) ----
+
+namespace {
+
+std::string hex_bytes(const Bytes& bytes) {
+  return bytes.empty() ? std::string("(empty)") : fmt::format("{:02X}", fmt::join(bytes, " "));
+}
+
+constexpr std::array<std::uint8_t, 4> kSave{0x73, 0x61, 0x76, 0x65};  // "save", CiA 301 §7.5.2.13
+
+}  // namespace
+
+std::string Leak::describe() const {
+  return fmt::format(
+      "{} still holds {} (was {}{}) from vector {}", to_string(ref),
+      actual ? hex_bytes(*actual) : std::string("an unknown value"), hex_bytes(expected),
+      store ? fmt::format(", stored with 1010h sub {}", *store) : std::string(), vector_id);
+}
+
+SdoOutcome VectorRun::write_back(cia301::Multiplexer mux, Bytes& data) {
+  SdoOutcome outcome = sdo_download(mux, data);
+  // Refused for its length (CiA 301 §7.2.4.3.17: 06070010h, 06070012h too long) with zero
+  // bytes at the end: the value was read padded (an upload answered 4 bytes for a shorter
+  // object); the zero padding goes, down to the length the DUT takes.
+  while (!outcome.ok && outcome.abort &&
+         (*outcome.abort == 0x06070010 || *outcome.abort == 0x06070012) && data.size() > 1 &&
+         data.back() == 0) {
+    data.pop_back();
+    outcome = sdo_download(mux, data);
+  }
+  return outcome;
+}
+
+void VectorRun::check_leaks() {
+  standing_leaks_.clear();
+  if (!context_.options.isolation) return;
+  std::vector<std::string> standing;
+  for (auto it = context_.leaks.begin(); it != context_.leaks.end();) {
+    Leak& leak = it->second;
+    const auto ref = leak.ref;
+    const SdoOutcome now_value = sdo_upload({ref.index, ref.sub});
+    bool back = now_value.ok && now_value.data == leak.expected;
+    std::string how = "read back";
+    if (!back) {
+      Bytes data = leak.expected;
+      const SdoOutcome put = write_back({ref.index, ref.sub}, data);
+      back = put.ok;
+      how = "written back";
+      if (back && leak.store) {
+        back =
+            sdo_download({0x1010, *leak.store}, kSave, Transfer::automatic, std::chrono::seconds(5))
+                .ok;
+        how = "written back and stored";
+      }
+      if (now_value.ok) leak.actual = now_value.data;
+    }
+    if (back) {
+      note(fmt::format("vector {}: {} is back to {} ({} before vector {})", leak.vector_id,
+                       to_string(ref), hex_bytes(leak.expected), how, vector_.id));
+      it = context_.leaks.erase(it);
+      continue;
+    }
+    standing.push_back(leak.describe());
+    ++it;
+  }
+  if (!standing.empty()) standing_leaks_ = fmt::format("{}", fmt::join(standing, "; "));
+}
+
+void VectorRun::take_snapshot() {
+  snapshot_.clear();
+  written_.clear();
+  request_sizes_.clear();
+  stored_.clear();
+  tracking_writes_ = false;
+  if (!context_.options.isolation) return;
+  std::vector<std::string> values;
+  for (const ObjectRef& ref : snapshot_objects(vector_, node())) {
+    const SdoOutcome outcome = sdo_upload({ref.index, ref.sub});
+    if (outcome.ok) {
+      snapshot_[ref] = outcome.data;
+      values.push_back(fmt::format("{} = {}", to_string(ref), hex_bytes(outcome.data)));
+    } else {
+      values.push_back(fmt::format("{}: {} (not restored)", to_string(ref), outcome.describe()));
+    }
+  }
+  if (!values.empty()) {
+    check("snapshot", "the objects the vector may change, read before its steps",
+          fmt::format("{}", fmt::join(values, "; ")), true);
+  }
+  tracking_writes_ = true;
+}
+
+void VectorRun::run_finally() {
+  if (vector_.finally_steps.empty() || context_.stalled.load()) return;
+  const std::string message = message_;
+  const auto budget = resolve(vector_.timeout);
+  deadline_ = now() + budget;
+  const std::size_t first = vector_.steps.size();
+  for (std::size_t i = 0; i < vector_.finally_steps.size(); ++i) {
+    const Step& step = vector_.finally_steps[i];
+    step_index_ = first + i;
+    action_ = std::string(action_name(step.action));
+    drain();
+    StepStatus status = run_stimulus(step);
+    if (status == StepStatus::ok) status = run_expectation(step);
+    if (status != StepStatus::ok) {
+      note(fmt::format("vector {}: finally step {} ({}, line {}) did not succeed: {}", vector_.id,
+                       i + 1, action_, step.line, message_));
+    }
+    if (vector_timed_out()) {
+      note(fmt::format("vector {}: finally: its time budget ({}) ran out at step {}", vector_.id,
+                       profile::format_duration(budget), i + 1));
+      break;
+    }
+    if (context_.stalled.load()) break;
+  }
+  drain();
+  message_ = message;
+}
+
+void VectorRun::restore() {
+  tracking_writes_ = false;
+  if (!context_.options.isolation || context_.stalled.load()) return;
+  if (restored_defaults_ && context_.options.real_bus) {
+    note(
+        fmt::format("vector {}: restored the factory defaults (1011h): the stored parameters "
+                    "it did not write itself are not put back",
+                    vector_.id));
+  }
+  std::set<ObjectRef> written;
+  for (const ObjectRef& ref : written_) {
+    if (snapshot_.count(ref) != 0) written.insert(ref);
+  }
+  if (written.empty() && stored_.empty()) return;
+  // A generous budget of its own: the vector's deadline may have passed.
+  deadline_ = now() + resolve({{}, "sdo_response"}) * (8 * (snapshot_.size() + 2)) +
+              std::chrono::seconds(5) * stored_.size();
+  // SDO is served in Pre-operational whatever NMT state the vector left (the next vector's
+  // setup commands its own state).
+  cia301::NmtMaster master;
+  if (auto ec = send_nmt(master.command(cia301::NmtCommand::enter_pre_operational, node())); !ec)
+    wait_until(now() + std::chrono::milliseconds(1));
+  RestoreInput input;
+  input.before = snapshot_;
+  input.written = written;
+  for (const auto& [ref, value] : snapshot_) {
+    const SdoOutcome outcome = sdo_upload({ref.index, ref.sub});
+    if (outcome.ok) input.after[ref] = outcome.data;
+  }
+  const auto read_only = [](cia301::AccessType access) {
+    return access == cia301::AccessType::ro || access == cia301::AccessType::constant;
+  };
+  for (const auto& object : context_.profile.objects) {
+    if (read_only(object.access)) input.read_only.insert(ObjectRef{object.index, object.sub});
+  }
+  if (context_.options.eds != nullptr) {
+    for (const ObjectRef& ref : written) {
+      const auto* entry = context_.options.eds->find(ref.index, ref.sub);
+      if (entry != nullptr && read_only(entry->access())) input.read_only.insert(ref);
+    }
+  }
+  // A value read longer than the vector wrote it, with zeros past that length (a DUT that
+  // pads 1- and 2-byte values to 4 in its upload response), goes back as long as it was written.
+  for (const auto& [ref, size] : request_sizes_) {
+    const auto trim = [size = size](Bytes& value) {
+      if (value.size() > size &&
+          std::all_of(value.begin() + static_cast<std::ptrdiff_t>(size), value.end(),
+                      [](std::uint8_t byte) { return byte == 0; }))
+        value.resize(size);
+    };
+    if (const auto it = input.before.find(ref); it != input.before.end()) trim(it->second);
+    if (const auto it = input.after.find(ref); it != input.after.end()) trim(it->second);
+  }
+  const RestorePlan plan = plan_restore(input);
+  std::vector<std::string> done;
+  std::set<ObjectRef> failed;
+  for (const RestoreWrite& write : plan.writes) {
+    Bytes data = write.data;
+    const SdoOutcome outcome = write_back({write.ref.index, write.ref.sub}, data);
+    done.push_back(fmt::format("{} := {} ({}): {}", to_string(write.ref), hex_bytes(data),
+                               write.why, outcome.describe()));
+    if (!outcome.ok) failed.insert(write.ref);
+  }
+  // What the vector stored goes back into non-volatile memory: the values before the vector
+  // (now current again) stored with the same sub-index.
+  std::optional<std::uint8_t> store_failed;
+  for (const std::uint8_t sub : stored_) {
+    const SdoOutcome outcome =
+        sdo_download({0x1010, sub}, kSave, Transfer::automatic, std::chrono::seconds(5));
+    done.push_back(
+        fmt::format("1010h sub {} := \"save\" (store them again): {}", sub, outcome.describe()));
+    if (!outcome.ok) store_failed = sub;
+  }
+  for (const std::string& skipped : plan.skipped)
+    done.push_back("skipped " + skipped);
+  const bool ok = failed.empty() && !store_failed;
+  if (!done.empty()) {
+    check("restore", "every object the vector changed back to its value before the vector",
+          fmt::format("{}", fmt::join(done, "; ")), ok);
+  }
+  // What could not be put back is a leak: a note now, and later failures become errors.
+  std::set<ObjectRef> leaked = failed;
+  if (store_failed) leaked.insert(written.begin(), written.end());
+  for (const ObjectRef& ref : leaked) {
+    Leak leak;
+    leak.ref = ref;
+    leak.expected = input.before.at(ref);
+    if (const auto after = input.after.find(ref); after != input.after.end())
+      leak.actual = after->second;
+    if (store_failed || !stored_.empty())
+      leak.store = store_failed ? *store_failed : *stored_.begin();
+    leak.vector_id = vector_.id;
+    note(fmt::format("vector {}: could not undo its change: {}", vector_.id, leak.describe()));
+    context_.leaks[ref] = std::move(leak);
+  }
 }
 
 }  // namespace drivecheck::conformance

@@ -287,6 +287,10 @@ struct Vector {
   std::optional<cia402::State> drive_state;
   DurationSpec timeout{std::chrono::seconds(30), {}};  // whole-vector limit
   std::vector<Step> steps;
+  // `finally:` (FORMAT.md "Isolation"): steps that always run after `steps:`, whatever the
+  // verdict, with their own time budget (the vector's `timeout:` again), before the engine's
+  // teardown and restore. Their failures are harness notes, never the vector's verdict.
+  std::vector<Step> finally_steps;
   std::string note;
   std::string file;  // as given to the loader
   std::size_t line = 0;

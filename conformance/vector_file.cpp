@@ -346,9 +346,9 @@ const std::vector<StepSyntax>& step_syntax() {
   return kSyntax;
 }
 
-constexpr std::array<std::string_view, 13> kVectorKeys{
+constexpr std::array<std::string_view, 14> kVectorKeys{
     "id",    "title", "source",      "level",   "requires", "profiles", "motion",
-    "setup", "nmt",   "drive_state", "timeout", "steps",    "note"};
+    "setup", "nmt",   "drive_state", "timeout", "steps",    "finally",  "note"};
 
 std::optional<cia402::State> parse_402_state(std::string_view text) {
   constexpr std::array<std::pair<std::string_view, cia402::State>, 8> kNames{{
@@ -1312,6 +1312,16 @@ class Parser {
       } else {
         for (const auto& item : steps) {
           if (auto step = parse_step(item)) vector.steps.push_back(std::move(*step));
+        }
+      }
+    }
+    // `finally:` after `steps:` (its steps may use the marks and saved values of the steps).
+    if (const auto finally = node["finally"]) {
+      if (!finally.IsSequence() || finally.size() == 0) {
+        error(finally, "finally: expected a non-empty list of steps");
+      } else {
+        for (const auto& item : finally) {
+          if (auto step = parse_step(item)) vector.finally_steps.push_back(std::move(*step));
         }
       }
     }

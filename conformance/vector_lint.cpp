@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <set>
 
+#include "conformance/isolation.hpp"
 #include "conformance/sha256.hpp"
 #include "conformance/vector_file.hpp"
 #include "protocol/cia301/object_requirements.hpp"
@@ -125,6 +126,31 @@ bool is_sdo_response_cob(const CobIdSpec& cob) {
   if (cob.extended) return false;
   if (cob.plus_node) return cob.base == 0x580;
   return cob.base > 0x580 && cob.base <= 0x5FF;
+}
+
+// FORMAT.md "Isolation": a factory restore wipes a real drive's commissioning, so
+// `setup: restore-defaults` is only for vectors about restore (they write 1011h themselves) or
+// about the default values (the id says "default"); and clean-up belongs in `finally:`, which
+// runs after a failed step too.
+void lint_isolation(const Vector& vector, LintReport& report) {
+  if (vector.setup == Setup::restore_defaults && !writes_restore_defaults(vector, 1) &&
+      vector.id.find("default") == std::string::npos) {
+    report.errors.push_back(
+        {vector.file, static_cast<int>(vector.line),
+         fmt::format("vector {}: setup: restore-defaults wipes a real drive's stored parameters; "
+                     "the engine puts back what a vector writes (FORMAT.md \"Isolation\"): keep "
+                     "it for vectors about restore (1011h) or default values only",
+                     vector.id)});
+  }
+  for (const Step& step : vector.steps) {
+    if (step.note.rfind("clean up", 0) == 0 || step.note.rfind("clean-up", 0) == 0) {
+      report.warnings.push_back(
+          {vector.file, static_cast<int>(step.line),
+           fmt::format("vector {}: a clean-up step in steps: does not run after a failed step; "
+                       "move it to finally:",
+                       vector.id)});
+    }
+  }
 }
 
 }  // namespace
@@ -353,14 +379,18 @@ LintReport lint_vector_tree(const LintOptions& options) {
                                  fmt::format("vector {}: {}", vector.id, message)});
     }
     // A bus_off step as long as the whole vector leaves no time to see the drive's reaction.
-    for (const auto& step : vector.steps) {
-      const auto* bus_off = std::get_if<BusOffStep>(&step.action);
-      if (bus_off != nullptr && !bus_off->duration.is_timing() && !vector.timeout.is_timing() &&
-          bus_off->duration.value >= vector.timeout.value) {
-        report.errors.push_back({vector.file, static_cast<int>(step.line),
-                                 "bus_off: the duration is not shorter than the vector's timeout"});
+    for (const auto* steps : {&vector.steps, &vector.finally_steps}) {
+      for (const auto& step : *steps) {
+        const auto* bus_off = std::get_if<BusOffStep>(&step.action);
+        if (bus_off != nullptr && !bus_off->duration.is_timing() && !vector.timeout.is_timing() &&
+            bus_off->duration.value >= vector.timeout.value) {
+          report.errors.push_back(
+              {vector.file, static_cast<int>(step.line),
+               "bus_off: the duration is not shorter than the vector's timeout"});
+        }
       }
     }
+    lint_isolation(vector, report);
   }
 
   // Drive profiles.

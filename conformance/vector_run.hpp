@@ -14,11 +14,13 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <system_error>
 #include <vector>
 
 #include "conformance/engine.hpp"
+#include "conformance/isolation.hpp"
 #include "conformance/pdo_tracker.hpp"
 #include "conformance/result.hpp"
 #include "conformance/vector.hpp"
@@ -28,6 +30,17 @@
 #include "protocol/profile/drive_profile.hpp"
 
 namespace drivecheck::conformance {
+
+// A change a vector made that the engine could not undo (isolation.hpp): it stands until a
+// later read shows the value before again (e.g. after a reset) or a later write puts it back.
+struct Leak {
+  ObjectRef ref;
+  Bytes expected;                     // the value before the vector
+  std::optional<Bytes> actual;        // what the object held when the restore failed
+  std::optional<std::uint8_t> store;  // the vector stored it (1010h sub n): stored too
+  std::string vector_id;
+  std::string describe() const;  // "1017h sub 0 still holds C8 00 (was 00 00) from vector X"
+};
 
 // What every vector of a run shares.
 struct EngineContext {
@@ -45,6 +58,10 @@ struct EngineContext {
   bool last_nmt_raw = false;
   // `$dut.<name>` values found on the DUT in this run (device_values.hpp).
   std::map<std::string, std::int64_t> device_values;
+  // Isolation (isolation.hpp): the leaks that stand, and the harness notes of the run so far
+  // (Engine::run moves them into RunResult::harness_notes).
+  std::map<ObjectRef, Leak> leaks;
+  std::vector<std::string> notes;
 };
 
 // not_applicable: a value the vector takes from the device does not exist on it
@@ -89,6 +106,8 @@ class VectorRun {
   std::uint8_t node() const { return context_.options.node; }
   // The last frames from other nodes, for Actual: texts ("585#..., 701#05").
   std::string recent_frames(std::size_t from_index, std::size_t max = 4) const;
+  // The YAML line of the current step (in `steps:` or `finally:`), else the vector's.
+  std::size_t step_line() const;
   // Fails with `expected`/`actual` (sets the failure message).
   // `observed`: what the DUT did, typed (result.hpp), for a deviation's `observed:`.
   StepStatus fail(std::string action, std::string expected, std::string actual,
@@ -109,8 +128,10 @@ class VectorRun {
 
   // ---- sdo_steps.cpp ----
   SdoOutcome sdo_upload(cia301::Multiplexer mux, Transfer transfer = Transfer::automatic);
+  // `timeout`: the response time allowed (default $timing.sdo_response).
   SdoOutcome sdo_download(cia301::Multiplexer mux, std::span<const std::uint8_t> data,
-                          Transfer transfer = Transfer::automatic);
+                          Transfer transfer = Transfer::automatic,
+                          std::optional<can::Duration> timeout = std::nullopt);
   StepStatus run_stimulus(const Step& step);
 
   // ---- expectations.cpp ----
@@ -129,10 +150,24 @@ class VectorRun {
   StepStatus commission();
   void teardown();
 
+  // ---- isolation (setup.cpp) ----
+  // Before the steps: re-checks the standing leaks (cleared when the value before is back, or
+  // when writing it back now succeeds), then reads the objects the vector may change.
+  void check_leaks();
+  void take_snapshot();
+  // `finally:` steps, with their own time budget; a failure is a harness note.
+  void run_finally();
+  // After teardown: puts back what the vector changed (and stored); a failure is a leak.
+  void restore();
+  // The leaks that stood while this vector ran ("" when none): a failure becomes an error.
+  const std::string& standing_leaks() const { return standing_leaks_; }
+
   // Runs the whole vector: setup, steps, teardown; returns the outcome and message.
   StepStatus run_steps();
 
   const std::string& message() const { return message_; }
+  // Setup got through: the steps began (`finally:` runs only then).
+  bool steps_started() const { return steps_started_; }
   bool dut_spoke() const { return dut_frames_ > 0; }
   std::size_t current_step() const { return step_index_; }
 
@@ -143,6 +178,12 @@ class VectorRun {
   };
   StepStatus write_controlword(std::uint16_t value, std::string action);
   StepStatus reach_drive_state(cia402::State target);
+  // Sends `command` and confirms the NMT state it asks for (FORMAT.md "Setup"): by the
+  // heartbeat's state byte when the DUT produces one, else by behaviour.
+  StepStatus reach_nmt_state(cia301::NmtState target);
+  void note(std::string text);
+  // An SDO download of a value read back, shortened when the DUT refuses its zero padding.
+  SdoOutcome write_back(cia301::Multiplexer mux, Bytes& data);
   StepStatus await_bootup(std::string action);
   std::size_t watch_start(const std::string& since) const;
   // The time a watching expectation measures `within:` from when it has no `since:`: the
@@ -185,6 +226,17 @@ class VectorRun {
   std::optional<std::size_t> resume_from_;
   std::string action_;  // current step's action
   std::string message_;
+  // Isolation: the snapshot, and what the DUT confirmed while the vector's steps ran.
+  bool tracking_writes_ = false;
+  std::map<ObjectRef, Bytes> snapshot_;
+  std::set<ObjectRef> written_;
+  // The length of the last expedited download the harness sent to each object: the write back
+  // uses it where an upload answered longer (a DUT that pads 1- and 2-byte values to 4).
+  std::map<ObjectRef, std::size_t> request_sizes_;
+  std::set<std::uint8_t> stored_;   // 1010h sub-indices a confirmed "save" went to
+  bool restored_defaults_ = false;  // a confirmed 1011h download
+  std::string standing_leaks_;
+  bool steps_started_ = false;
 };
 
 }  // namespace drivecheck::conformance

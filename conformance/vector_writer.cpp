@@ -194,6 +194,13 @@ class Writer {
     for (const Step& step : v.steps)
       this->step(step);
     out_ << YAML::EndSeq;
+    if (!v.finally_steps.empty()) {
+      key("finally");
+      out_ << YAML::BeginSeq;
+      for (const Step& step : v.finally_steps)
+        this->step(step);
+      out_ << YAML::EndSeq;
+    }
     if (!v.note.empty()) {
       key("note");
       quoted(v.note);
@@ -512,6 +519,8 @@ bool same_content(const Vector& a, const Vector& b) {
          a.profiles == b.profiles && a.motion == b.motion && a.setup == b.setup && a.nmt == b.nmt &&
          a.drive_state == b.drive_state && a.timeout == b.timeout &&
          std::equal(a.steps.begin(), a.steps.end(), b.steps.begin(), b.steps.end(), same_step) &&
+         std::equal(a.finally_steps.begin(), a.finally_steps.end(), b.finally_steps.begin(),
+                    b.finally_steps.end(), same_step) &&
          a.note == b.note;
 }
 

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <memory>
 #include <utility>
 
@@ -357,6 +358,16 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       if (held_timer_ != can::kNoTimer) port_.cancel_timer(held_timer_);
       held_timer_ = can::kNoTimer;
       if (d.has(Deviation::bootup_missing)) return std::nullopt;
+      if (d.has(Deviation::nmt_starts_operational)) {
+        // Deviation: the drive starts itself, as if it had received NMT start (01h) right
+        // after its boot-up.
+        start_owned_timer(now, [this, node_id] {
+          if (handler_ && !crashed_) {
+            const std::array<std::uint8_t, 2> start{0x01, node_id};
+            handler_(can::TimedFrame{can::Frame::standard(0x000, start), port_.now(), false});
+          }
+        });
+      }
       return out;
     }
     if (state == kStateStopped && d.has(Deviation::heartbeat_missing_in_stopped)) {

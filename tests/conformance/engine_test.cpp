@@ -49,6 +49,12 @@ class EngineTest : public ::testing::Test {
     Engine engine(*harness_, profile_, std::move(options));
     return engine.run_vector(vector);
   }
+  // Scripted peers answer exactly the frames of their script: no isolation snapshot/restore.
+  static EngineOptions scripted() {
+    EngineOptions options;
+    options.isolation = false;
+    return options;
+  }
   std::string failure(const VectorResult& result) {
     return result.checks.empty()
                ? result.message
@@ -69,7 +75,8 @@ TEST_F(EngineTest, SdoWriteExpectedAbortPasses) {
   // When the vector expects that abort
   const auto result =
       run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
-                      "{abort: write-read-only}\n"));
+                      "{abort: write-read-only}\n"),
+          scripted());
   // Then it passes, with the check and both frames as evidence
   EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
   ASSERT_EQ(result.checks.size(), 1U);
@@ -225,7 +232,8 @@ TEST_F(EngineTest, WrongAbortCodeFailsWithExpectedActual) {
   // When the vector expects 06010002h
   const auto result =
       run(make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
-                      "{abort: write-read-only}\n"));
+                      "{abort: write-read-only}\n"),
+          scripted());
   // Then it fails, and the message shows both codes
   EXPECT_EQ(result.verdict, Verdict::fail);
   EXPECT_NE(result.message.find("Expected: write 6041h sub 0 := 00 00: abort in write-read-only "
@@ -403,6 +411,32 @@ TEST_F(EngineTest, DriveStateWalksTheStandardPath) {
   // Then the setup walked 7 (disable voltage) and 2 (shutdown), and the vector passes
   EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
   EXPECT_TRUE(peer.finished());
+}
+
+TEST_F(EngineTest, DriveStateWalkNamesTheTransitionThatDidNotHappen) {
+  // Given a CiA 402 profile and a peer playing a drive that stays in SWITCH ON DISABLED after
+  // shutdown (transition 2 does not happen)
+  auto parsed = profile::parse_profile(
+      "name: m\ntitle: M\nfeatures: [cia402]\n",
+      {.file_name = "m.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.set_mismatch_handler([](const std::string&) {});
+  peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // 6041h = 0240h (SOD)
+  peer.expect("601#2B40600000000000").reply("581#6040600000000000");  // 6040h := 0000h, ok
+  peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // 6041h = 0240h (SOD)
+  peer.expect("601#2B40600006000000").reply("581#6040600000000000");  // 6040h := 0006h, ok
+  for (int i = 0; i < 100; ++i)
+    peer.expect("601#4041600000000000").reply("581#4B41600040020000");  // still 0240h
+  // When a vector asks for ready-to-switch-on
+  Engine engine(*harness_, *parsed, {});
+  const auto result =
+      engine.run_vector(make_vector("    - wait: 1ms\n", "  drive_state: ready-to-switch-on\n"));
+  // Then it is an error (the vector never ran) that names transition 2 and what was seen
+  EXPECT_EQ(result.verdict, Verdict::error);
+  EXPECT_NE(result.message.find("transition 2 (0006h"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("did not happen within 200ms: statusword 0240h"), std::string::npos)
+      << result.message;
 }
 
 TEST_F(EngineTest, ExpectStatePollsUntilReached) {
@@ -825,10 +859,13 @@ TEST_F(EngineTest, OdChecksCatchAWrongAccessType) {
   test_support::ScriptedPeer peer(*peer_port_);
   peer.expect("000#8101")              // NMT reset node, node 1
       .reply("701#00")                 // boot-up
+      .expect("000#8001")              // NMT enter pre-operational, commanded after the boot-up
+      .expect("601#4017100000000000")  // upload 1017h: the heartbeat, or SDO served
+      .reply("581#8017100000000206")   // abort 06020000h: no 1017h (SDO served: not stopped)
       .expect("601#2B41600000000000")  // ccs=1 n=2 e=1 s=1, 6041h sub 0, data 0000h
       .reply("581#6041600000000000");  // scs=3: download confirmed (wrong: 6041h is ro)
-  // When the write-ro check runs against that DUT
-  Engine engine(*harness_, *parsed, {});
+  // When the write-ro check runs against that DUT (no isolation: the script has every frame)
+  Engine engine(*harness_, *parsed, scripted());
   const auto result = engine.run_vector(vectors[1]);
   // Then it fails with Expected abort 06010002h / Actual ok
   EXPECT_EQ(result.verdict, Verdict::fail);

@@ -70,6 +70,40 @@ TEST(VectorFile, FullVectorParses) {
   EXPECT_EQ(std::get<SdoWriteStep>(v.steps[3].action).value->saved, "sw");
 }
 
+TEST(VectorFile, FinallyStepsParseAfterTheSteps) {
+  // Given a vector with finally: steps that use a saved value of the steps
+  const std::string yaml = std::string(kHead) + R"(  steps:
+    - sdo_read: {index: 0x1017, sub: 0}
+      save: hb
+  finally:
+    - sdo_write: {index: 0x1017, sub: 0, value: $hb, size: 2}
+    - nmt: pre-operational
+)";
+  // When parsed; Then the finally steps are in the model with their lines
+  const auto set = parse_vectors(yaml, "v.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& v = set.vectors.front();
+  ASSERT_EQ(v.finally_steps.size(), 2U);
+  EXPECT_EQ(std::get<SdoWriteStep>(v.finally_steps[0].action).value->saved, "hb");
+  EXPECT_GT(v.finally_steps[1].line, v.finally_steps[0].line);
+}
+
+TEST(VectorFile, EmptyOrBadFinallyIsAnErrorWithItsLine) {
+  // Given an empty finally: list and one with an unknown action
+  const auto empty =
+      parse_vectors(std::string(kHead) + "  steps:\n    - wait: 1ms\n  finally: []\n", "v.yaml");
+  const auto bad = parse_vectors(
+      std::string(kHead) + "  steps:\n    - wait: 1ms\n  finally:\n    - jump: 1\n", "v.yaml");
+  // When parsed; Then both are errors naming file:line
+  ASSERT_FALSE(empty.ok());
+  EXPECT_NE(empty.errors.front().to_string().find("finally: expected a non-empty list of steps"),
+            std::string::npos)
+      << empty.errors.front().to_string();
+  EXPECT_EQ(empty.errors.front().file, "v.yaml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_GT(bad.errors.front().line, 0);
+}
+
 TEST(VectorFile, UnknownVectorKeyNamesLine) {
   // Given a typo in a vector key; When parsed; Then file:line and the allowed keys
   const auto error = only_error(std::string(kHead) + "  stpes: []\n  steps: [{wait: 1ms}]\n");

@@ -166,5 +166,29 @@ TEST_F(LintTree, BadManualListHasLines) {
   EXPECT_EQ(report.errors[0].line, 5);
 }
 
+TEST_F(LintTree, RestoreDefaultsOnlyForRestoreOrDefaultsAndCleanUpInFinally) {
+  // Given a vector using restore-defaults as a clean slate, one about restore (it writes
+  // 1011h), one about a default value, and one with a clean-up step at the end of its steps
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  const std::string head = "  title: t\n  source: \"CiA 301 §1\"\n";
+  write("v.yaml",
+        "- id: a/clean-slate\n" + head + "  setup: restore-defaults\n  steps: [{wait: 1ms}]\n" +
+            "- id: a/restore\n" + head + "  setup: restore-defaults\n  steps:\n" +
+            "    - sdo_write: {index: 0x1011, sub: 1, value: 0x64616F6C, size: 4}\n" +
+            "- id: a/heartbeat-default\n" + head +
+            "  setup: restore-defaults\n  steps: [{wait: 1ms}]\n" + "- id: a/cleans-up\n" + head +
+            "  steps:\n    - nmt: reset-node\n      note: \"clean up: reset\"\n");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  // Then the clean slate is an error at its line, the clean-up step a warning
+  ASSERT_EQ(report.errors.size(), 1U);
+  EXPECT_NE(report.errors[0].to_string().find("v.yaml:1: vector a/clean-slate: setup: "
+                                              "restore-defaults wipes"),
+            std::string::npos)
+      << report.errors[0].to_string();
+  ASSERT_EQ(report.warnings.size(), 1U);
+  EXPECT_NE(report.warnings[0].message.find("move it to finally:"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace drivecheck::conformance

@@ -119,6 +119,10 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
       tolerance: 3ms
       count: 10000
       mark: p
+  finally:
+    - sdo_write: {index: 0x6060, sub: 0, value: $mode_seen}
+      note: "clean-up that runs after a failed step too"
+    - nmt: pre-operational
   note: ""
 )";
 
