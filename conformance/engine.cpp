@@ -239,7 +239,7 @@ class Engine::Impl {
                 fmt::format("{:04X}h sub {} ({}) recorded", object.index, object.sub, object.name),
                 outcome.describe(),
                 true,
-                {}});
+                {}, {}});
     }
     // The harness becomes a heartbeat producer; the DUT consumes it (1016h sub 1:
     // node-ID in bits 16..23, time in ms in bits 0..15, 3x our period). What 1016h sub 1 held
@@ -251,7 +251,7 @@ class Engine::Impl {
                                   "1016h sub 1 recorded (restored after the run)",
                                   before.describe(),
                                   true,
-                                  {}});
+                                  {}, {}});
     start_heartbeat();
     const auto period_ms = static_cast<std::uint32_t>(
         std::chrono::duration_cast<std::chrono::milliseconds>(options_.harness_heartbeat).count());
@@ -267,7 +267,7 @@ class Engine::Impl {
               fmt::format("1016h sub 1 := {:08X}h (consume the harness heartbeat)", consumer),
               outcome.describe(),
               true,
-              {}});
+              {}, {}});
     for (auto& frame : scratch.frames)
       result.frames.push_back(std::move(frame));
   }
@@ -457,7 +457,7 @@ VectorResult Engine::probe_undocumented_objects(
   const auto actual = found.empty()
                           ? std::string("none undescribed")
                           : fmt::format("{} undescribed: {}", found.size(), fmt::join(found, ", "));
-  result.checks.push_back(Check{0, "probe", expected, actual, found.empty(), {}});
+  result.checks.push_back(Check{0, "probe", expected, actual, found.empty(), {}, {}});
   decide_verdict(result, probe, impl_->profile_, found.empty() ? Outcome::pass : Outcome::fail,
                  fmt::format("{}: probe: Expected {}; Actual {}\n  Expected: {}\n  Actual:   {}",
                              probe.file, expected, actual, expected, actual),

@@ -84,8 +84,8 @@ TEST(Applicability, BusOffStepNeedsTheSimulatedBus) {
 // A result whose one check failed with `observed` (and `actual`).
 VectorResult failed_with(Observation observed, std::string actual = "x") {
   VectorResult result;
-  Check passed{0, "sdo_write", "ok", "ok", true, {}};
-  Check failed{1, "expect_state", "e", std::move(actual), false, observed};
+  Check passed{0, "sdo_write", "ok", "ok", true, {}, {}};
+  Check failed{1, "expect_state", "e", std::move(actual), false, {}, observed};
   result.checks = {passed, failed};
   return result;
 }

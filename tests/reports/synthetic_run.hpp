@@ -83,7 +83,7 @@ inline conformance::RunResult synthetic_run() {
   pass.frames = {
       evidence(1, "605#4041600000000000", true, "SDO rx  node 5  initiate upload 6041:00"),
       evidence(2, "585#4B41600050020000", false, "SDO tx  node 5  upload 6041:00 = 0x0250")};
-  pass.checks = {{1, "expect_frame", "585#4B416000....0000", "585#4B41600050020000", true}};
+  pass.checks = {{1, "expect_frame", "585#4B416000....0000", "585#4B41600050020000", true, {}, {}}};
   pass.timings = {{"sdo response", std::chrono::microseconds(950), std::nullopt,
                    std::chrono::milliseconds(100), true}};
   run.vectors.push_back(pass);
@@ -100,7 +100,7 @@ inline conformance::RunResult synthetic_run() {
                  evidence(22, "585#8041600000000206", false,
                           "SDO tx  node 5  abort 6041:00 06020000h </pre><b>x</b>")};
   fail.checks = {
-      {1, "expect_frame", "585#8041600002000106", "585#8041600000000206", false, at_ms(22)}};
+      {1, "expect_frame", "585#8041600002000106", "585#8041600000000206", false, at_ms(22), {}}};
   // a late answer to the vector before, which arrived before this vector's setup
   fail.between_vectors = {
       evidence(20, "585#8040600000000508", false, "SDO tx  node 5  abort 6040:00 08000005h")};
@@ -176,7 +176,7 @@ inline conformance::RunResult synthetic_run_every_tally() {
   stopped.family = "cia402/pp";
   stopped.sources = {"CiA 301 §7.2.4.3.17", "000_33c1d912b8b6010a.txt §3.2.2 L764-771"};
   stopped.message = "interrupted by the user in step 2: no verdict";
-  stopped.checks = {{1, "sdo_write", "write 6040h", "ok", true, at_ms(211)}};
+  stopped.checks = {{1, "sdo_write", "write 6040h", "ok", true, at_ms(211), {}}};
   run.vectors.push_back(stopped);
   // the pp vector's statusword check failed at 150 ms (marked on its timing diagram)
   for (auto& vector : run.vectors) {
@@ -184,7 +184,7 @@ inline conformance::RunResult synthetic_run_every_tally() {
       vector.verdict = conformance::Verdict::fail;
       vector.message =
           "vectors/cia402/pp.yaml:40: step 3 expect_statusword: Expected bit 10 set; Actual 0237h";
-      vector.checks = {{3, "expect_statusword", "bit 10 set", "0237h", false, at_ms(150)}};
+      vector.checks = {{3, "expect_statusword", "bit 10 set", "0237h", false, at_ms(150), {}}};
     }
     if (vector.id == "cia301/sdo/abort/write-read-only") {
       vector.verdict = conformance::Verdict::pass;
