@@ -199,6 +199,7 @@ void run(const RunOptions& options) {
 
   std::optional<cia301::ObjectDictionary> eds_od;
   std::string eds_sha256;
+  std::vector<std::string> eds_findings;
   if (!options.eds.empty()) {
     auto eds = cia306::read_eds_file(options.eds);
     if (!eds) bad_input(eds.error().to_string());
@@ -209,8 +210,10 @@ void run(const RunOptions& options) {
     auto findings = eds->diagnostics;
     for (auto& finding : cia306::lint_eds(eds->eds, options.eds))
       findings.push_back(std::move(finding));
-    for (const auto& finding : findings)
+    for (const auto& finding : findings) {
       fmt::print(stderr, "{}\n", finding.to_string());
+      eds_findings.push_back(finding.to_string());
+    }
     if (eds->has_errors()) {
       bad_input(fmt::format("drivecheck run: {} has errors (drivecheck eds lint {})", options.eds,
                             options.eds));
@@ -365,6 +368,7 @@ void run(const RunOptions& options) {
   info.profile_choice = profile_choice;
   info.eds_file = options.eds;
   info.eds_sha256 = eds_sha256;
+  info.eds_findings = std::move(eds_findings);
   info.seed = options.seed;
   info.order = conformance::to_string(*order);
   std::string selection_text = fmt::format("{}", fmt::join(options.filters, " "));

@@ -64,6 +64,8 @@ inline conformance::RunResult synthetic_run() {
   info.profile_file = "vectors/drives/festo-cmmp.yaml";
   info.eds_file = "eds/festo.eds";
   info.eds_sha256 = "9f86d081884c7d659a2feaa0c55ad015a3bf4f1b2b0b822cd15d6c15b0f00a08";
+  info.eds_findings = {"eds/festo.eds:12: warning: VendorNumber is empty [identity-empty]",
+                       "eds/festo.eds:40: warning: <b>no</b> error control [no-error-control]"};
   info.personality = "festo-cmmp";
   info.deviations = {"no-transition-16"};
   info.seed = 42;
