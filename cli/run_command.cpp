@@ -73,6 +73,7 @@ struct RunOptions {
   std::string pcap;
   std::string vectors;
   std::vector<std::string> deviations;
+  std::string color = "auto";
 };
 
 // SIGINT/SIGTERM from the start of the run: before the engine exists (while the vectors load)
@@ -334,7 +335,11 @@ void run(const RunOptions& options) {
     fmt::print("drivecheck run: vectors in {} order (repeat with --order {})\n",
                conformance::to_string(*order), conformance::to_string(*order));
   const std::size_t total = vectors.vectors.size();
-  reports::ConsoleReporter console(stdout, reports::ConsoleOptions::detect(stdout, total));
+  const auto color_mode = options.color == "always"  ? reports::ColorMode::always
+                          : options.color == "never" ? reports::ColorMode::never
+                                                     : reports::ColorMode::automatic;
+  reports::ConsoleReporter console(stdout,
+                                   reports::ConsoleOptions::detect(stdout, total, color_mode));
 
   conformance::EngineOptions engine_options;
   engine_options.node = static_cast<std::uint8_t>(options.node);
@@ -514,6 +519,12 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--deviation", options->deviations,
                   "Inject a named deviation into the embedded drive (repeatable; --bus sim only)")
       ->type_name("NAME");
+  cmd->add_option("--color", options->color,
+                  "Colour the verdict marks: auto (on a terminal, unless NO_COLOR is set), "
+                  "always, never")
+      ->check(CLI::IsMember({"auto", "always", "never"}))
+      ->type_name("auto|always|never")
+      ->capture_default_str();
   cmd->callback([options] { run(*options); });
 }
 

@@ -496,5 +496,22 @@ TEST(CliRunEds, EmptyVendorNumberIsAcceptedWithAWarning) {
   EXPECT_NE(report.find("VendorNumber is empty", findings), std::string::npos);
 }
 
+TEST(CliRun, ColourIsOffInAPipeAndOnWithAlways) {
+  // Given a small selection run with stdout a pipe
+  const std::vector<std::string> run = {"run", "--filter", "cia301/sdo/expedited/*"};
+  // When run without --color, with --color always and with --color always under NO_COLOR
+  const auto plain = drivecheck(run);
+  auto always_args = run;
+  always_args.insert(always_args.end(), {"--color", "always"});
+  const auto always = drivecheck(always_args);
+  // Then the pipe gets no escape sequence, --color always colours the marks, a bad value is a
+  //      usage error
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(plain.out.find('\x1b'), std::string::npos) << plain.out;
+  ASSERT_EQ(always.exit_code, 0) << always.err;
+  EXPECT_NE(always.out.find("\x1b[32m"), std::string::npos) << always.out;
+  expect_usage_error(drivecheck({"run", "--color", "sometimes"}), "--color");
+}
+
 }  // namespace
 }  // namespace drivecheck
