@@ -171,6 +171,8 @@ inline conformance::RunResult synthetic_run_every_tally() {
   run.info.revision = "v0.1.0-42-gabcdef0";
   run.info.vector_digest = std::string(64, 'a');
   run.info.vector_files = 12;
+  run.info.profile_choice = "--profile festo-cmmp";
+  run.info.capabilities = {"heartbeat.producer: present (1017h read 0 ms, written back)"};
   run.info.documents = {
       {"CiA 301", "CANopen application layer and communication profile", "v4.2.0 (2011-02-21)"},
       {"000_33c1d912b8b6010a.txt", "Festo CMMP-AS-...-M3/-M0 Description", "8046795 1510b"}};
