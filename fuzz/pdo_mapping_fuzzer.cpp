@@ -27,9 +27,10 @@
 //     mapping did not change in the 5 ms before: for a synchronous transmission type (0..240,
 //     252; §7.2.2.2) the values sampled at the last SYNC (or the one before, if its TPDO was
 //     still queued), unless they changed within 5 ms before it or an RPDO came since the SYNC
-//     before it (a synchronous RPDO is actuated at the SYNC); for the others the values when
-//     sent, unless they changed in the 5 ms before. When several valid TPDOs share the frame's
-//     COB-ID, the frame may be any of them.
+//     before it (a synchronous RPDO is actuated at the SYNC); types 0..240 may also carry the
+//     values when sent (an RTR answer: CiA 301 leaves its values open); for the others the
+//     values when sent, unless they changed in the 5 ms before. When several valid TPDOs share the
+//     frame's COB-ID, the frame may be any of them.
 //   - the application objects change only by an SDO write to that object or through an RPDO
 //     that maps them (RPDOs write only mapped objects).
 #include <fmt/format.h>
@@ -456,6 +457,16 @@ class Harness {
           judged +=
               fmt::format("; TPDO {} (type {}) sampled at the SYNC of {} ns: {:02X}", n + 1, type,
                           sample.at.time_since_epoch().count(), fmt::join(*sample.bytes, " "));
+        }
+        // Types 0..240 asked by RTR: CiA 301 does not say which values the answer carries, so
+        // the values when sent are as right as those of the last SYNC.
+        if (type <= 240 && seen.timestamp - last_value_change_ >= kQuiet) {
+          const auto now = tpdo_bytes(n);
+          if (!now) return;
+          if (carries(*now)) return;
+          any = true;
+          judged += fmt::format("; TPDO {} (type {}) when sent: {:02X}", n + 1, type,
+                                fmt::join(*now, " "));
         }
         if (!any) return;  // no sample to judge by: nothing to say about this frame
         continue;
