@@ -422,7 +422,7 @@ class Harness {
     rpdo_since_sync_ = false;
     for (std::uint16_t n = 0; n < 4; ++n) {
       sampled_[n][1] = std::move(sampled_[n][0]);
-      sampled_[n][0] = Sample{at, judgeable, tpdo_bytes(n)};
+      sampled_[n][0] = Sample{at, true, judgeable, tpdo_bytes(n)};
     }
   }
 
@@ -447,28 +447,28 @@ class Harness {
       if (frame.is_extended() != extended || frame.id != (cob & 0x1FFFFFFFu)) continue;
       const std::uint8_t type = transmission_type(n);
       if (type <= 240 || type == 252) {
-        bool any = false;
+        // The frame carries the values of one of the last two SYNCs (or, for 0..240 asked by
+        // RTR, the values when sent: CiA 301 leaves an RTR answer's values open). When one of
+        // those cannot be known (values changed just before, an RPDO came, the mapping
+        // changed after it), the frame cannot be judged.
         for (const Sample& sample : sampled_[n]) {
-          // A sample taken before the last change of the mapping is not this mapping's.
+          if (!sample.taken) continue;  // no SYNC that long ago
           if (!sample.bytes || !sample.judgeable || sample.at - last_config_change_ < kQuiet)
-            continue;
+            return;
           if (carries(*sample.bytes)) return;
-          any = true;
           judged +=
               fmt::format("; TPDO {} (type {}) sampled at the SYNC of {} ns: {:02X}", n + 1, type,
                           sample.at.time_since_epoch().count(), fmt::join(*sample.bytes, " "));
         }
-        // Types 0..240 asked by RTR: CiA 301 does not say which values the answer carries, so
-        // the values when sent are as right as those of the last SYNC.
-        if (type <= 240 && seen.timestamp - last_value_change_ >= kQuiet) {
+        if (!sampled_[n][0].taken) return;  // no SYNC yet: nothing sampled to judge by
+        if (type <= 240) {
+          if (seen.timestamp - last_value_change_ < kQuiet) return;
           const auto now = tpdo_bytes(n);
           if (!now) return;
           if (carries(*now)) return;
-          any = true;
           judged += fmt::format("; TPDO {} (type {}) when sent: {:02X}", n + 1, type,
                                 fmt::join(*now, " "));
         }
-        if (!any) return;  // no sample to judge by: nothing to say about this frame
         continue;
       }
       if (seen.timestamp - last_value_change_ < kQuiet) return;
@@ -495,6 +495,7 @@ class Harness {
   // What each TPDO mapped at the last two SYNCs of the tester ([0] the last).
   struct Sample {
     can::TimePoint at{};
+    bool taken = false;
     bool judgeable = false;
     std::optional<std::vector<std::uint8_t>> bytes;
   };
