@@ -29,7 +29,8 @@
 //     still queued), unless they changed within 5 ms before it or an RPDO came since the SYNC
 //     before it (a synchronous RPDO is actuated at the SYNC); types 0..240 may also carry the
 //     values when sent (an RTR answer: CiA 301 leaves its values open); for the others the
-//     values when sent, unless they changed in the 5 ms before. When several valid TPDOs share the
+//     values when sent, unless they changed in the 5 ms before. A frame on the drive's EMCY
+//     COB-ID (1014h) may be an EMCY and is not judged. When several valid TPDOs share the
 //     frame's COB-ID, the frame may be any of them.
 //   - the application objects change only by an SDO write to that object or through an RPDO
 //     that maps them (RPDOs write only mapped objects).
@@ -435,6 +436,13 @@ class Harness {
     }
     if (frame.is_remote() || frame.is_error()) return;
     if (seen.timestamp - last_config_change_ < kQuiet) return;
+    // A TPDO may share its COB-ID with the drive's EMCY (1014h): such a frame may be an EMCY.
+    if (const cia301::Entry* emcy = od().find(0x1014, 0); emcy != nullptr) {
+      const auto emcy_cob = static_cast<std::uint32_t>(emcy->as_unsigned());
+      if ((emcy_cob & 0x80000000u) == 0 && frame.id == (emcy_cob & 0x1FFFFFFFu) &&
+          frame.is_extended() == ((emcy_cob & 0x20000000u) != 0))
+        return;
+    }
     const auto payload = frame.payload();
     const auto carries = [&](const std::vector<std::uint8_t>& bytes) {
       return std::equal(payload.begin(), payload.end(), bytes.begin(), bytes.end());
