@@ -1,31 +1,40 @@
-// drivecheck decode LOG: a candump -L log as a CANopen transcript, one line per record:
+// drivecheck decode LOG: candump output as a CANopen transcript, one line per record:
 //
 //   1700000000.002000  vcan0  T  605#4041600000000000  SDO rx  node 5  initiate upload 6041:00
 //   (statusword) ^ Unix time        ^ if.  ^ direction (R/T, '-' when the log has none)
 //                                 ^ frame                ^ the CANopen dissector's summary
 //
+// LOG is a `candump -L` log, plain `candump` output or `candump -ta` output, told apart line by
+// line (protocol/can/candump_text.hpp); a line without time shows '-' for it.
 // The last column is cia301::Dissector::dissect(frame).summary(): function, node and the
 // decoded content (protocol/cia301/dissector.hpp). The dissector follows the log in order, so
 // SDO block transfers and guarding responses are told apart by what came before.
 // --node N (repeatable) names the nodes on the bus (others are flagged); --eds FILE takes the
 // object names of an EDS/DCF for SDO and PDO lines.
-// A bad log prints "file:line: message" and exits 2; "-" reads standard input.
+// A line that cannot be read is skipped; after the transcript, stderr lists each as
+// "file:line: message" and how many there were. The exit code is 2 only when no line could be
+// read at all (or the file cannot be opened); "-" reads standard input.
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <iterator>
 #include <map>
 #include <memory>
+#include <sstream>
 #include <string>
+#include <system_error>
 #include <utility>
 #include <vector>
 
 #include "cli/commands.hpp"
 #include "cli/options.hpp"
 #include "protocol/can/candump_log.hpp"
+#include "protocol/can/candump_text.hpp"
 #include "protocol/cia301/dissector.hpp"
 #include "protocol/cia306/eds.hpp"
 
@@ -87,48 +96,71 @@ int decode(const DecodeOptions& options) {
     };
   }
   cia301::Dissector dissector(std::move(dissector_options));
-  Expected<std::vector<can::LogRecord>, TextError> records = std::vector<can::LogRecord>{};
+  std::string text;
+  std::string name = path;
   if (path == "-") {
-    const std::string text{std::istreambuf_iterator<char>(std::cin),
-                           std::istreambuf_iterator<char>()};
-    records = can::read_candump_log(text, "<stdin>");
+    name = "<stdin>";
+    text.assign(std::istreambuf_iterator<char>(std::cin), std::istreambuf_iterator<char>());
   } else {
-    records = can::read_candump_log_file(path);
+    std::ifstream file(path, std::ios::binary);
+    if (!file) {
+      fmt::print(stderr, "{}: cannot open: {}\n", path,
+                 std::error_code(errno, std::generic_category()).message());
+      return kExitUsage;
+    }
+    std::ostringstream content;
+    content << file.rdbuf();
+    if (file.bad()) {
+      fmt::print(stderr, "{}: cannot read\n", path);
+      return kExitUsage;
+    }
+    text = std::move(content).str();
   }
-  if (!records) {
-    fmt::print(stderr, "{}\n", records.error().to_string());
-    return kExitUsage;
-  }
+  const can::CandumpText read = can::read_candump_text(text, name);
+  std::size_t time_width = 0;
   std::size_t interface_width = 0;
   std::size_t frame_width = 0;
+  std::vector<std::string> times;
   std::vector<std::string> frames;
-  frames.reserve(records->size());
-  for (const auto& record : *records) {
-    frames.push_back(can::to_candump(record.frame));
-    interface_width = std::max(interface_width, record.interface.size());
+  times.reserve(read.lines.size());
+  frames.reserve(read.lines.size());
+  for (const auto& line : read.lines) {
+    times.push_back(line.has_timestamp() ? format_time(line.record.timestamp) : "-");
+    frames.push_back(can::to_candump(line.record.frame));
+    time_width = std::max(time_width, times.back().size());
+    interface_width = std::max(interface_width, line.record.interface.size());
     frame_width = std::max(frame_width, frames.back().size());
   }
   std::string out;
-  for (std::size_t i = 0; i < records->size(); ++i) {
-    const auto& record = (*records)[i];
+  for (std::size_t i = 0; i < read.lines.size(); ++i) {
+    const auto& record = read.lines[i].record;
     const char direction = !record.direction                                    ? '-'
                            : *record.direction == can::TraceDirection::transmit ? 'T'
                                                                                 : 'R';
-    fmt::format_to(std::back_inserter(out), "{}  {:<{}}  {}  {:<{}}  {}\n",
-                   format_time(record.timestamp), record.interface, interface_width, direction,
-                   frames[i], frame_width, dissector.dissect(record.frame).summary());
+    fmt::format_to(std::back_inserter(out), "{:<{}}  {:<{}}  {}  {:<{}}  {}\n", times[i],
+                   time_width, record.interface, interface_width, direction, frames[i], frame_width,
+                   dissector.dissect(record.frame).summary());
   }
   std::fwrite(out.data(), 1, out.size(), stdout);
-  return kExitPass;
+  std::fflush(stdout);
+  for (const auto& bad : read.bad_lines)
+    fmt::print(stderr, "{}\n", bad.to_string());
+  if (!read.bad_lines.empty()) {
+    fmt::print(stderr, "drivecheck decode: {}: {} line(s) not read, {} decoded\n", name,
+               read.bad_lines.size(), read.lines.size());
+  }
+  return read.lines.empty() && !read.bad_lines.empty() ? kExitUsage : kExitPass;
 }
 
 }  // namespace
 
 void add_decode_command(CLI::App& app) {
   auto options = std::make_shared<DecodeOptions>();
-  CLI::App* cmd =
-      app.add_subcommand("decode", "Print a candump -L log as a decoded CANopen transcript");
-  cmd->add_option("LOG", options->log, "candump -L log file ('-' reads standard input)")
+  CLI::App* cmd = app.add_subcommand(
+      "decode", "Print candump output (-L log, plain or -ta) as a decoded CANopen transcript");
+  cmd->add_option(
+         "LOG", options->log,
+         "candump output: a -L log, plain candump or candump -ta ('-' reads standard input)")
       ->required();
   cmd->add_option("--node", options->nodes,
                   "Node id on the bus (repeatable); frames of other nodes are flagged")

@@ -73,6 +73,7 @@ struct RunOptions {
   std::string pcap;
   std::string vectors;
   std::vector<std::string> deviations;
+  std::string color = "auto";
 };
 
 // SIGINT/SIGTERM from the start of the run: before the engine exists (while the vectors load)
@@ -199,6 +200,7 @@ void run(const RunOptions& options) {
 
   std::optional<cia301::ObjectDictionary> eds_od;
   std::string eds_sha256;
+  std::vector<std::string> eds_findings;
   if (!options.eds.empty()) {
     auto eds = cia306::read_eds_file(options.eds);
     if (!eds) bad_input(eds.error().to_string());
@@ -209,8 +211,10 @@ void run(const RunOptions& options) {
     auto findings = eds->diagnostics;
     for (auto& finding : cia306::lint_eds(eds->eds, options.eds))
       findings.push_back(std::move(finding));
-    for (const auto& finding : findings)
+    for (const auto& finding : findings) {
       fmt::print(stderr, "{}\n", finding.to_string());
+      eds_findings.push_back(finding.to_string());
+    }
     if (eds->has_errors()) {
       bad_input(fmt::format("drivecheck run: {} has errors (drivecheck eds lint {})", options.eds,
                             options.eds));
@@ -331,7 +335,11 @@ void run(const RunOptions& options) {
     fmt::print("drivecheck run: vectors in {} order (repeat with --order {})\n",
                conformance::to_string(*order), conformance::to_string(*order));
   const std::size_t total = vectors.vectors.size();
-  reports::ConsoleReporter console(stdout, reports::ConsoleOptions::detect(stdout, total));
+  const auto color_mode = options.color == "always"  ? reports::ColorMode::always
+                          : options.color == "never" ? reports::ColorMode::never
+                                                     : reports::ColorMode::automatic;
+  reports::ConsoleReporter console(stdout,
+                                   reports::ConsoleOptions::detect(stdout, total, color_mode));
 
   conformance::EngineOptions engine_options;
   engine_options.node = static_cast<std::uint8_t>(options.node);
@@ -365,6 +373,7 @@ void run(const RunOptions& options) {
   info.profile_choice = profile_choice;
   info.eds_file = options.eds;
   info.eds_sha256 = eds_sha256;
+  info.eds_findings = std::move(eds_findings);
   info.seed = options.seed;
   info.order = conformance::to_string(*order);
   std::string selection_text = fmt::format("{}", fmt::join(options.filters, " "));
@@ -510,6 +519,12 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--deviation", options->deviations,
                   "Inject a named deviation into the embedded drive (repeatable; --bus sim only)")
       ->type_name("NAME");
+  cmd->add_option("--color", options->color,
+                  "Colour the verdict marks: auto (on a terminal, unless NO_COLOR is set), "
+                  "always, never")
+      ->check(CLI::IsMember({"auto", "always", "never"}))
+      ->type_name("auto|always|never")
+      ->capture_default_str();
   cmd->callback([options] { run(*options); });
 }
 

@@ -187,8 +187,11 @@ struct RunInfo {
   // The profile's commissioning, one line each: first the vectors it applies to, then each
   // write ("6094h sub 1 := 15 (4 bytes): why [source; source]"). Empty: none.
   std::vector<std::string> commissioning;
-  std::string eds_file;                 // "" when none
-  std::string eds_sha256;               // "" when none
+  std::string eds_file;    // "" when none
+  std::string eds_sha256;  // "" when none
+  // The EDS's reader and lint findings (an EDS with errors is refused, so warnings), one line
+  // each as `drivecheck eds lint` prints them: "file:line: warning: message [id]". Empty: none.
+  std::vector<std::string> eds_findings;
   std::string personality;              // embedded default: the personality the drive took
   std::vector<std::string> deviations;  // embedded default: deviations injected into the drive
   std::uint64_t seed = 0;

@@ -7,7 +7,12 @@
 //     and printing that again gives the same text (the printed form is canonical);
 //   - the whole-log reader agrees with the line parser: a log that reads has one record per
 //     line that is neither blank nor a '#' comment, equal to that line's record; a log that
-//     does not read names a line that exists and that the line parser rejects too.
+//     does not read names a line that exists and that the line parser rejects too;
+//   - the text reader of plain candump output (candump_text.hpp) reads every -L line as the
+//     -L parser does, prints a plain line back to text that reads to the same frame, and
+//     accounts for every record line: read, or named as bad and rejected by its line parser.
+#include <fmt/format.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -19,6 +24,7 @@
 #include "fuzz/support/fuzz_check.hpp"
 #include "fuzz/support/fuzz_input.hpp"
 #include "protocol/can/candump_log.hpp"
+#include "protocol/can/candump_text.hpp"
 #include "protocol/can/frame.hpp"
 
 namespace {
@@ -58,6 +64,43 @@ std::optional<can::LogRecord> check_record_round_trip(std::string_view line) {
   return std::move(*record);
 }
 
+// A plain or -ta line as candump prints the record.
+std::string to_plain_candump(const can::CandumpLine& line) {
+  const can::Frame& frame = line.record.frame;
+  std::string text;
+  if (line.has_timestamp()) {
+    const auto ns = line.record.timestamp.count();
+    text = fmt::format("({}.{:09})", ns / 1'000'000'000, ns % 1'000'000'000);
+  }
+  text += fmt::format("  {}  {:0{}X}   [{}]", line.record.interface, frame.id,
+                      frame.is_extended() ? 8 : 3, frame.dlc);
+  if (frame.is_remote()) return text + "  remote request";
+  for (const std::uint8_t byte : frame.payload())
+    text += fmt::format(" {:02X}", byte);
+  return text;
+}
+
+void check_text_line(std::string_view line, const std::optional<can::LogRecord>& log_record) {
+  const auto parsed = can::parse_candump_line(line);
+  if (log_record) {
+    DRIVECHECK_FUZZ_CHECK(parsed.has_value() && parsed->format == can::CandumpLineFormat::log &&
+                              parsed->record == *log_record,
+                          "text reader reads a -L line otherwise than the -L parser");
+  }
+  if (!parsed || parsed->format == can::CandumpLineFormat::log) return;
+  const std::string printed = to_plain_candump(*parsed);
+  const auto again = can::parse_candump_line(printed);
+  DRIVECHECK_FUZZ_CHECK_DETAIL(again.has_value(), "printed plain candump line does not parse",
+                               printed + ": " + again.error());
+  DRIVECHECK_FUZZ_CHECK_EQ(again->record.frame, parsed->record.frame,
+                           "plain line's frame changed in a round trip");
+  DRIVECHECK_FUZZ_CHECK_EQ(again->record.interface, parsed->record.interface,
+                           "plain line's interface changed in a round trip");
+  DRIVECHECK_FUZZ_CHECK(
+      again->format == parsed->format && again->record.timestamp == parsed->record.timestamp,
+      "plain line's time changed in a round trip");
+}
+
 std::string_view trim_blanks(std::string_view text) {
   const auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
   while (!text.empty() && blank(text.front()))
@@ -90,6 +133,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check_frame_round_trip(line);
     if (trim_blanks(line).size() != line.size()) check_frame_round_trip(trim_blanks(line));
     line_records.push_back(check_record_round_trip(line));
+  }
+
+  std::size_t record_lines = 0;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    check_text_line(lines[i], line_records[i]);
+    const std::string_view content = trim_blanks(lines[i]);
+    if (!content.empty() && content.front() != '#') ++record_lines;
+  }
+  const can::CandumpText read = can::read_candump_text(text, "fuzz.txt");
+  DRIVECHECK_FUZZ_CHECK_EQ(read.lines.size() + read.bad_lines.size(), record_lines,
+                           "text reader loses or invents record lines");
+  for (const TextError& bad : read.bad_lines) {
+    DRIVECHECK_FUZZ_CHECK_DETAIL(
+        bad.line >= 1 && static_cast<std::size_t>(bad.line) <= lines.size() &&
+            !can::parse_candump_line(lines[static_cast<std::size_t>(bad.line) - 1]),
+        "text reader names a line its line parser accepts", bad.to_string());
   }
 
   const auto log = can::read_candump_log(text, "fuzz.log");

@@ -458,6 +458,17 @@ void candump_log_corpus(Output& out, const fs::path& root, const std::vector<can
            "\xEF\xBB\xBF(1700000000.000000) vcan0 000#0105\r\n(1700000000.000001) vcan0 "
            "705#05\r\n");
   out.seed(target, "bad-fd-frame.log", "(1700000000.000000) vcan0 605##1122\n");
+  // Plain candump output (candump_text.hpp): candump, candump -ta, -a, mixed with -L.
+  out.seed(target, "plain-candump.txt",
+           "  can0  000   [2]  01 05\n"
+           "  can0  605   [8]  40 00 10 00 00 00 00 00\n"
+           "(1700000000.123456)  can0  585   [8]  4B 00 10 00 92 01 02 00\n"
+           "  can0  12345678   [2]  DE AD\n"
+           "  can0  705   [1]  remote request\n"
+           "  can0  080   [0]\n"
+           "  can0  185   [2]  41 20   'A '\n"
+           "(1700000000.200000) can0 705#05\n"
+           "  can0  605   [2]  40 0G\n");
 }
 
 void pcap_corpus(Output& out, const std::vector<can::Frame>& frames) {

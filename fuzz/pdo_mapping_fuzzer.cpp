@@ -22,8 +22,16 @@
 //   - a PDO whose COB-ID is valid (bit 31 = 0) has a consistent mapping: at most 8 entries of
 //     at most 64 bits together, each an existing, PDO-mappable entry of exactly that length,
 //     readable for a TPDO, writable (or a dummy 0002h-0007h) for an RPDO;
-//   - a TPDO on the wire carries exactly the mapped objects' bytes (DLC = mapped length), when
-//     neither the mapping nor those objects changed in the 5 ms before;
+//   - a TPDO the drive sent (the tester's own frames, e.g. its SYNC on a TPDO's COB-ID, are
+//     not TPDOs) carries exactly the mapped objects' bytes (DLC = mapped length), when the
+//     mapping did not change in the 5 ms before: for a synchronous transmission type (0..240,
+//     252; §7.2.2.2) the values sampled at the last SYNC (or the one before, if its TPDO was
+//     still queued), unless they changed within 5 ms before it or an RPDO came since the SYNC
+//     before it (a synchronous RPDO is actuated at the SYNC); types 0..240 may also carry the
+//     values when sent (an RTR answer: CiA 301 leaves its values open); for the others the
+//     values when sent, unless they changed in the 5 ms before. A frame on the drive's EMCY
+//     COB-ID (1014h) may be an EMCY and is not judged. When several valid TPDOs share the
+//     frame's COB-ID, the frame may be any of them.
 //   - the application objects change only by an SDO write to that object or through an RPDO
 //     that maps them (RPDOs write only mapped objects).
 #include <fmt/format.h>
@@ -34,6 +42,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
@@ -174,8 +183,9 @@ class Harness {
  public:
   Harness(DriveRig& rig, DriveSlot& slot)
       : slot_(slot),
-        session_(rig, slot.get(*rig.drive_port),
-                 [this](const can::TimedFrame& seen) { on_wire(seen); }),
+        session_(
+            rig, slot.get(*rig.drive_port), [](const can::TimedFrame&) {},
+            [this](const can::TimedFrame& seen) { on_wire(seen); }),
         bus_(session_.bus()),
         tester_(&session_.tester()),
         drive_(&session_.drive()) {
@@ -243,6 +253,7 @@ class Harness {
   }
 
   void pdo_frame(const can::Frame& frame) {
+    rpdo_since_sync_ = true;
     last_value_change_ = bus_.now();
     send(frame, {});
     last_value_change_ = bus_.now();
@@ -389,31 +400,94 @@ class Harness {
     }
   }
 
+  // The bytes TPDO n maps, from the dictionary now; nullopt when an entry is missing (caught by
+  // check_consistent).
+  DRIVECHECK_FUZZ_ORACLE_CODE std::optional<std::vector<std::uint8_t>> tpdo_bytes(std::uint16_t n) {
+    std::vector<std::uint8_t> bytes;
+    for (const Mapped& m : mapping_of(0x1800 + n, 0x1A00 + n)) {
+      const cia301::Entry* entry = od().find(m.index, m.sub);
+      if (entry == nullptr) return std::nullopt;
+      bytes.insert(bytes.end(), entry->bytes().begin(), entry->bytes().end());
+    }
+    return bytes;
+  }
+
+  std::uint8_t transmission_type(std::uint16_t n) const {
+    const cia301::Entry* entry = slot_.pdo_entry(0x1800 + n, 2);
+    return entry != nullptr ? static_cast<std::uint8_t>(entry->as_unsigned()) : 255;
+  }
+
+  // The tester's SYNC: what each TPDO maps, as sampled now (CiA 301 §7.2.2.2).
+  DRIVECHECK_FUZZ_ORACLE_CODE void sample_at_sync(can::TimePoint at) {
+    const bool judgeable = !rpdo_since_sync_ && at - last_value_change_ >= kQuiet;
+    rpdo_since_sync_ = false;
+    for (std::uint16_t n = 0; n < 4; ++n) {
+      sampled_[n][1] = std::move(sampled_[n][0]);
+      sampled_[n][0] = Sample{at, true, judgeable, tpdo_bytes(n)};
+    }
+  }
+
   DRIVECHECK_FUZZ_ORACLE_CODE void on_wire(const can::TimedFrame& seen) {
     const can::Frame& frame = seen.frame;
-    if (seen.own || frame.is_remote() || frame.is_error()) return;
-    if (seen.timestamp - last_config_change_ < kQuiet ||
-        seen.timestamp - last_value_change_ < kQuiet)
+    if (seen.own) {  // the tester's: never a TPDO of the drive
+      if (frame.id == 0x080 && !frame.is_extended() && !frame.is_remote())
+        sample_at_sync(seen.timestamp);
       return;
+    }
+    if (frame.is_remote() || frame.is_error()) return;
+    if (seen.timestamp - last_config_change_ < kQuiet) return;
+    // A TPDO may share its COB-ID with the drive's EMCY (1014h): such a frame may be an EMCY.
+    if (const cia301::Entry* emcy = od().find(0x1014, 0); emcy != nullptr) {
+      const auto emcy_cob = static_cast<std::uint32_t>(emcy->as_unsigned());
+      if ((emcy_cob & 0x80000000u) == 0 && frame.id == (emcy_cob & 0x1FFFFFFFu) &&
+          frame.is_extended() == ((emcy_cob & 0x20000000u) != 0))
+        return;
+    }
+    const auto payload = frame.payload();
+    const auto carries = [&](const std::vector<std::uint8_t>& bytes) {
+      return std::equal(payload.begin(), payload.end(), bytes.begin(), bytes.end());
+    };
+    std::string judged;  // the candidates the frame was judged against and did not match
     for (std::uint16_t n = 0; n < 4; ++n) {
       const std::uint32_t cob = cob_id(0x1800 + n);
       if ((cob & 0x80000000u) != 0) continue;
       const bool extended = (cob & 0x20000000u) != 0;
       if (frame.is_extended() != extended || frame.id != (cob & 0x1FFFFFFFu)) continue;
-      std::vector<std::uint8_t> expected;
-      for (const Mapped& m : mapping_of(0x1800 + n, 0x1A00 + n)) {
-        const cia301::Entry* entry = od().find(m.index, m.sub);
-        if (entry == nullptr) return;  // caught by check_consistent
-        expected.insert(expected.end(), entry->bytes().begin(), entry->bytes().end());
+      const std::uint8_t type = transmission_type(n);
+      if (type <= 240 || type == 252) {
+        // The frame carries the values of one of the last two SYNCs (or, for 0..240 asked by
+        // RTR, the values when sent: CiA 301 leaves an RTR answer's values open). When one of
+        // those cannot be known (values changed just before, an RPDO came, the mapping
+        // changed after it), the frame cannot be judged.
+        for (const Sample& sample : sampled_[n]) {
+          if (!sample.taken) continue;  // no SYNC that long ago
+          if (!sample.bytes || !sample.judgeable || sample.at - last_config_change_ < kQuiet)
+            return;
+          if (carries(*sample.bytes)) return;
+          judged +=
+              fmt::format("; TPDO {} (type {}) sampled at the SYNC of {} ns: {:02X}", n + 1, type,
+                          sample.at.time_since_epoch().count(), fmt::join(*sample.bytes, " "));
+        }
+        if (!sampled_[n][0].taken) return;  // no SYNC yet: nothing sampled to judge by
+        if (type <= 240) {
+          if (seen.timestamp - last_value_change_ < kQuiet) return;
+          const auto now = tpdo_bytes(n);
+          if (!now) return;
+          if (carries(*now)) return;
+          judged += fmt::format("; TPDO {} (type {}) when sent: {:02X}", n + 1, type,
+                                fmt::join(*now, " "));
+        }
+        continue;
       }
-      const auto payload = frame.payload();
-      DRIVECHECK_FUZZ_CHECK_DETAIL(
-          std::equal(payload.begin(), payload.end(), expected.begin(), expected.end()),
-          "a TPDO does not carry its mapped objects",
-          fmt::format("TPDO {} {} , expected {} bytes {:02X}", n + 1, frame, expected.size(),
-                      fmt::join(expected, " ")));
-      return;
+      if (seen.timestamp - last_value_change_ < kQuiet) return;
+      const auto now = tpdo_bytes(n);
+      if (!now) return;
+      if (carries(*now)) return;
+      judged += fmt::format("; TPDO {} (type {}): {} bytes {:02X}", n + 1, type, now->size(),
+                            fmt::join(*now, " "));
     }
+    DRIVECHECK_FUZZ_CHECK_DETAIL(judged.empty(), "a TPDO does not carry its mapped objects",
+                                 fmt::format("{}, expected{}", frame, judged));
   }
 
   const DriveSlot& slot_;
@@ -426,6 +500,15 @@ class Harness {
   bool checked_ = false;
   can::TimePoint last_config_change_{};
   can::TimePoint last_value_change_{};
+  // What each TPDO mapped at the last two SYNCs of the tester ([0] the last).
+  struct Sample {
+    can::TimePoint at{};
+    bool taken = false;
+    bool judgeable = false;
+    std::optional<std::vector<std::uint8_t>> bytes;
+  };
+  std::array<std::array<Sample, 2>, 4> sampled_{};
+  bool rpdo_since_sync_ = false;
 };
 
 }  // namespace

@@ -58,18 +58,55 @@ std::string console_text(std::string_view text, bool unicode) {
 
 }  // namespace
 
-ConsoleOptions ConsoleOptions::detect(std::FILE* stream, std::size_t total) {
+ConsoleOptions ConsoleOptions::detect(std::FILE* stream, std::size_t total, ColorMode color) {
   ConsoleOptions options;
   options.tty = stream != nullptr && ::isatty(::fileno(stream)) == 1;
   options.unicode = locale_is_utf8();
   options.total = total;
+  const char* term = std::getenv("TERM");
+  options.color =
+      color == ColorMode::always ||
+      (color == ColorMode::automatic && options.tty && std::getenv("NO_COLOR") == nullptr &&
+       !(term != nullptr && std::string_view(term) == "dumb"));
   return options;
 }
 
 ConsoleReporter::ConsoleReporter(std::FILE* out, ConsoleOptions options)
     : out_(out), options_(options) {}
 
-std::string ConsoleReporter::result_line(const VectorResult& vector, bool unicode) {
+static std::string plain_result_line(const VectorResult& vector, bool unicode);
+
+std::string ConsoleReporter::result_line(const VectorResult& vector, bool unicode, bool color) {
+  std::string line = plain_result_line(vector, unicode);
+  if (!color) return line;
+  // The mark is the line's first word ("✔", "ok", "×", "!", "~", "-", "E", "?").
+  const char* sgr = "";
+  switch (vector.verdict) {
+    case Verdict::pass:
+      sgr = "32";
+      break;
+    case Verdict::fail:
+      sgr = vector.warning ? "33" : "31";
+      break;
+    case Verdict::deviation:
+      sgr = "36";
+      break;
+    case Verdict::not_applicable:
+      sgr = "2";
+      break;
+    case Verdict::error:
+      sgr = "35";
+      break;
+    case Verdict::interrupted:
+      sgr = "33";
+      break;
+  }
+  const auto mark_end = line.find(' ');
+  return fmt::format("\x1b[{}m{}\x1b[0m{}", sgr, line.substr(0, mark_end),
+                     mark_end == std::string::npos ? std::string() : line.substr(mark_end));
+}
+
+static std::string plain_result_line(const VectorResult& vector, bool unicode) {
   const std::string id = console_text(vector.id, unicode);
   const std::string message = console_text(first_line(vector.message), unicode);
   const std::string dash = unicode ? " — " : " - ";
@@ -154,7 +191,7 @@ void ConsoleReporter::vector_finished(const VectorResult& vector) {
   ++done_;
   wall_sum_ += vector.wall_seconds;
   clear_progress();
-  std::fputs(result_line(vector, options_.unicode).c_str(), out_);
+  std::fputs(result_line(vector, options_.unicode, options_.color).c_str(), out_);
   std::fputc('\n', out_);
   draw_progress({});
   std::fflush(out_);

@@ -647,6 +647,13 @@ void render_run_info(std::string& out, const RunResult& result) {
     out += "</ul></dd>";
   }
   if (!info.eds_file.empty()) row("EDS", info.eds_file + "  sha256 " + info.eds_sha256);
+  if (!info.eds_findings.empty()) {
+    // What the EDS reader and linter found (warnings: an EDS with errors is refused).
+    fmt::format_to(std::back_inserter(out), "<dt>EDS findings</dt><dd><ul class=\"eds-findings\">");
+    for (const auto& line : info.eds_findings)
+      fmt::format_to(std::back_inserter(out), "<li>{}</li>", esc(line));
+    out += "</ul></dd>";
+  }
   row("Date", info.started_utc);
   row("Bus", fmt::format("{}, node {}", info.bus, info.node));
   if (!info.personality.empty()) row("Reference drive personality", info.personality);

@@ -428,6 +428,16 @@ RunResult read_run(Reader& reader, const json& document) {
       const json& eds = reader.object(run, "eds");
       info.eds_file = reader.string(eds, "file");
       info.eds_sha256 = reader.string(eds, "sha256");
+      if (eds.contains("findings")) {  // optional: no EDS or no finding
+        Scope list(reader, "findings");
+        std::size_t i = 0;
+        for (const json& item : reader.array(eds, "findings")) {
+          if (!item.is_string())
+            throw ReadError{reader.where(fmt::format("[{}]", i)) + ": expected a string"};
+          info.eds_findings.push_back(item.get<std::string>());
+          ++i;
+        }
+      }
     }
     info.personality = reader.string(run, "personality");
     {
@@ -504,6 +514,7 @@ std::string render_json(const RunResult& result) {
   if (!info.profile_choice.empty()) run["profile"]["choice"] = info.profile_choice;
   if (!info.capabilities.empty()) run["capabilities"] = info.capabilities;
   run["eds"] = {{"file", info.eds_file}, {"sha256", info.eds_sha256}};
+  if (!info.eds_findings.empty()) run["eds"]["findings"] = info.eds_findings;
   run["personality"] = info.personality;
   run["deviations"] = info.deviations;
   run["seed"] = info.seed;

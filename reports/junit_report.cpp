@@ -77,6 +77,8 @@ void add_run_properties(pugi::xml_node properties, const RunResult& result) {
   if (dut.software_version) add_property(properties, "dut.software_version", *dut.software_version);
   if (!info.eds_file.empty()) add_property(properties, "eds.file", info.eds_file);
   if (!info.eds_sha256.empty()) add_property(properties, "eds.sha256", info.eds_sha256);
+  for (std::size_t i = 0; i < info.eds_findings.size(); ++i)
+    add_property(properties, fmt::format("eds.finding.{}", i + 1), info.eds_findings[i]);
   add_property(properties, "profile", info.profile_name);
   if (!info.profile_choice.empty()) add_property(properties, "profile.choice", info.profile_choice);
   for (std::size_t i = 0; i < info.capabilities.size(); ++i)

@@ -140,14 +140,21 @@ std::string elided_line(std::size_t count);
 
 // ---- console -----------------------------------------------------------------------------
 
+// --color: auto colours a TTY only, and not when NO_COLOR is set (any value, also empty;
+// https://no-color.org) or TERM is "dumb"; always and never decide alone.
+enum class ColorMode : std::uint8_t { automatic, always, never };
+
 struct ConsoleOptions {
   bool tty = false;       // progress line overwritten in place ("\r\x1b[K")
   bool unicode = true;    // ✔ × — ; false: plain ASCII ("ok", "x", "-")
   std::size_t total = 0;  // vectors expected (for the progress line; 0 = unknown)
+  bool color = false;     // the verdict mark of each line in ANSI colour (SGR)
 
-  // From the stream (isatty) and the locale environment (LC_ALL, LC_CTYPE, LANG naming
-  // UTF-8: unicode; anything else, e.g. C/POSIX: ASCII).
-  static ConsoleOptions detect(std::FILE* stream, std::size_t total);
+  // From the stream (isatty), the locale environment (LC_ALL, LC_CTYPE, LANG naming
+  // UTF-8: unicode; anything else, e.g. C/POSIX: ASCII) and, for colour, `color` with
+  // NO_COLOR and TERM.
+  static ConsoleOptions detect(std::FILE* stream, std::size_t total,
+                               ColorMode color = ColorMode::automatic);
 };
 
 // Fed results as the engine produces them:
@@ -168,8 +175,11 @@ class ConsoleReporter {
   void vector_finished(const conformance::VectorResult& vector);
   void finish(const conformance::RunResult& result);
 
-  // The line vector_finished prints for `vector` (without newline).
-  static std::string result_line(const conformance::VectorResult& vector, bool unicode);
+  // The line vector_finished prints for `vector` (without newline). With `color` the verdict
+  // mark is coloured: pass green, fail red, warning and interrupted yellow, deviation cyan,
+  // not applicable dim, error magenta; the rest of the line is not.
+  static std::string result_line(const conformance::VectorResult& vector, bool unicode,
+                                 bool color = false);
   static std::string summary_line(const conformance::RunResult& result);
 
  private:

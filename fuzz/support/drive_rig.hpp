@@ -6,6 +6,9 @@
 //     without building the dictionary again);
 //   - `monitor` sees every frame on the wire; the tester's own frames come back when they have
 //     been on the wire (loopback) and are counted (delivered());
+//   - `tester_sees` (optional) sees every frame as the tester port receives it, its own
+//     (loopback, `own` set) and the drive's (`own` clear): who sent a frame, which the monitor
+//     does not tell;
 //   - at the end the drive leaves the bus (release_bus), so that everything an input allocates
 //     is freed in the same input (libFuzzer's leak detection re-runs an input that ends with
 //     more mallocs than frees; the bus's queues keep their capacity, which grows only while the
@@ -34,8 +37,9 @@ struct DriveRig {
 class DriveSession {
  public:
   DriveSession(DriveRig& rig, reference_drive::ReferenceDrive& drive,
-               std::function<void(const can::TimedFrame&)> monitor)
-      : rig_(rig), drive_(drive) {
+               std::function<void(const can::TimedFrame&)> monitor,
+               std::function<void(const can::TimedFrame&)> tester_sees = {})
+      : rig_(rig), drive_(drive), tester_sees_(std::move(tester_sees)) {
     DRIVECHECK_FUZZ_CHECK(rig_.bus.reset(), "the bus did not reset");
     auto restarted = drive_.restart(*rig_.drive_port);
     DRIVECHECK_FUZZ_CHECK_DETAIL(restarted.has_value(), "the reference drive did not restart",
@@ -44,6 +48,7 @@ class DriveSession {
     rig_.tester->set_loopback(true);
     rig_.tester->set_frame_handler([this](const can::TimedFrame& seen) {
       if (seen.own) ++delivered_;
+      if (tester_sees_) tester_sees_(seen);
     });
   }
   ~DriveSession() {
@@ -63,6 +68,7 @@ class DriveSession {
  private:
   DriveRig& rig_;
   reference_drive::ReferenceDrive& drive_;
+  std::function<void(const can::TimedFrame&)> tester_sees_;
   can::MonitorId monitor_ = 0;
   std::uint64_t delivered_ = 0;
 };

@@ -8,6 +8,8 @@
 #include <limits>
 #include <system_error>
 
+#include "protocol/can/candump_text.hpp"
+
 namespace drivecheck::can {
 namespace {
 
@@ -60,8 +62,10 @@ std::string system_error_text(int error) {
   return std::error_code(error, std::generic_category()).message();
 }
 
+}  // namespace
+
 // "1700000000.000100" (the text between the parentheses) -> nanoseconds since the epoch.
-Expected<std::chrono::nanoseconds, std::string> parse_timestamp(std::string_view text) {
+Expected<std::chrono::nanoseconds, std::string> parse_candump_timestamp(std::string_view text) {
   if (text.empty()) return Unexpected(std::string("empty timestamp '()'"));
   if (text.front() == '-') {
     return Unexpected(
@@ -109,6 +113,8 @@ Expected<std::chrono::nanoseconds, std::string> parse_timestamp(std::string_view
   if (seconds >= kMaxSeconds) return out_of_range();
   return std::chrono::nanoseconds(seconds * kNanosPerSecond + nanos);
 }
+
+namespace {
 
 // The fields of a record after its timestamp: a record has at most three (interface, frame,
 // direction), so the first four are kept (no allocation per line) and all are counted.
@@ -185,7 +191,7 @@ Expected<LogRecord, std::string> parse_candump_log_line(std::string_view line) {
   if (close == std::string_view::npos) {
     return Unexpected(std::string("missing ')' after the timestamp"));
   }
-  auto timestamp = parse_timestamp(line.substr(1, close - 1));
+  auto timestamp = parse_candump_timestamp(line.substr(1, close - 1));
   if (!timestamp) return Unexpected(std::move(timestamp).error());
 
   const std::string_view rest = line.substr(close + 1);

@@ -1,6 +1,8 @@
 // The console writer: result lines per verdict, the TTY progress line, the summary, ASCII.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <string>
@@ -140,6 +142,83 @@ TEST(ConsoleOptionsDetect, LocaleDecidesUnicode) {
   ::setenv("LC_ALL", "C", 1);
   EXPECT_FALSE(ConsoleOptions::detect(capture.file(), 3).unicode);
   ::unsetenv("LC_ALL");
+}
+
+// A pseudo-terminal's slave side as a FILE*: a stream isatty() says is a TTY.
+class PseudoTerminal {
+ public:
+  PseudoTerminal() {
+    master_ = ::posix_openpt(O_RDWR | O_NOCTTY);
+    if (master_ < 0 || ::grantpt(master_) != 0 || ::unlockpt(master_) != 0) return;
+    const char* name = ::ptsname(master_);
+    if (name != nullptr) file_ = std::fopen(name, "w");
+  }
+  ~PseudoTerminal() {
+    if (file_ != nullptr) std::fclose(file_);
+    if (master_ >= 0) ::close(master_);
+  }
+  PseudoTerminal(const PseudoTerminal&) = delete;
+  PseudoTerminal& operator=(const PseudoTerminal&) = delete;
+  std::FILE* file() { return file_; }
+
+ private:
+  int master_ = -1;
+  std::FILE* file_ = nullptr;
+};
+
+TEST(ConsoleReport, ColourMarksOnlyTheVerdict) {
+  // Given the synthetic run's vectors
+  // When their lines are made with colour
+  // Then the mark alone is wrapped in an SGR colour and reset; without colour no escape at all
+  const auto run = synthetic_run();
+  for (const auto& vector : run.vectors) {
+    const std::string plain = ConsoleReporter::result_line(vector, true);
+    const std::string coloured = ConsoleReporter::result_line(vector, true, true);
+    EXPECT_EQ(plain.find('\x1b'), std::string::npos) << plain;
+    ASSERT_EQ(coloured.substr(0, 2), "\x1b[") << coloured;
+    const auto reset = coloured.find("\x1b[0m");
+    ASSERT_NE(reset, std::string::npos) << coloured;
+    const auto mark_start = coloured.find('m') + 1;
+    EXPECT_EQ(coloured.substr(mark_start, reset - mark_start) + coloured.substr(reset + 4), plain);
+  }
+  auto pass = run.vectors[0];
+  pass.verdict = conformance::Verdict::pass;
+  EXPECT_EQ(ConsoleReporter::result_line(pass, true, true),
+            "\x1b[32m✔\x1b[0m " + ConsoleReporter::result_line(pass, true).substr(4));
+  auto fail = pass;
+  fail.verdict = conformance::Verdict::fail;
+  EXPECT_EQ(ConsoleReporter::result_line(fail, false, true).substr(0, 11), "\x1b[31mx\x1b[0m ");
+}
+
+TEST(ConsoleOptionsDetect, ColourOnATerminalOnlyAndNotUnderNoColor) {
+  // Given a pseudo-terminal and a file that is not a TTY, NO_COLOR and TERM unset
+  PseudoTerminal terminal;
+  if (terminal.file() == nullptr) GTEST_SKIP() << "no pseudo-terminal available";
+  Capture pipe;
+  ::unsetenv("NO_COLOR");
+  ::setenv("TERM", "xterm", 1);
+  // When options are detected / Then auto colours the terminal only
+  EXPECT_TRUE(ConsoleOptions::detect(terminal.file(), 3).tty);
+  EXPECT_TRUE(ConsoleOptions::detect(terminal.file(), 3).color);
+  EXPECT_FALSE(ConsoleOptions::detect(pipe.file(), 3).color);
+  // And NO_COLOR with any value, even empty, or TERM=dumb turns auto off
+  ::setenv("NO_COLOR", "", 1);
+  EXPECT_FALSE(ConsoleOptions::detect(terminal.file(), 3, ColorMode::automatic).color);
+  ::setenv("NO_COLOR", "1", 1);
+  EXPECT_FALSE(ConsoleOptions::detect(terminal.file(), 3, ColorMode::automatic).color);
+  ::unsetenv("NO_COLOR");
+  ::setenv("TERM", "dumb", 1);
+  EXPECT_FALSE(ConsoleOptions::detect(terminal.file(), 3).color);
+  ::setenv("TERM", "xterm", 1);
+  // And always and never decide alone (always even into a pipe and under NO_COLOR)
+  ::setenv("NO_COLOR", "1", 1);
+  EXPECT_TRUE(ConsoleOptions::detect(pipe.file(), 3, ColorMode::always).color);
+  ::unsetenv("NO_COLOR");
+  EXPECT_FALSE(ConsoleOptions::detect(terminal.file(), 3, ColorMode::never).color);
+  // And the reporter writes coloured lines only when told to
+  ConsoleReporter reporter(pipe.file(), {.tty = false, .unicode = true, .total = 1, .color = true});
+  reporter.vector_finished(synthetic_run().vectors[0]);
+  EXPECT_EQ(pipe.text().substr(0, 2), "\x1b[");
 }
 
 }  // namespace

@@ -72,6 +72,26 @@ TEST(HtmlReport, ProfileChoiceAndCapabilitiesAreShown) {
   EXPECT_NE(html.find("pdo.rtr: absent (&lt;b&gt;bit 30&lt;/b&gt;)"), std::string::npos);
 }
 
+TEST(HtmlReport, EdsFindingsAreShownUnderTheEdsLine) {
+  // Given a run whose EDS had two lint findings, one hostile
+  const auto run = synthetic_run();
+  // When written as HTML
+  const std::string html = render_html(run);
+  // Then they are items right after the EDS row, escaped; a run without findings has none
+  const auto eds = html.find("<dt>EDS</dt>");
+  const auto findings = html.find("<dt>EDS findings</dt>");
+  ASSERT_NE(eds, std::string::npos);
+  ASSERT_NE(findings, std::string::npos);
+  EXPECT_LT(eds, findings);
+  EXPECT_EQ(html.find("<dt>", eds + 1), findings);
+  EXPECT_NE(html.find("<li>eds/festo.eds:12: warning: VendorNumber is empty [identity-empty]</li>"),
+            std::string::npos);
+  EXPECT_NE(html.find("&lt;b&gt;no&lt;/b&gt; error control"), std::string::npos);
+  auto clean = synthetic_run();
+  clean.info.eds_findings.clear();
+  EXPECT_EQ(render_html(clean).find("<dt>EDS findings</dt>"), std::string::npos);
+}
+
 TEST(HtmlReport, ShowsCountsMatrixAndEveryVector) {
   // Given the synthetic run (pass 2, fail 2 of which 1 warning, deviation 1, n/a 1, error 1)
   // When written as HTML

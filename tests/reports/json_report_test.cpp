@@ -124,6 +124,25 @@ TEST(JsonReport, ProfileChoiceAndCapabilitiesAreWrittenAndReadBack) {
   EXPECT_FALSE(json::parse(render_json(valid_utf8_run()))["run"].contains("capabilities"));
 }
 
+TEST(JsonReport, EdsFindingsAreWrittenAndReadBack) {
+  // Given a run whose EDS had two lint findings
+  TempDir dir;
+  const auto run = valid_utf8_run();
+  // When written as JSON and read back
+  const json document = json::parse(render_json(run));
+  ASSERT_TRUE(write_json_report(dir / "run.json", run));
+  const auto read = read_json_report(dir / "run.json");
+  // Then run.eds.findings lists them in order; a run without findings has no key
+  ASSERT_EQ(document["run"]["eds"]["findings"].size(), 2u);
+  EXPECT_EQ(document["run"]["eds"]["findings"][0],
+            "eds/festo.eds:12: warning: VendorNumber is empty [identity-empty]");
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(read->info.eds_findings, run.info.eds_findings);
+  auto clean = valid_utf8_run();
+  clean.info.eds_findings.clear();
+  EXPECT_FALSE(json::parse(render_json(clean))["run"]["eds"].contains("findings"));
+}
+
 TEST(JsonReport, RunOrderIsWrittenAndReadBackAndDefaultsToFile) {
   // Given a run made with --order shuffle:7
   TempDir dir;

@@ -160,6 +160,20 @@ TEST(JunitReport, RunPropertiesOncePerFile) {
   EXPECT_EQ(document.select_nodes("//property[@name='suite.bus_time_s']").size(), 6U);
 }
 
+TEST(JunitReport, EdsFindingsAreRunProperties) {
+  // Given a run whose EDS had two lint findings
+  // When written as JUnit XML
+  pugi::xml_document document;
+  ASSERT_TRUE(document.load_string(render_junit(synthetic_run()).c_str()));
+  // Then they are the run-wide properties eds.finding.1 and eds.finding.2, once per file
+  const auto first = document.child("testsuites").child("testsuite");
+  EXPECT_EQ(property(first, "eds.finding.1"),
+            "eds/festo.eds:12: warning: VendorNumber is empty [identity-empty]");
+  EXPECT_EQ(property(first, "eds.finding.2"),
+            "eds/festo.eds:40: warning: <b>no</b> error control [no-error-control]");
+  EXPECT_EQ(document.select_nodes("//property[starts-with(@name,'eds.finding.')]").size(), 2U);
+}
+
 TEST(JunitReport, SystemOutIsTheDecodedTranscript) {
   // Given the passing SDO upload vector with two frames
   // When written as JUnit XML

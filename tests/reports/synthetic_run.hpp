@@ -64,6 +64,8 @@ inline conformance::RunResult synthetic_run() {
   info.profile_file = "vectors/drives/festo-cmmp.yaml";
   info.eds_file = "eds/festo.eds";
   info.eds_sha256 = "9f86d081884c7d659a2feaa0c55ad015a3bf4f1b2b0b822cd15d6c15b0f00a08";
+  info.eds_findings = {"eds/festo.eds:12: warning: VendorNumber is empty [identity-empty]",
+                       "eds/festo.eds:40: warning: <b>no</b> error control [no-error-control]"};
   info.personality = "festo-cmmp";
   info.deviations = {"no-transition-16"};
   info.seed = 42;
@@ -169,6 +171,8 @@ inline conformance::RunResult synthetic_run_every_tally() {
   run.info.revision = "v0.1.0-42-gabcdef0";
   run.info.vector_digest = std::string(64, 'a');
   run.info.vector_files = 12;
+  run.info.profile_choice = "--profile festo-cmmp";
+  run.info.capabilities = {"heartbeat.producer: present (1017h read 0 ms, written back)"};
   run.info.documents = {
       {"CiA 301", "CANopen application layer and communication profile", "v4.2.0 (2011-02-21)"},
       {"000_33c1d912b8b6010a.txt", "Festo CMMP-AS-...-M3/-M0 Description", "8046795 1510b"}};
