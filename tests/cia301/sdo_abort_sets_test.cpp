@@ -77,6 +77,8 @@ const std::map<std::string, Codes>& expected_sets() {
       {"not-mappable", {0x06020000, 0x06040041}},
       {"mapping-entry-invalid", {0x06020000, 0x06040041, 0x06040043, 0x06070010, 0x06090030}},
       {"parameter-while-valid", {0x06040043, 0x06090030, 0x08000020, 0x08000022}},
+      {"cob-id-while-valid",
+       {0x06010000, 0x06010002, 0x06040043, 0x06090030, 0x08000020, 0x08000022}},
       {"sync-counter-reserved", {0x06090030}},
       {"sync-counter-while-producing", {0x08000022}},
       {"heartbeat-consumer-duplicate", {0x06040043}},
