@@ -18,6 +18,8 @@ std::filesystem::path data_dir() {
 }
 
 std::filesystem::path shipped_vectors_dir() {
+  if (const char* env = std::getenv("DRIVECHECK_VECTORS"); env != nullptr && *env != '\0')
+    return std::filesystem::path(env);
   return data_dir() / "vectors";
 }
 

@@ -20,7 +20,8 @@ namespace drivecheck::cli {
 
 // <binary's folder>/../share/drivecheck (made absolute, not canonical).
 std::filesystem::path data_dir();
-// data_dir()/vectors and data_dir()/reference_drive.eds.
+// data_dir()/vectors (or $DRIVECHECK_VECTORS, where the data is not beside the binary: a
+// binary copied alone, as into the SocketCAN test VM) and data_dir()/reference_drive.eds.
 std::filesystem::path shipped_vectors_dir();
 std::filesystem::path reference_drive_eds();
 

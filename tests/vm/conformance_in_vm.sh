@@ -5,9 +5,13 @@
 # the same vectors against the embedded drive on the simulated bus. The two runs must give
 # every vector the same verdict (`drivecheck report diff` lists no change), except that vectors
 # needing simulated inputs are not applicable over SocketCAN.
-#   conformance_in_vm.sh FILTER
+#   conformance_in_vm.sh FILTER VECTORS
+# VECTORS: the vector tree (copied into the VM with --data; the binary alone is in /bin, without
+# the share/drivecheck folder it finds its data in elsewhere).
 set -u
-filter=${1:?usage: conformance_in_vm.sh FILTER}
+filter=${1:?usage: conformance_in_vm.sh FILTER VECTORS}
+DRIVECHECK_VECTORS=${2:?usage: conformance_in_vm.sh FILTER VECTORS}
+export DRIVECHECK_VECTORS
 out=/tmp/conformance
 mkdir -p "$out"
 

@@ -8,9 +8,13 @@
 #      state;
 #   3. the saved log replayed against a fresh hung-to-be drive reproduces (exit 1) and against
 #      a fresh standard drive does not (exit 0).
-#   live_fuzz_in_vm.sh EDS
+#   live_fuzz_in_vm.sh EDS VECTORS
+# VECTORS: the vector tree with the drive profiles (copied in with --data: the binary alone is
+# in /bin, without the share/drivecheck folder it finds its data in elsewhere).
 set -u
-eds=${1:?usage: live_fuzz_in_vm.sh EDS}
+eds=${1:?usage: live_fuzz_in_vm.sh EDS VECTORS}
+DRIVECHECK_VECTORS=${2:?usage: live_fuzz_in_vm.sh EDS VECTORS}
+export DRIVECHECK_VECTORS
 out=/tmp/live-fuzz
 mkdir -p "$out"
 failed=0
