@@ -419,8 +419,18 @@ class Harness {
 
   // The tester's SYNC: what each TPDO maps, as sampled now (CiA 301 §7.2.2.2).
   DRIVECHECK_FUZZ_ORACLE_CODE void sample_at_sync(can::TimePoint at) {
-    const bool judgeable = !rpdo_since_sync_ && at - last_value_change_ >= kQuiet;
+    // PDOs are processed in Operational only (CiA 301 §7.3.2.2, Table 49): a SYNC the drive sees
+    // in another state samples nothing, and what a synchronous TPDO carries after the drive
+    // comes back is not known from the SYNCs before (it may have dropped its samples).
+    const bool operational = drive_->state() == cia301::NmtState::operational;
+    const bool judgeable = operational && !rpdo_since_sync_ && at - last_value_change_ >= kQuiet;
     rpdo_since_sync_ = false;
+    if (!operational) {
+      for (auto& samples : sampled_)
+        for (Sample& sample : samples)
+          sample = Sample{at, true, false, {}};
+      return;
+    }
     for (std::uint16_t n = 0; n < 4; ++n) {
       sampled_[n][1] = std::move(sampled_[n][0]);
       sampled_[n][0] = Sample{at, true, judgeable, tpdo_bytes(n)};

@@ -10,9 +10,9 @@
 //     same text;
 //   - the profile's derived views run on it: effective_personality(), timing_value() of every
 //     timing name, deviation_for() of its own deviation globs.
-#include <algorithm>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -75,9 +75,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (const profile::Deviation& deviation : first->deviations) {
     for (const profile::DeviationVector& vector : deviation.vectors) {
       const auto found = first->deviations_for(vector.id);
-      DRIVECHECK_FUZZ_CHECK_DETAIL(
-          std::find(found.begin(), found.end(), &deviation) != found.end(),
-          "a deviation is not found by a vector id it lists", vector.id);
+      DRIVECHECK_FUZZ_CHECK_DETAIL(std::find(found.begin(), found.end(), &deviation) != found.end(),
+                                   "a deviation is not found by a vector id it lists", vector.id);
     }
   }
   return 0;
