@@ -171,10 +171,13 @@ void run(const RunOptions& options) {
   // Linted as `drivecheck vectors lint` does (schema, ids, sources, profiles); the manuals'
   // sha256 is lint's business, not the run's.
   auto vectors = conformance::lint_vector_tree({vectors_dir, std::nullopt});
-  for (const auto& warning : vectors.warnings)
-    fmt::print(stderr, "{}: warning: {}\n",
-               warning.line > 0 ? fmt::format("{}:{}", warning.file, warning.line) : warning.file,
-               warning.message);
+  // Warnings do not stop a run; they are counted here and listed by `drivecheck vectors lint`
+  // (every run would otherwise repeat the same list before its verdicts).
+  if (!vectors.warnings.empty()) {
+    fmt::print(stderr,
+               "drivecheck run: {} lint warning(s) in the vectors (drivecheck vectors lint {})\n",
+               vectors.warnings.size(), vectors_dir.string());
+  }
   if (!vectors.ok()) {
     for (const auto& error : vectors.errors)
       fmt::print(stderr, "{}\n", error.to_string());
