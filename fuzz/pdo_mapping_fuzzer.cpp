@@ -426,9 +426,7 @@ class Harness {
     const bool judgeable = operational && !rpdo_since_sync_ && at - last_value_change_ >= kQuiet;
     rpdo_since_sync_ = false;
     if (!operational) {
-      for (auto& samples : sampled_)
-        for (Sample& sample : samples)
-          sample = Sample{at, true, false, {}};
+      forget_samples(at);
       return;
     }
     for (std::uint16_t n = 0; n < 4; ++n) {
@@ -437,11 +435,32 @@ class Harness {
     }
   }
 
+  // What the TPDOs sampled is unknown from `at` on: frames judged by these samples are skipped.
+  DRIVECHECK_FUZZ_ORACLE_CODE void forget_samples(can::TimePoint at) {
+    for (auto& samples : sampled_)
+      for (Sample& sample : samples)
+        sample = Sample{at, true, false, {}};
+  }
+
   DRIVECHECK_FUZZ_ORACLE_CODE void on_wire(const can::TimedFrame& seen) {
     const can::Frame& frame = seen.frame;
     if (seen.own) {  // the tester's: never a TPDO of the drive
-      if (frame.id == 0x080 && !frame.is_extended() && !frame.is_remote())
-        sample_at_sync(seen.timestamp);
+      if (!frame.is_remote() && !frame.is_error()) {
+        // A SYNC for the drive: its SYNC COB-ID (1005h) with the length 1019h asks for (CiA 301
+        // §7.2.5: a counter byte when 1019h > 0); a frame of another length is not processed.
+        const cia301::Entry* cob_entry = od().find(0x1005, 0);
+        const cia301::Entry* overflow = od().find(0x1019, 0);
+        const auto cob =
+            cob_entry != nullptr ? static_cast<std::uint32_t>(cob_entry->as_unsigned()) : 0x80u;
+        const std::uint8_t length = overflow != nullptr && overflow->as_unsigned() != 0 ? 1 : 0;
+        if (frame.id == (cob & 0x1FFFFFFFu) && frame.is_extended() == ((cob & 0x20000000u) != 0) &&
+            frame.dlc == length)
+          sample_at_sync(seen.timestamp);
+      }
+      // An NMT command: entering Operational starts every TPDO afresh (its SYNC sample gone,
+      // CiA 301 §7.2.2.2 samples only in Operational), so no earlier SYNC tells what it carries.
+      if (frame.id == 0x000 && !frame.is_extended() && !frame.is_remote())
+        forget_samples(seen.timestamp);
       return;
     }
     if (frame.is_remote() || frame.is_error()) return;
