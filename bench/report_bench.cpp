@@ -39,7 +39,8 @@ conformance::RunResult large_run() {
                                f % 2 == 0, "SDO rx  node 5  initiate upload 6041:00 (statusword)"});
     }
     for (std::size_t c = 0; c < 4; ++c)
-      vector.checks.push_back({c, "sdo_read", "{value: 0x0237, mask: 0x006F}", "0x0237", true, {}, {}});
+      vector.checks.push_back(
+          {c, "sdo_read", "{value: 0x0237, mask: 0x006F}", "0x0237", true, {}, {}});
     if (i % 4 == 0) {
       for (int s = 0; s < 100; ++s) {
         const auto at = start + std::chrono::microseconds(s * 500);

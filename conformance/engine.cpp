@@ -87,9 +87,8 @@ class Engine::Impl {
         dissector_(dissector_options(options_)),
         pdo_(profile_, options_.node),
         capabilities_(options_.eds),
-        context_{bus_,     profile_, options_,     dissector_, interrupted, stalled,
-                 progress, pdo_,     std::nullopt, false,      {},          {},
-                 {}} {
+        context_{bus_, profile_,     options_, dissector_, interrupted, stalled, progress,
+                 pdo_, std::nullopt, false,    {},         {},          {}} {
     bus_.set_frame_handler({});
     bus_.set_loopback(true);
     if (options_.harness_node == options_.node)
@@ -239,7 +238,8 @@ class Engine::Impl {
                 fmt::format("{:04X}h sub {} ({}) recorded", object.index, object.sub, object.name),
                 outcome.describe(),
                 true,
-                {}, {}});
+                {},
+                {}});
     }
     // The harness becomes a heartbeat producer; the DUT consumes it (1016h sub 1:
     // node-ID in bits 16..23, time in ms in bits 0..15, 3x our period). What 1016h sub 1 held
@@ -251,7 +251,8 @@ class Engine::Impl {
                                   "1016h sub 1 recorded (restored after the run)",
                                   before.describe(),
                                   true,
-                                  {}, {}});
+                                  {},
+                                  {}});
     start_heartbeat();
     const auto period_ms = static_cast<std::uint32_t>(
         std::chrono::duration_cast<std::chrono::milliseconds>(options_.harness_heartbeat).count());
@@ -267,7 +268,8 @@ class Engine::Impl {
               fmt::format("1016h sub 1 := {:08X}h (consume the harness heartbeat)", consumer),
               outcome.describe(),
               true,
-              {}, {}});
+              {},
+              {}});
     for (auto& frame : scratch.frames)
       result.frames.push_back(std::move(frame));
   }

@@ -26,7 +26,8 @@
 //   6. restore (isolation.hpp): every object the DUT confirmed a write of goes back to its
 //      value before the vector, and what the vector stored (1010h) is stored again; what
 //      cannot be put back is a leak (a harness note with the vector id).
-//   7. verdict (verdict.hpp): pass / fail / deviation (a profile deviation's documented observation matches) /
+//   7. verdict (verdict.hpp): pass / fail / deviation (a profile deviation's documented observation
+//   matches) /
 //      not applicable (also when a `$dut.<name>` value does not exist on the DUT) /
 //      error (harness error: an unknown mark, a simulate input the drive does not know, a send
 //      the bus refused); should/may failures are warnings unless strict. A failure while a

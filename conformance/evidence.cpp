@@ -204,8 +204,13 @@ static std::size_t step_number(std::size_t index, std::size_t steps) {
 }
 
 void VectorRun::check(std::string action, std::string expected, std::string actual, bool ok) {
-  result_.checks.push_back(Check{step_number(step_index_, vector_.steps.size()), std::move(action),
-                                 std::move(expected), std::move(actual), ok, now(), {}});
+  result_.checks.push_back(Check{step_number(step_index_, vector_.steps.size()),
+                                 std::move(action),
+                                 std::move(expected),
+                                 std::move(actual),
+                                 ok,
+                                 now(),
+                                 {}});
 }
 
 std::string VectorRun::recent_frames(std::size_t from_index, std::size_t max) const {

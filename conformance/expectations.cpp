@@ -100,7 +100,7 @@ StepStatus VectorRun::poll_statusword(std::string action, std::uint16_t mask, st
     if (vector_timed_out()) break;
   }
   return fail_timed(std::move(action), std::move(expected), fmt::format("{} at the deadline", last),
-              observed);
+                    observed);
 }
 
 StepStatus VectorRun::run_expectation(const Step& step) {
@@ -135,9 +135,9 @@ StepStatus VectorRun::run_expectation(const Step& step) {
                                                       static_cast<std::uint32_t>(f.data[7]) << 24);
       }
       return fail_timed(name, expected,
-                  fmt::format("nothing matching within {}; {}", profile::format_duration(within),
-                              recent_frames(from)),
-                  observed);
+                        fmt::format("nothing matching within {}; {}",
+                                    profile::format_duration(within), recent_frames(from)),
+                        observed);
     }
     const auto& frame = received_[*hit];
     if (e->abort && e->pattern.matches(frame.frame, node())) {
@@ -200,7 +200,8 @@ StepStatus VectorRun::run_expectation(const Step& step) {
              f.data[0] == 0;
     });
     if (!hit)
-      return fail_timed(name, expected, fmt::format("no boot-up; {}", recent_frames(from)), nothing());
+      return fail_timed(name, expected, fmt::format("no boot-up; {}", recent_frames(from)),
+                        nothing());
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected, fmt::format("after {}", ms(received_[*hit].timestamp - base)), true);
     return StepStatus::ok;
@@ -225,7 +226,8 @@ StepStatus VectorRun::run_expectation(const Step& step) {
           return !f.is_extended() && !f.is_remote() && f.id == 0x700U + node() && f.length() == 1 &&
                  (f.data[0] & 0x7F) == state;
         });
-    if (!hit) return fail_timed(name, expected, fmt::format("none; {}", recent_frames(from)), nothing());
+    if (!hit)
+      return fail_timed(name, expected, fmt::format("none; {}", recent_frames(from)), nothing());
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected, fmt::format("after {}", ms(received_[*hit].timestamp - base)), true);
     return StepStatus::ok;
@@ -252,7 +254,8 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       return true;
     });
     if (!hit)
-      return fail_timed(name, expected, fmt::format("no such EMCY; {}", recent_frames(from)), nothing());
+      return fail_timed(name, expected, fmt::format("no such EMCY; {}", recent_frames(from)),
+                        nothing());
     if (!e->mark.empty()) set_mark(e->mark, received_[*hit].timestamp, *hit + 1);
     check(name, expected,
           fmt::format("{} after {}", received_[*hit].frame, ms(received_[*hit].timestamp - base)),
@@ -341,10 +344,10 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       const auto hit = watch(from, deadline, matches);
       if (!hit)
         return fail_timed(name, expected,
-                    fmt::format("frame {} of {} missing within {}{}", n + 1, e->count,
-                                profile::format_duration(period + tolerance),
-                                previous ? " of the previous one" : " of the step start"),
-                    nothing());
+                          fmt::format("frame {} of {} missing within {}{}", n + 1, e->count,
+                                      profile::format_duration(period + tolerance),
+                                      previous ? " of the previous one" : " of the step start"),
+                          nothing());
       const auto at = received_[*hit].timestamp;
       if (previous) {
         const auto interval = at - *previous;

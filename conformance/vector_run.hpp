@@ -76,7 +76,7 @@ struct SdoOutcome {
   // The vector's time limit ended the transfer (before its request or its answer): no
   // verdict on the server, which may not have had its SDO timeout yet.
   bool vector_timed_out = false;
-  std::string describe() const;        // "ok", "abort 06010002h (...)", "no answer ..."
+  std::string describe() const;  // "ok", "abort 06010002h (...)", "no answer ..."
   // A failed transfer as an observation: its abort code, or nothing (no answer).
   Observation observed() const;
 };
