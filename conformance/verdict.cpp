@@ -73,6 +73,9 @@ bool observation_matches(const profile::DeviationObservation& documented, const 
     case Kind::abort:
       return seen.abort == documented.abort;
     case Kind::value:
+      if (documented.value_max)
+        return seen.value && *seen.value >= documented.value &&
+               *seen.value <= *documented.value_max;
       return seen.value == documented.value;
     case Kind::nothing:
       return seen.nothing;

@@ -363,8 +363,16 @@ DeviationObservation read_observation(const Reader& r, const YAML::Node& node) {
     o.abort = static_cast<std::uint32_t>(integer(r, v, "observed.abort", 1, 0xFFFFFFFF));
   } else if (key == "value") {
     o.kind = DeviationObservation::Kind::value;
-    o.value = integer(r, v, "observed.value", std::numeric_limits<std::int64_t>::min(),
-                      std::numeric_limits<std::int64_t>::max());
+    constexpr auto kMin = std::numeric_limits<std::int64_t>::min();
+    constexpr auto kMax = std::numeric_limits<std::int64_t>::max();
+    if (v.IsSequence()) {
+      if (v.size() != 2) r.fail(v, "observed.value: a value or a range [lo, hi]");
+      o.value = integer(r, v[0], "observed.value", kMin, kMax);
+      o.value_max = integer(r, v[1], "observed.value", kMin, kMax);
+      if (*o.value_max < o.value) r.fail(v, "observed.value: a range [lo, hi] needs lo <= hi");
+    } else {
+      o.value = integer(r, v, "observed.value", kMin, kMax);
+    }
   } else if (key == "missing") {
     if (scalar(r, v, "observed.missing") != "frame")
       r.fail(v, "observed.missing: the only value is 'frame'");
@@ -1222,7 +1230,12 @@ void emit_observation(YAML::Emitter& out, const DeviationObservation& o) {
       out << YAML::Key << "abort" << YAML::Value << hex(o.abort, 8);
       break;
     case DeviationObservation::Kind::value:
-      out << YAML::Key << "value" << YAML::Value << o.value;
+      out << YAML::Key << "value" << YAML::Value;
+      if (o.value_max) {
+        out << YAML::Flow << YAML::BeginSeq << o.value << *o.value_max << YAML::EndSeq;
+      } else {
+        out << o.value;
+      }
       break;
     case DeviationObservation::Kind::nothing:
       out << YAML::Key << "no_answer" << YAML::Value << "true";
@@ -1522,7 +1535,8 @@ std::string DeviationObservation::describe() const {
     case Kind::abort:
       return fmt::format("abort {:08X}h", abort);
     case Kind::value:
-      return fmt::format("value {}", value);
+      return value_max ? fmt::format("value in [{}, {}]", value, *value_max)
+                       : fmt::format("value {}", value);
     case Kind::nothing:
       return "nothing (no frame or answer in time)";
     case Kind::accepted:

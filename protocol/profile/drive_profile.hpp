@@ -136,12 +136,15 @@ struct DeviationObservation {
   Kind kind = Kind::text;
   std::uint32_t abort = 0;
   std::int64_t value = 0;
+  // `value: [lo, hi]`: any value from `value` to `value_max` (a position on a moving axis,
+  // where the manual documents where it stands, not the increment it reads at the check).
+  std::optional<std::int64_t> value_max;
   cia402::State state = cia402::State::switch_on_disabled;
   std::uint16_t mask = 0xFFFF;  // statusword
   std::uint16_t statusword = 0;
   std::string text;
-  // "abort 06090030h", "value 2", "nothing (no frame or answer)", "state switch on disabled",
-  // "statusword & 006Fh == 0027h", "Actual containing \"...\"".
+  // "abort 06090030h", "value 2", "value in [1000, 1100]", "nothing (no frame or answer)", "state
+  // switch on disabled", "statusword & 006Fh == 0027h", "Actual containing \"...\"".
   std::string describe() const;
   friend bool operator==(const DeviationObservation&, const DeviationObservation&) = default;
 };

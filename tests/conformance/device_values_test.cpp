@@ -41,7 +41,10 @@ class PeerEngine : public ::testing::Test {
             steps,
         "t.yaml");
     EXPECT_TRUE(set.ok()) << (set.errors.empty() ? "" : set.errors.front().to_string());
-    Engine engine(*harness_, profile_, EngineOptions{});
+    // Scripted peers answer exactly the frames of their script: no isolation snapshot/restore.
+    EngineOptions options;
+    options.isolation = false;
+    Engine engine(*harness_, profile_, std::move(options));
     return engine.run_vector(set.vectors.at(0));
   }
 

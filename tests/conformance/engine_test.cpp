@@ -45,15 +45,15 @@ class EngineTest : public ::testing::Test {
         peer_port_(bus_.attach("peer")),
         profile_(make_profile()) {}
 
-  VectorResult run(const Vector& vector, EngineOptions options = {}) {
-    Engine engine(*harness_, profile_, std::move(options));
-    return engine.run_vector(vector);
-  }
   // Scripted peers answer exactly the frames of their script: no isolation snapshot/restore.
   static EngineOptions scripted() {
     EngineOptions options;
     options.isolation = false;
     return options;
+  }
+  VectorResult run(const Vector& vector, EngineOptions options = scripted()) {
+    Engine engine(*harness_, profile_, std::move(options));
+    return engine.run_vector(vector);
   }
   std::string failure(const VectorResult& result) {
     return result.checks.empty()
@@ -141,7 +141,7 @@ TEST_F(EngineTest, EveryAbortAnswerIsSeenAsAnAbort) {
     for (std::size_t i = 0; i + 1 < c.exchange.size(); i += 2)
       peer.expect(c.exchange[i]).reply(c.exchange[i + 1]);
     // When the vector expects that abort
-    Engine engine(*harness, profile_, {});
+    Engine engine(*harness, profile_, scripted());
     const auto result = engine.run_vector(
         make_vector(std::string(c.step) + "      expect: {abort: [0x06010002]}\n"));
     // Then it passes: the abort is the answer
@@ -208,7 +208,7 @@ TEST_F(EngineTest, DeviationOnlyForTheDocumentedAbort) {
   const auto judge = [&](const char* reply) {
     test_support::ScriptedPeer peer(*peer_port_);
     peer.expect("601#2B41600000000000").reply(reply);
-    Engine engine(*harness_, *parsed, {});
+    Engine engine(*harness_, *parsed, scripted());
     return engine.run_vector(vector);
   };
   // When the DUT answers the documented code / another code outside the set

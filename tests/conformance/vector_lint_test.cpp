@@ -171,13 +171,14 @@ TEST_F(LintTree, RestoreDefaultsOnlyForRestoreOrDefaultsAndCleanUpInFinally) {
   // 1011h), one about a default value, and one with a clean-up step at the end of its steps
   write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
   const std::string head = "  title: t\n  source: \"CiA 301 §1\"\n";
-  write("v.yaml",
-        "- id: a/clean-slate\n" + head + "  setup: restore-defaults\n  steps: [{wait: 1ms}]\n" +
-            "- id: a/restore\n" + head + "  setup: restore-defaults\n  steps:\n" +
-            "    - sdo_write: {index: 0x1011, sub: 1, value: 0x64616F6C, size: 4}\n" +
-            "- id: a/heartbeat-default\n" + head +
-            "  setup: restore-defaults\n  steps: [{wait: 1ms}]\n" + "- id: a/cleans-up\n" + head +
-            "  steps:\n    - nmt: reset-node\n      note: \"clean up: reset\"\n");
+  write("v.yaml", "- id: a/clean-slate\n" + head +
+                      "  setup: restore-defaults\n  steps: [{wait: 1ms}]\n" + "- id: a/restore\n" +
+                      head + "  requires: [restore]\n  setup: restore-defaults\n  steps:\n" +
+                      "    - sdo_write: {index: 0x1011, sub: 1, value: 0x64616F6C, size: 4}\n" +
+                      "- id: a/heartbeat-default\n" + head +
+                      "  setup: restore-defaults\n  steps: [{wait: 1ms}]\n" +
+                      "- id: a/cleans-up\n" + head +
+                      "  steps:\n    - nmt: reset-node\n      note: \"clean up: reset\"\n");
   // When linted
   const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
   // Then the clean slate is an error at its line, the clean-up step a warning

@@ -20,6 +20,13 @@
 namespace drivecheck::conformance {
 namespace {
 
+// Scripted peers answer exactly the frames of their script: no isolation snapshot/restore.
+EngineOptions scripted() {
+  EngineOptions options;
+  options.isolation = false;
+  return options;
+}
+
 using namespace std::chrono_literals;
 
 profile::DriveProfile make_profile() {
@@ -57,7 +64,7 @@ TEST_F(RunResultTest, CtrlCDuringAVectorIsInterruptedNotAFailure) {
   // Given a peer that does not answer a read, and Ctrl-C 1 ms into the vector
   test_support::ScriptedPeer peer(*peer_port_);
   peer.expect("601#4041600000000000");  // ccs=2 initiate upload, 6041h sub 0; no answer
-  Engine engine(*harness_, profile_, {});
+  Engine engine(*harness_, profile_, scripted());
   peer_port_->start_timer_after(1ms, [&engine] { engine.interrupt(); });
   // When the vector runs
   const auto result =
@@ -78,7 +85,7 @@ TEST_F(RunResultTest, CtrlCDuringAVectorIsInterruptedNotAFailure) {
 TEST_F(RunResultTest, CtrlCDuringTheObjectScanIsInterruptedNotAPass) {
   // Given no device answering (every upload times out, which the scan takes as absent), and
   //       Ctrl-C 1 ms into the scan of undocumented objects
-  Engine engine(*harness_, profile_, {});
+  Engine engine(*harness_, profile_, scripted());
   harness_->start_timer_after(1ms, [&engine] { engine.interrupt(); });
   // When the scan runs
   const auto result =
@@ -96,7 +103,7 @@ TEST_F(RunResultTest, LateFrameOfTheVectorBeforeIsBetweenVectors) {
       .reply_after(5ms, "581#8041600002000106");  // the same abort, late
   peer.expect("601#4041600000000000")             // ccs=2 initiate upload, 6041h sub 0
       .reply("581#4B41600040020000");             // scs=2 n=2 e=1 s=1, data 0240h
-  Engine engine(*harness_, profile_, {});
+  Engine engine(*harness_, profile_, scripted());
   const auto first = engine.run_vector(
       make_vector("    - sdo_write: {index: 0x6041, sub: 0, value: 0, size: 2}\n      expect: "
                   "{abort: [0x06010002]}\n"));
@@ -123,7 +130,7 @@ TEST_F(RunResultTest, StepsAreNumberedFromOneAndTheMessageIsOneLine) {
     peer.expect("601#2B40600000000000")  // ccs=1 n=2 e=1 s=1, 6040h sub 0, data 0000h
         .reply("581#6040600000000000");  // scs=3 download response, 6040h sub 0
   }
-  Engine engine(*harness_, profile_, {});
+  Engine engine(*harness_, profile_, scripted());
   const auto vector = make_vector(
       "    - sdo_write: {index: 0x6040, sub: 0, value: 0, size: 2}\n"
       "    - sdo_write: {index: 0x6040, sub: 0, value: 0, size: 2}\n"
