@@ -6,6 +6,7 @@
 #include <array>
 #include <charconv>
 #include <chrono>
+#include <cstddef>
 #include <limits>
 
 namespace drivecheck::profile {
@@ -23,79 +24,74 @@ constexpr std::array<OptionCodeInfo, kOptionCodeCount> kOptionCodes{{
     {OptionCode::abort_connection, "abort-connection", 0x6007},
 }};
 
-constexpr std::array<std::string_view, 37> kFixedFeatures{
-    "sdo.segmented",
-    "sdo.block",
-    "sdo.expedited",
-    "nmt.guarding",
-    "heartbeat.producer",
-    "heartbeat.consumer",
-    "emcy",
-    "emcy.inhibit",
-    "emcy.history",
-    "sync",
-    "sync.producer",
-    "sync.counter",
-    "time",
-    "pdo",
-    "pdo.dynamic-mapping",
-    "pdo.rtr",
-    "pdo.event-timer",
-    "pdo.inhibit",
-    "pdo.sync-window",
-    "store",
-    "restore",
-    "cia402",
-    "hardware-enable",
-    "hardware-enable.transition-2",
-    "hardware-enable.transition-3",
-    "mode.pp",
-    "mode.vl",
-    "mode.pv",
-    "mode.tq",
-    "mode.hm",
-    "mode.ip",
-    "mode.csp",
-    "mode.csv",
-    "mode.cst",
-    "transition.16",
-    "simulation",
-    "motion",
+// The closed feature vocabulary (FORMAT.md "Features"), one row each; `detectable`: a generic
+// profile may list it under `detect:`, and conformance/capabilities.cpp probes it (a test checks
+// that every detectable feature has its probe).
+struct FeatureRow {
+  std::string_view name;
+  bool detectable;
 };
+constexpr std::array<FeatureRow, 37> kFeatureRows{{
+    {"sdo.segmented", true},
+    {"sdo.block", true},
+    {"sdo.expedited", false},
+    {"nmt.guarding", true},
+    {"heartbeat.producer", true},
+    {"heartbeat.consumer", true},
+    {"emcy", true},
+    {"emcy.inhibit", true},
+    {"emcy.history", true},
+    {"sync", true},
+    {"sync.producer", true},
+    {"sync.counter", true},
+    {"time", true},
+    {"pdo", true},
+    {"pdo.dynamic-mapping", true},
+    {"pdo.rtr", true},
+    {"pdo.event-timer", true},
+    {"pdo.inhibit", true},
+    {"pdo.sync-window", true},
+    {"store", true},
+    {"restore", true},
+    {"cia402", true},
+    {"hardware-enable", false},
+    {"hardware-enable.transition-2", false},
+    {"hardware-enable.transition-3", false},
+    {"mode.pp", true},
+    {"mode.vl", true},
+    {"mode.pv", true},
+    {"mode.tq", true},
+    {"mode.hm", true},
+    {"mode.ip", true},
+    {"mode.csp", true},
+    {"mode.csv", true},
+    {"mode.cst", true},
+    {"transition.16", false},
+    {"simulation", false},
+    {"motion", false},
+}};
 
-// conformance/capabilities.cpp probes each (a test checks that every one has its probe).
-constexpr std::array<std::string_view, 30> kDetectableFeatures{
-    "sdo.segmented",
-    "sdo.block",
-    "nmt.guarding",
-    "heartbeat.producer",
-    "heartbeat.consumer",
-    "emcy",
-    "emcy.inhibit",
-    "emcy.history",
-    "sync",
-    "sync.producer",
-    "sync.counter",
-    "time",
-    "pdo",
-    "pdo.dynamic-mapping",
-    "pdo.rtr",
-    "pdo.event-timer",
-    "pdo.inhibit",
-    "pdo.sync-window",
-    "store",
-    "restore",
-    "cia402",
-    "mode.pp",
-    "mode.vl",
-    "mode.pv",
-    "mode.tq",
-    "mode.hm",
-    "mode.ip",
-    "mode.csp",
-    "mode.csv",
-    "mode.cst",
-};
+constexpr auto kFixedFeatures = [] {
+  std::array<std::string_view, kFeatureRows.size()> names{};
+  for (std::size_t i = 0; i < kFeatureRows.size(); ++i)
+    names[i] = kFeatureRows[i].name;
+  return names;
+}();
+
+constexpr std::size_t kDetectableCount = [] {
+  std::size_t n = 0;
+  for (const FeatureRow& row : kFeatureRows)
+    n += row.detectable ? 1 : 0;
+  return n;
+}();
+
+constexpr auto kDetectableFeatures = [] {
+  std::array<std::string_view, kDetectableCount> names{};
+  std::size_t i = 0;
+  for (const FeatureRow& row : kFeatureRows)
+    if (row.detectable) names[i++] = row.name;
+  return names;
+}();
 
 // FORMAT.md "Timing names": timing_defaults.inc.
 const std::array kTimings{
