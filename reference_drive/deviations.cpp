@@ -7,6 +7,7 @@
 #include <memory>
 #include <utility>
 
+#include "protocol/cia301/cob_id.hpp"
 #include "protocol/cia301/emcy.hpp"
 #include "protocol/cia301/emcy_producer.hpp"
 #include "protocol/cia301/object_dictionary.hpp"
@@ -93,6 +94,7 @@ constexpr std::uint32_t kAbortLengthMismatch = 0x06070010;
 constexpr std::uint32_t kAbortLengthHigh = 0x06070012;
 constexpr std::uint32_t kAbortLengthLow = 0x06070013;
 constexpr std::uint32_t kAbortNoSubIndex = 0x06090011;
+constexpr std::uint32_t kAbortInvalidValue = 0x06090030;
 
 // Heartbeat / NMT state bytes.
 constexpr std::uint8_t kStateStopped = 0x04;
@@ -124,6 +126,20 @@ bool is_standard_data(const can::Frame& frame, std::uint32_t id, std::size_t len
 can::Frame download_response(std::uint32_t id, const can::Frame& frame) {
   return can::Frame::standard(
       id, {kDownloadResponse, frame.data[1], frame.data[2], frame.data[3], 0, 0, 0, 0});
+}
+// An abort of the transfer `request` (an SDO frame) with `code`.
+can::Frame abort_frame(std::uint32_t id, const can::Frame& request, std::uint32_t code) {
+  can::Frame frame = can::Frame::standard(
+      id, {kAbort, request.data[1], request.data[2], request.data[3], 0, 0, 0, 0});
+  store_u32(frame, 4, code);
+  return frame;
+}
+// The objects that hold a configurable COB-ID (CiA 301 §7.3.5 restricts their CAN-IDs): SYNC
+// 1005h, TIME 1012h, EMCY 1014h (sub 0); RPDO 1400h-15FFh and TPDO 1800h-19FFh (sub 1).
+bool is_cob_id_object(std::uint16_t index, std::uint8_t sub) {
+  if (index == 0x1005 || index == 0x1012 || index == 0x1014) return sub == 0;
+  const bool pdo = (index >= 0x1400 && index <= 0x15FF) || (index >= 0x1800 && index <= 0x19FF);
+  return pdo && sub == 1;
 }
 // An expedited download request (ccs 1, e = 1) to `index`; any sub-index.
 bool is_expedited_download(const can::Frame& request, std::uint16_t index) {
@@ -268,6 +284,36 @@ bool DeviationPort::is_tpdo(std::uint32_t id, bool synchronous_only) const {
   return false;
 }
 
+unsigned DeviationPort::mapping_bits(const can::Frame& request) const {
+  const std::uint16_t index = index_of(request);
+  const bool mapping = (index >= 0x1600 && index <= 0x17FF) || (index >= 0x1A00 && index <= 0x1BFF);
+  if (!mapping || od_ == nullptr) return 0;
+  unsigned bits = 0;
+  for (unsigned sub = 1; sub <= request.data[4]; ++sub) {
+    const cia301::Entry* entry = od_->find(index, static_cast<std::uint8_t>(sub));
+    if (entry == nullptr) return 0;
+    bits += static_cast<unsigned>(entry->as_unsigned() & 0xFF);
+  }
+  return bits;
+}
+
+bool DeviationPort::restricted_cob_id_written(const can::Frame& abort) const {
+  const auto& request = last_request_data_;
+  const bool expedited = ccs_of(request[0]) == kCcsDownloadInitiate && (request[0] & 0x02) != 0;
+  if (!expedited || request[1] != abort.data[1] || request[2] != abort.data[2] ||
+      request[3] != abort.data[3]) {
+    return false;
+  }
+  const auto index = static_cast<std::uint16_t>(request[1] | (request[2] << 8));
+  if (!is_cob_id_object(index, request[3])) return false;
+  const std::uint32_t value = static_cast<std::uint32_t>(request[4]) |
+                              (static_cast<std::uint32_t>(request[5]) << 8) |
+                              (static_cast<std::uint32_t>(request[6]) << 16) |
+                              (static_cast<std::uint32_t>(request[7]) << 24);
+  const bool extended = (value & 0x20000000) != 0;
+  return !extended && cia301::is_restricted_cob_id(value & 0x7FF);
+}
+
 std::error_code DeviationPort::send(const can::Frame& frame) {
   if (crashed_) return {};  // a crashed node transmits nothing (and nobody tells its software)
   const auto changed = outgoing(frame);
@@ -301,6 +347,10 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       }
       const bool length =
           code == kAbortLengthMismatch || code == kAbortLengthHigh || code == kAbortLengthLow;
+      if (code == kAbortInvalidValue && d.has(Deviation::restricted_cob_id_accepted) &&
+          restricted_cob_id_written(frame)) {
+        return download_response(frame.id, frame);
+      }
       if ((code == kAbortWriteReadOnly && d.has(Deviation::sdo_read_only_write_accepted)) ||
           (length && d.has(Deviation::sdo_length_not_checked)) ||
           (code == kAbortPdoLength && d.has(Deviation::pdo_mapping_too_long_accepted))) {
@@ -330,6 +380,17 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       }
       if (index == 0x1001 && frame.data[3] == 0 && d.has(Deviation::error_register_not_set)) {
         out.data[4] = 0;
+      }
+      if (index == 0x1003 && frame.data[3] != 0 && d.has(Deviation::emcy_history_appended)) {
+        // Oldest first: sub k shows the entry the drive keeps at sub (count + 1 - k).
+        const cia301::Entry* count = od_->find(0x1003, 0);
+        const auto n = count != nullptr ? count->as_unsigned() : 0;
+        if (frame.data[3] <= n) {
+          const auto mirrored = static_cast<std::uint8_t>(n + 1 - frame.data[3]);
+          if (const cia301::Entry* entry = od_->find(0x1003, mirrored)) {
+            store_u32(out, 4, static_cast<std::uint32_t>(entry->as_unsigned()));
+          }
+        }
       }
       if (d.has(Deviation::sdo_upload_size_wrong)) out.data[0] = 0x43;  // n = 0: 4 bytes
       return out;
@@ -456,7 +517,16 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
       return std::nullopt;
     }
     last_request_ = frame.data[0];
+    std::copy(frame.data.begin(), frame.data.begin() + 8, last_request_data_.begin());
     const std::uint32_t response_id = kSdoResponseBase + node_id;
+    // A mapping count (sub 00h of 1600h-17FFh / 1A00h-1BFFh) whose entries make exactly 64 bits:
+    // refused as too long (the off-by-one of pdo-mapping-64-bits-refused).
+    if (d.has(Deviation::pdo_mapping_64_bits_refused) &&
+        ccs_of(frame.data[0]) == kCcsDownloadInitiate && (frame.data[0] & 0x02) != 0 &&
+        frame.data[3] == 0 && mapping_bits(frame) == 64) {
+      (void)send(abort_frame(response_id, frame, kAbortPdoLength));
+      return std::nullopt;
+    }
     // 1003h sub 00h := 0 (the only value CiA 301 allows): confirmed, history kept.
     if (is_expedited_download(frame, 0x1003) && frame.data[3] == 0 && frame.data[4] == 0 &&
         d.has(Deviation::emcy_history_not_cleared)) {

@@ -194,6 +194,12 @@ class DeviationPort final : public can::Bus {
   std::uint8_t node() const;
   std::optional<std::uint32_t> emcy_cob_id() const;
   bool is_tpdo(std::uint32_t id, bool synchronous_only) const;
+  // The bits of the mapping an expedited download of a mapping count (`request`, sub 00h of
+  // 1600h-17FFh / 1A00h-1BFFh) would enable; 0 for any other request or a missing entry.
+  unsigned mapping_bits(const can::Frame& request) const;
+  // The last SDO request was an expedited download of a restricted CAN-ID (CiA 301 §7.3.5) to
+  // a COB-ID object (1005h, 1012h, 1014h, PDO sub 01h) and `abort` aborts that transfer.
+  bool restricted_cob_id_written(const can::Frame& abort) const;
 
   can::Bus& port_;
   DeviationSet deviations_;
@@ -201,7 +207,8 @@ class DeviationPort final : public can::Bus {
   FrameHandler handler_;
   bool loopback_ = false;
 
-  std::uint8_t last_request_ = 0;     // byte 0 of the last SDO request
+  std::uint8_t last_request_ = 0;                    // byte 0 of the last SDO request
+  std::array<std::uint8_t, 8> last_request_data_{};  // all of it (restricted-cob-id-accepted)
   bool in_guarding_request_ = false;  // handling an RTR on 700h+N: 700h+N is its response
   // heartbeat-period-long
   can::TimePoint last_heartbeat_ = can::TimePoint::min();

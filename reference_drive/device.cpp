@@ -146,6 +146,7 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   cia301::DeviceServicesConfig services{config_.initialisation_time};
   services.heartbeat_consumer_timeouts = !has(Deviation::heartbeat_consumer_timeout_ignored);
   services.emcy_inhibit = !has(Deviation::emcy_inhibit_ignored);
+  services.error_behaviour = !has(Deviation::error_behaviour_ignored);
   services_ = std::make_unique<cia301::DeviceServices>(bus_, *od_, services, std::move(handlers));
   services_->attach();
   // Own frames come back at their end on the wire: PdoService::on_sent (synchronous window).
@@ -254,8 +255,9 @@ void ReferenceDrive::set_bus_off(bool bus_off) {
   if (bus_off) {
     // CiA 301 1029h:01: bus-off is a communication error (0: Operational -> Pre-operational).
     const cia301::Entry* behaviour = od_->find(cia301::kErrorBehaviourIndex, 1);
-    const auto value = behaviour != nullptr ? static_cast<std::uint8_t>(behaviour->as_unsigned())
-                                            : std::uint8_t{0};
+    const auto value = behaviour != nullptr && !has(Deviation::error_behaviour_ignored)
+                           ? static_cast<std::uint8_t>(behaviour->as_unsigned())
+                           : std::uint8_t{0};
     if (powered_) {
       if (auto reaction = cia301::communication_error_command(state(), value)) command(*reaction);
     }

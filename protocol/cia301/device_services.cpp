@@ -280,8 +280,9 @@ void DeviceServices::update_communication_error(can::TimePoint now) {
       flush_emcy(now);
     }
     const Entry* behaviour = od_.find(kErrorBehaviourIndex, 1);
-    const auto value = behaviour != nullptr ? static_cast<std::uint8_t>(behaviour->as_unsigned())
-                                            : std::uint8_t{0};
+    const auto value = behaviour != nullptr && config_.error_behaviour
+                           ? static_cast<std::uint8_t>(behaviour->as_unsigned())
+                           : std::uint8_t{0};
     if (auto reaction = communication_error_command(nmt_.state(), value)) {
       on_nmt_result(nmt_.apply(*reaction), now);
     }

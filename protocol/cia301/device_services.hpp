@@ -79,6 +79,9 @@ struct DeviceServicesConfig {
   bool heartbeat_consumer_timeouts = true;
   // false: the EMCY producer ignores the inhibit time 1015h (1015h still reads as written).
   bool emcy_inhibit = true;
+  // false: a communication error always takes the reaction of 1029h sub 01h = 0, whatever the
+  // object holds (error-behaviour-ignored).
+  bool error_behaviour = true;
 };
 
 struct DeviceServicesHandlers {
