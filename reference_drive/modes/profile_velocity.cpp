@@ -70,6 +70,7 @@ void ProfileVelocityMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
     in_window_since_.reset();
   }
   if (ctx.has(Deviation::pv_target_reached_outside_window)) reached = true;
+  if (cycle.halt && ctx.has(Deviation::pv_halt_target_reached_missing)) reached = false;
 
   // Speed = 0: cleared only after the threshold was exceeded for the threshold time.
   const double threshold =
