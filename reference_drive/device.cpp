@@ -100,6 +100,7 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   pdos_ = std::make_unique<cia301::PdoService>(*od_, bus_, config_.dictionary.pdo.dummy_mapping,
                                                config_.dictionary.pdo.change_mask_index);
   pdos_->set_first_sync_phase(config_.tpdo_first_sync_phase);
+  pdos_->set_rtr_in_any_state(has(Deviation::pdo_rtr_outside_operational));  // deviation
 
   cia301::SdoServerConfig sdo = cia301::SdoServerConfig::for_node(od_->node_id());
   sdo.timeout = config_.sdo_timeout;
@@ -147,6 +148,7 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   services.heartbeat_consumer_timeouts = !has(Deviation::heartbeat_consumer_timeout_ignored);
   services.emcy_inhibit = !has(Deviation::emcy_inhibit_ignored);
   services.error_behaviour = !has(Deviation::error_behaviour_ignored);
+  services.sync_in_stopped = has(Deviation::pdo_in_stopped);
   services_ = std::make_unique<cia301::DeviceServices>(bus_, *od_, services, std::move(handlers));
   services_->attach();
   // Own frames come back at their end on the wire: PdoService::on_sent (synchronous window).
@@ -379,10 +381,12 @@ void ReferenceDrive::on_state_changed(cia301::NmtState from, cia301::NmtState to
   const bool sdo_in_stopped =
       has(Deviation::sdo_in_stopped) && to == cia301::NmtState::stopped;  // deviation
   if (!cia301::nmt_allows(to, cia301::NmtService::sdo) && !sdo_in_stopped) reset_sdo_servers();
-  // Deviation pdo-in-pre-operational: the PDOs run as if Operational.
+  // Deviations pdo-in-pre-operational, pdo-in-stopped: the PDOs run as if Operational.
   const bool pdo_in_pre_operational =
       has(Deviation::pdo_in_pre_operational) && to == cia301::NmtState::pre_operational;
-  pdos_->set_nmt_state(pdo_in_pre_operational ? cia301::NmtState::operational : to, now);
+  const bool pdo_in_stopped = has(Deviation::pdo_in_stopped) && to == cia301::NmtState::stopped;
+  pdos_->set_nmt_state(
+      pdo_in_pre_operational || pdo_in_stopped ? cia301::NmtState::operational : to, now);
   if (config_.application != nullptr) config_.application->on_nmt_state(*this, from, to);
   rearm();
 }

@@ -109,7 +109,8 @@ bool DeviceServices::handle(const can::TimedFrame& timed) {
         on_heartbeat_event(*event, now);
       }
     }
-  } else if (nmt_.allows(NmtService::sync)) {
+  } else if (nmt_.allows(NmtService::sync) ||
+             (config_.sync_in_stopped && nmt_.state() == NmtState::stopped)) {
     if (auto event = sync_consumer_.on_frame(frame, now)) {
       taken = true;
       on_sync_event(*event, now);

@@ -82,6 +82,8 @@ struct DeviceServicesConfig {
   // false: a communication error always takes the reaction of 1029h sub 01h = 0, whatever the
   // object holds (error-behaviour-ignored).
   bool error_behaviour = true;
+  // true: SYNC frames are consumed in Stopped too (pdo-in-stopped; false in a conformant device).
+  bool sync_in_stopped = false;
 };
 
 struct DeviceServicesHandlers {

@@ -641,7 +641,9 @@ void PdoService::receive(Rpdo& pdo, const can::Frame& frame, can::TimePoint now)
 
 PdoOutput PdoService::on_frame(const can::Frame& frame, can::TimePoint now) {
   begin_output();
-  if (!running_ || frame.is_error()) return output();
+  if (frame.is_error() || (!running_ && !(rtr_in_any_state_ && frame.is_remote()))) {
+    return output();
+  }
   bool taken = false;
   if (frame.is_remote()) {
     for (Tpdo& pdo : tpdos_) {

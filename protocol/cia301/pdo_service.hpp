@@ -227,6 +227,9 @@ class PdoService {
   // The NMT state: PDOs run only where nmt_allows(state, NmtService::pdo).
   void set_nmt_state(NmtState state, can::TimePoint now);
   bool running() const { return running_; }
+  // Fault injection (the reference drive's pdo-rtr-outside-operational; false in a conformant
+  // device): remote frames for a TPDO are answered whatever the NMT state.
+  void set_rtr_in_any_state(bool on) { rtr_in_any_state_ = on; }
 
   // A frame from the bus: an RPDO, or an RTR for a TPDO.
   PdoOutput on_frame(const can::Frame& frame, can::TimePoint now);
@@ -342,6 +345,7 @@ class PdoService {
   std::uint16_t change_mask_index_ = 0;
   bool changed(const Tpdo& pdo, const std::array<std::uint8_t, 8>& payload) const;
   bool running_ = false;
+  bool rtr_in_any_state_ = false;  // set_rtr_in_any_state
   bool first_sync_phase_ = false;  // set_first_sync_phase
   std::vector<Rpdo> rpdos_;
   std::vector<Tpdo> tpdos_;
