@@ -97,6 +97,12 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
     store_ = std::move(*store);
   }
 
+  if (has(Deviation::store_misses_sync_objects)) {  // deviation: not part of any store group
+    for (const std::uint16_t index : {0x1005, 0x1006, 0x1007, 0x1019}) {
+      if (cia301::Entry* entry = od_->find(index, 0)) entry->set_store_group(cia301::kStoreNone);
+    }
+  }
+
   pdos_ = std::make_unique<cia301::PdoService>(*od_, bus_, config_.dictionary.pdo.dummy_mapping,
                                                config_.dictionary.pdo.change_mask_index);
   pdos_->set_first_sync_phase(config_.tpdo_first_sync_phase);
