@@ -135,6 +135,7 @@ std::error_code encode_datagrams(std::span<const Datagram> datagrams,
   for (std::size_t i = 0; i < datagrams.size(); ++i) {
     const Datagram& datagram = datagrams[i];
     auto len = static_cast<std::uint16_t>(datagram.data.size());
+    len |= static_cast<std::uint16_t>((datagram.reserved & 0x07) << 11);
     if (datagram.circulating) len |= kCirculatingBit;
     if (i + 1 < datagrams.size()) len |= kMoreFollowsBit;
     const std::uint8_t header[kDatagramHeaderSize] = {
@@ -214,6 +215,7 @@ Expected<std::vector<Datagram>, DecodeError> decode_datagrams(std::span<const st
         static_cast<std::uint32_t>(bytes[2]) | (static_cast<std::uint32_t>(bytes[3]) << 8) |
         (static_cast<std::uint32_t>(bytes[4]) << 16) | (static_cast<std::uint32_t>(bytes[5]) << 24);
     const std::uint16_t len_field = read_u16(bytes, 6);
+    datagram.reserved = static_cast<std::uint8_t>((len_field >> 11) & 0x07);
     datagram.circulating = (len_field & kCirculatingBit) != 0;
     datagram.more_follows = (len_field & kMoreFollowsBit) != 0;
     datagram.irq = read_u16(bytes, 8);

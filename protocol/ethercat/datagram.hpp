@@ -69,6 +69,7 @@ struct Datagram {
   std::uint8_t index = 0;
   std::uint32_t address = 0;  // ADP | ADO << 16, or the logical address
   bool circulating = false;   // C bit
+  std::uint8_t reserved = 0;  // Len bits 11..13 (0 on the wire; kept so decoding is exact)
   // M bit as decoded. The encoder writes M itself (set on every datagram but the last).
   bool more_follows = false;
   std::uint16_t irq = 0;

@@ -175,6 +175,8 @@ int Esc::find_sm(std::uint16_t address) const {
     const std::uint16_t base = reg::sync_manager(n);
     const std::uint16_t start = get16(base);
     const std::uint16_t length = get16(static_cast<std::uint16_t>(base + 2));
+    // A SyncManager covers process RAM only; one configured onto registers has no effect.
+    if (start < reg::kProcessRam) continue;
     if (address >= start && address - start < length) return static_cast<int>(n);
   }
   return -1;

@@ -45,7 +45,8 @@
 //    published at once; the three buffers exist to avoid tearing, which one thread cannot
 //    produce). A completed ECAT write with control bit 6 set restarts the process data
 //    watchdog.
-// Disabling an SM (activate bit 0 = 0) empties its buffers.
+// Disabling an SM (activate bit 0 = 0) empties its buffers. An SM whose start lies below the
+// process RAM (1000h) has no effect: SyncManagers guard process RAM, not registers.
 //
 // FMMUs (0600h + 16n: logical start u32, length u16, logical start bit u8, logical stop bit
 // u8, physical start u16, physical start bit u8, type u8 (bit 0 read, bit 1 write), activate

@@ -22,7 +22,8 @@ Expected<std::vector<std::uint8_t>, std::error_code> encode_frame(const Frame& f
   bytes.insert(bytes.end(), frame.source.begin(), frame.source.end());
   bytes.push_back(static_cast<std::uint8_t>(kEtherType >> 8));
   bytes.push_back(static_cast<std::uint8_t>(kEtherType & 0xFF));
-  const auto header = static_cast<std::uint16_t>(payload | (kTypeDatagrams << 12));
+  const auto header = static_cast<std::uint16_t>(payload | (kTypeDatagrams << 12) |
+                                                 (frame.header_reserved ? 0x0800 : 0));
   bytes.push_back(static_cast<std::uint8_t>(header));
   bytes.push_back(static_cast<std::uint8_t>(header >> 8));
   if (const std::error_code error = encode_datagrams(frame.datagrams, bytes)) {
@@ -80,6 +81,7 @@ Expected<Frame, DecodeError> decode_frame(std::span<const std::uint8_t> bytes) {
   std::copy_n(bytes.begin(), 6, frame.destination.begin());
   std::copy_n(bytes.begin() + 6, 6, frame.source.begin());
   frame.datagrams = std::move(*datagrams);
+  frame.header_reserved = (bytes[layout->payload_offset - 1] & 0x08) != 0;
   return frame;
 }
 

@@ -42,6 +42,7 @@ struct Frame {
   MacAddress destination = kBroadcastMac;
   MacAddress source{};
   std::vector<Datagram> datagrams;
+  bool header_reserved = false;  // EtherCAT header bit 11 (0 on the wire; kept as decoded)
 
   friend bool operator==(const Frame&, const Frame&) = default;
 };

@@ -270,6 +270,20 @@ TEST(EscProcessing, SyncManagerConfigurationIsLockedWhileEnabled) {
   EXPECT_EQ(esc.sync_manager(2).start, 0x1200);
 }
 
+TEST(EscProcessing, SyncManagerOverRegistersHasNoEffect) {
+  // Given SM4 configured as an ECAT-written buffer over AL status (0130h; found by the fuzz
+  // target: the buffer hid the register)
+  // When ECAT writes and reads AL status
+  // Then AL status still reads 0001h: a SyncManager guards process RAM only
+  Esc esc;
+  configure(esc);
+  one(esc, Datagram::physical(Command::fpwr, 0, 0x1001, reg::sync_manager(4),
+                              sm_block(reg::kAlStatus, 2, 0x04, true)));
+  one(esc, Datagram::physical(Command::fpwr, 0, 0x1001, reg::kAlStatus, u16(8)));
+  EXPECT_EQ(one(esc, Datagram::physical(Command::fprd, 0, 0x1001, reg::kAlStatus, {0, 0})).data,
+            u16(1));
+}
+
 TEST(EscProcessing, LrwExchangesProcessDataThroughFmmus) {
   // Given a configured slave (outputs at logical 10000h, inputs at 10002h) whose application
   // put inputs 0BB0h

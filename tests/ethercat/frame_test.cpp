@@ -87,6 +87,25 @@ TEST(FrameCodec, RoundTripsSeveralDatagramsWithMoreFollows) {
             "LRW idx=01 addr=00010000h len=4 wkc=0 data=01 02 03 04");
 }
 
+TEST(FrameCodec, KeepsReservedBitsExactly) {
+  // Given a frame whose datagram Len has reserved bit 12 set and whose EtherCAT header has
+  // bit 11 set (found by the fuzz target: they were lost in the round trip)
+  // When it is decoded and encoded again
+  // Then the bytes are the same
+  Frame frame;
+  frame.header_reserved = true;
+  frame.datagrams.push_back(Datagram::physical(Command::fprd, 1, 0x1001, 0x0130, {0, 0}));
+  frame.datagrams[0].reserved = 0x02;
+  const auto bytes = encode_frame(frame);
+  ASSERT_TRUE(bytes);
+  EXPECT_EQ((*bytes)[15], 0x18);      // type 1, reserved bit 11
+  EXPECT_EQ((*bytes)[16 + 7], 0x10);  // Len high byte: bit 12
+  const auto decoded = decode_frame(*bytes);
+  ASSERT_TRUE(decoded);
+  EXPECT_EQ(*decoded, frame);
+  EXPECT_EQ(*encode_frame(*decoded), *bytes);
+}
+
 TEST(FrameCodec, DecodesVlanTaggedFrame) {
   // Given a frame with a VLAN tag before the EtherType
   // When decoded
