@@ -36,16 +36,22 @@ AlStatusCode EscSlave::builtin_check(const AlTransition& transition) const {
   if (!sii_) return AlStatusCode::no_error;
   const SiiHeader& h = sii_->header;
   switch (transition.requirement) {
-    case AlRequirement::mailbox: {
-      if (h.standard_receive.size == 0 && h.standard_send.size == 0) break;
+    case AlRequirement::mailbox:
+    case AlRequirement::bootstrap: {
+      const bool boot = transition.requirement == AlRequirement::bootstrap;
+      const SiiMailbox& receive = boot ? h.bootstrap_receive : h.standard_receive;
+      const SiiMailbox& send = boot ? h.bootstrap_send : h.standard_send;
+      if (receive.size == 0 && send.size == 0) break;
       const SyncManagerRegisters out = esc_.sync_manager(0);
       const SyncManagerRegisters in = esc_.sync_manager(1);
       const bool out_ok = out.enabled() && out.mailbox() && out.ecat_writes() &&
-                          out.start == h.standard_receive.offset &&
-                          out.length == h.standard_receive.size;
+                          out.start == receive.offset && out.length == receive.size;
       const bool in_ok = in.enabled() && in.mailbox() && !in.ecat_writes() &&
-                         in.start == h.standard_send.offset && in.length == h.standard_send.size;
-      if (!out_ok || !in_ok) return AlStatusCode::invalid_mailbox_configuration;
+                         in.start == send.offset && in.length == send.size;
+      if (!out_ok || !in_ok) {
+        return boot ? AlStatusCode::invalid_mailbox_configuration_boot
+                    : AlStatusCode::invalid_mailbox_configuration;
+      }
       break;
     }
     case AlRequirement::process_data: {
@@ -65,7 +71,6 @@ AlStatusCode EscSlave::builtin_check(const AlTransition& transition) const {
       break;
     }
     case AlRequirement::none:
-    case AlRequirement::bootstrap:
     case AlRequirement::outputs:
       break;
   }

@@ -17,6 +17,8 @@
 //  - mailbox (IP): SM0 enabled in mailbox mode, ECAT writes, at the SII's standard receive
 //    mailbox offset and size; SM1 the same for ECAT reads and the standard send mailbox;
 //    else 0016h (invalid mailbox configuration). A SII without mailbox (size 0) needs none.
+//  - bootstrap (IB, when EscSlaveConfig::bootstrap): the same against the SII's bootstrap
+//    mailbox words (14h..17h); else 0015h.
 //  - process_data (PS): every SII SyncM entry of type outputs (3) / inputs (4) with a length
 //    has its SM enabled in buffered mode with the right direction, start and length; else
 //    001Dh (invalid output configuration) / 001Eh (invalid input configuration).

@@ -35,6 +35,8 @@ std::vector<std::uint8_t> drive_sii() {
   SiiImage image;
   image.header.standard_receive = {0x1000, 128};
   image.header.standard_send = {0x1080, 128};
+  image.header.bootstrap_receive = {0x1000, 256};
+  image.header.bootstrap_send = {0x1100, 256};
   image.header.mailbox_protocols = kSiiMailboxCoe;
   image.sync_managers = {
       {0x1000, 128, 0x26, 0, 1, SiiSyncManagerType::mailbox_out},
@@ -109,6 +111,17 @@ TEST(EscSlave, IpNeedsTheMailboxSyncManagersOfTheSii) {
   EXPECT_EQ(rig.request(0x0002), std::make_pair(std::uint16_t{0x0011}, std::uint16_t{0x0016}));
   rig.configure_mailbox();
   EXPECT_EQ(rig.request(0x0012), std::make_pair(std::uint16_t{0x0002}, std::uint16_t{0}));
+}
+
+TEST(EscSlave, BootNeedsTheBootstrapMailbox) {
+  // Given a slave with BOOT whose SII names bootstrap mailboxes 1000h/1100h of 256 bytes
+  // When BOOT is requested with the standard mailboxes (128 bytes) configured
+  // Then it is refused with 0015h (invalid mailbox configuration, BOOT)
+  EscSlaveConfig config;
+  config.bootstrap = true;
+  Rig rig(config);
+  rig.configure_mailbox();
+  EXPECT_EQ(rig.request(0x0003), std::make_pair(std::uint16_t{0x0011}, std::uint16_t{0x0015}));
 }
 
 TEST(EscSlave, PsNeedsTheProcessDataSyncManagers) {
