@@ -259,6 +259,10 @@ class Esc {
   // (SyncManager buffers as the ECAT side sees them, without changing their state).
   std::uint8_t peek(std::uint16_t address) const;
 
+  // The whole address space as stored (registers, RAM; mailbox contents; buffered SyncManager
+  // areas hold their last plain-memory contents, the buffers live apart), for oracles.
+  std::span<const std::uint8_t> memory() const { return memory_; }
+
   // Power-on: registers to their reset values, RAM and buffers cleared (the SII stays).
   void reset();
 
