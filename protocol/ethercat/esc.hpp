@@ -28,7 +28,9 @@
 //    (read-write commands) or +1 (write commands) when at least one byte was written; a byte
 //    counts only when it was accessible (an existing address; a SyncManager buffer that
 //    allowed the access). ARMW/FRMW count +1 as the read or the write they were;
-//  - the source MAC's bit 1 (locally administered) is set on every processed frame.
+//  - the source MAC's bit 1 (locally administered) is set on every processed frame (ESC
+//    Section I §3: so the master can tell sent from received frames); VLAN-tagged frames are
+//    processed with the tag untouched; EtherCAT in UDP/IP is not modelled.
 //
 // SyncManagers (0800h + 8n: start u16, length u16, control u8, status u8, activate u8, PDI
 // control u8). Control bits 1..0: 00 buffered (3-buffer), 10 mailbox; bits 3..2: 00 ECAT
