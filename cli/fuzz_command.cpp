@@ -407,7 +407,8 @@ void add_fuzz_command(CLI::App& app) {
                   "Node id of the drive (required with socketcan; the embedded drive: 1)")
       ->check(CLI::Range(kMinNodeId, kMaxNodeId));
   cmd->add_option("--duration", options->duration,
-                  "How long to fuzz (bus time: simulated on --bus sim), e.g. 90s, 10min, 2h")
+                  "How long to fuzz (bus time: simulated on --bus sim; a hard bound, every wait "
+                  "ends with it), e.g. 90s, 10min, 2h")
       ->check(duration_validator())
       ->capture_default_str();
   cmd->add_flag("--allow-motion", options->allow_motion,
