@@ -30,6 +30,7 @@
 #include "cli/data_dir.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
+#include "cli/vector_dirs.hpp"
 #include "protocol/can/socketcan_bus.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/deviations.hpp"
@@ -44,7 +45,8 @@ struct DriveOptions {
   int node = 0;
   std::string store;
   std::string personality;
-  std::string old_personality;  // --personality, the deprecated name of --profile
+  std::vector<std::string> vectors;  // --vectors DIR: where else --profile NAME is looked up
+  std::string old_personality;       // --personality, the deprecated name of --profile
   std::vector<std::string> deviations;
 };
 
@@ -64,9 +66,13 @@ void run_drive(const DriveOptions& options) {
   }
 
   // Bad names are bad input: report them before touching the bus.
+  // A user's --vectors directories are linted as run lints them; --profile NAME is looked up
+  // there too.
+  const VectorDirs dirs = vector_dirs(options.vectors);
+  lint_user_dirs_or_exit(dirs, "drive");
   std::optional<profile::DriveProfile> personality;
   if (!options.personality.empty()) {
-    auto loaded = profile::find_profile(options.personality, shipped_vectors_dir() / "drives");
+    auto loaded = find_profile(options.personality, dirs);
     if (!loaded) usage_error("drive", "--profile: " + loaded.error().to_string());
     personality = std::move(*loaded);
   }
@@ -155,6 +161,7 @@ void add_drive_command(CLI::App& app) {
                   "Inject a named deviation (repeatable or comma-separated; see "
                   "reference_drive/deviations.inc)")
       ->type_name("NAME");
+  add_vectors_option(*cmd, options->vectors);
   cmd->callback([options, cmd] {
     if (!options->old_personality.empty()) {
       warn_deprecated_option("drive", "--personality", "--profile");

@@ -33,6 +33,7 @@
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
+#include "cli/vector_dirs.hpp"
 #include "fuzz/live/live_fuzzer.hpp"
 #include "protocol/can/candump_log.hpp"
 #include "protocol/can/sim_bus.hpp"
@@ -56,7 +57,8 @@ struct FuzzOptions {
   bool allow_motion = false;
   std::uint64_t seed = 1;
   std::string profile = "cia402-reference";
-  std::string old_personality;  // --personality, the deprecated name of --profile
+  std::string old_personality;       // --personality, the deprecated name of --profile
+  std::vector<std::string> vectors;  // --vectors DIR: where else --profile NAME is looked up
   std::vector<std::string> deviations;
   std::string eds;
   std::string out = "reports/fuzz";
@@ -229,7 +231,10 @@ void fuzz(const FuzzOptions& options) {
   if (!(options.babble_limit > 0)) usage_error("fuzz", "--babble-limit must be above 0");
   const auto node = static_cast<std::uint8_t>(options.node);
 
-  auto profile = profile::find_profile(options.profile, shipped_vectors_dir() / "drives");
+  // A user's --vectors directories are linted as run lints them.
+  const VectorDirs dirs = vector_dirs(options.vectors);
+  lint_user_dirs_or_exit(dirs, "fuzz");
+  auto profile = find_profile(options.profile, dirs);
   if (!profile) {
     fmt::print(stderr, "{}\n", profile.error().to_string());
     exit_with(kExitUsage);
@@ -402,7 +407,8 @@ void add_fuzz_command(CLI::App& app) {
                   "Node id of the drive (required with socketcan; the embedded drive: 1)")
       ->check(CLI::Range(kMinNodeId, kMaxNodeId));
   cmd->add_option("--duration", options->duration,
-                  "How long to fuzz (bus time: simulated on --bus sim), e.g. 90s, 10min, 2h")
+                  "How long to fuzz (bus time: simulated on --bus sim; a hard bound, every wait "
+                  "ends with it), e.g. 90s, 10min, 2h")
       ->check(duration_validator())
       ->capture_default_str();
   cmd->add_flag("--allow-motion", options->allow_motion,
@@ -418,6 +424,7 @@ void add_fuzz_command(CLI::App& app) {
   cmd->add_option("--deviation", options->deviations,
                   "Inject a named deviation into the embedded drive (repeatable; --bus sim only)")
       ->type_name("NAME");
+  add_vectors_option(*cmd, options->vectors);
   cmd->add_option("--eds", options->eds, "The drive's EDS/DCF: the objects to fuzz")
       ->check(CLI::ExistingFile)
       ->type_name("FILE");

@@ -1,21 +1,24 @@
 // drivecheck profiles | deviations: what --profile and --deviation take.
 //
-//   profiles    the drive profiles shipped in <data>/vectors/drives (or --vectors DIR's):
+//   profiles    the drive profiles shipped in <data>/vectors/drives and each --vectors DIR's:
 //               name, title, manual, and how many documented deviations each declares
 //   deviations  the reference drive's named deviations (reference_drive/deviations.inc):
 //               name, the family whose vectors catch it, kind (fatal: crash, hang or babble),
 //               and the description
 // Both exit 0; profiles exits 2 when a profile does not load (file:line on stderr).
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cli/commands.hpp"
 #include "cli/data_dir.hpp"
+#include "cli/vector_dirs.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/deviations.hpp"
 
@@ -23,31 +26,34 @@ namespace drivecheck::cli {
 namespace {
 
 struct ProfilesOptions {
-  std::string vectors;
+  std::vector<std::string> vectors;
 };
 
 void list_profiles(const ProfilesOptions& options) {
-  const std::filesystem::path dir =
-      (options.vectors.empty() ? shipped_vectors_dir() : std::filesystem::path(options.vectors)) /
-      "drives";
-  const auto names = profile::list_profiles(dir);
+  const VectorDirs dirs = vector_dirs(options.vectors);
+  const auto profiles = cli::list_profiles(dirs);
   std::size_t width = 4;
-  for (const auto& name : names)
-    width = std::max(width, name.size());
+  for (const auto& entry : profiles)
+    width = std::max(width, entry.name.size());
   bool ok = true;
   fmt::print("{:<{}}  {}\n", "NAME", width, "TITLE [MANUAL] (DOCUMENTED DEVIATIONS)");
-  for (const auto& name : names) {
-    const auto loaded = profile::find_profile(name, dir);
+  for (const auto& entry : profiles) {
+    // By name: a name two directories define is reported (both files) as run would.
+    const auto loaded = find_profile(entry.name, dirs);
     if (!loaded) {
       fmt::print(stderr, "{}\n", loaded.error().to_string());
       ok = false;
       continue;
     }
-    fmt::print("{:<{}}  {}{} ({})\n", name, width, loaded->title,
+    if (loaded->path != entry.path) continue;  // listed once, from the directory it is in
+    fmt::print("{:<{}}  {}{} ({})\n", entry.name, width, loaded->title,
                loaded->manual.empty() ? std::string() : fmt::format(" [{}]", loaded->manual),
                loaded->deviations.size());
   }
-  fmt::print("{} profiles in {}\n", names.size(), dir.string());
+  std::vector<std::string> places;
+  for (const auto& dir : dirs.all())
+    places.push_back((dir / "drives").string());
+  fmt::print("{} profiles in {}\n", profiles.size(), fmt::join(places, ", "));
   exit_with(ok ? kExitPass : kExitUsage);
 }
 
@@ -75,11 +81,7 @@ void add_list_commands(CLI::App& app) {
   auto options = std::make_shared<ProfilesOptions>();
   CLI::App* profiles =
       app.add_subcommand("profiles", "List the drive profiles (what --profile takes)");
-  profiles
-      ->add_option("--vectors", options->vectors,
-                   "Vector directory whose drives/ to list (default: the shipped vectors)")
-      ->check(CLI::ExistingDirectory)
-      ->type_name("DIR");
+  add_vectors_option(*profiles, options->vectors);
   profiles->callback([options] { list_profiles(*options); });
 
   CLI::App* deviations = app.add_subcommand(

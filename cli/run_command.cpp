@@ -30,6 +30,7 @@
 #include "cli/embedded_drive.hpp"
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
+#include "cli/vector_dirs.hpp"
 #include "conformance/capabilities.hpp"
 #include "conformance/engine.hpp"
 #include "conformance/od_checks.hpp"
@@ -71,7 +72,7 @@ struct RunOptions {
   std::string json;
   std::string trace;
   std::string pcap;
-  std::string vectors;
+  std::vector<std::string> vectors;  // --vectors DIR: a user's own, beside the shipped ones
   std::vector<std::string> deviations;
   std::string color = "auto";
 };
@@ -166,23 +167,26 @@ void run(const RunOptions& options) {
   if (!options.rerun.empty()) rerun_ids = failed_ids(options.rerun);
 
   // Vectors, profile, EDS: all bad input is reported before the bus is touched.
-  const std::filesystem::path vectors_dir =
-      options.vectors.empty() ? shipped_vectors_dir() : std::filesystem::path(options.vectors);
-  // Linted as `drivecheck vectors lint` does (schema, ids, sources, profiles); the manuals'
-  // sha256 is lint's business, not the run's.
-  auto vectors = conformance::lint_vector_tree({vectors_dir, std::nullopt});
+  // The shipped tree and the user's --vectors directories (cli/vector_dirs.hpp).
+  const VectorDirs dirs = vector_dirs(options.vectors);
+  const std::filesystem::path& vectors_dir = dirs.tree;
+  // Every vector and profile loaded is linted as `drivecheck vectors lint` does (schema, ids,
+  // sources, profiles, collisions with the user's directories, the user's manuals); the
+  // shipped manuals' sha256 is lint's business, not the run's.
+  auto vectors = lint(dirs, std::nullopt);
+  const std::string lint_command =
+      fmt::format("drivecheck vectors lint {}{}", vectors_dir.string(), dirs.user_arguments());
   // Warnings do not stop a run; they are counted here and listed by `drivecheck vectors lint`
   // (every run would otherwise repeat the same list before its verdicts).
   if (!vectors.warnings.empty()) {
-    fmt::print(stderr,
-               "drivecheck run: {} lint warning(s) in the vectors (drivecheck vectors lint {})\n",
-               vectors.warnings.size(), vectors_dir.string());
+    fmt::print(stderr, "drivecheck run: {} lint warning(s) in the vectors ({})\n",
+               vectors.warnings.size(), lint_command);
   }
   if (!vectors.ok()) {
     for (const auto& error : vectors.errors)
       fmt::print(stderr, "{}\n", error.to_string());
-    fmt::print(stderr, "drivecheck run: {} error(s) in the vectors (drivecheck vectors lint {})\n",
-               vectors.errors.size(), vectors_dir.string());
+    fmt::print(stderr, "drivecheck run: {} error(s) in the vectors ({})\n", vectors.errors.size(),
+               lint_command);
     exit_with(kExitUsage);
     return;
   }
@@ -192,7 +196,7 @@ void run(const RunOptions& options) {
   const std::string first_profile = !options.profile.empty() ? options.profile
                                     : sim                    ? "cia402-reference"
                                                              : "cia301-device";
-  auto profile = profile::find_profile(first_profile, vectors_dir / "drives");
+  auto profile = find_profile(first_profile, dirs);
   if (!profile) bad_input(profile.error().to_string());
   std::string profile_choice =
       !options.profile.empty() ? fmt::format("--profile {}", options.profile)
@@ -290,7 +294,7 @@ void run(const RunOptions& options) {
     }
     const auto choice = conformance::choose_generic_profile(device_type);
     if (choice.name != profile->name) {
-      profile = profile::find_profile(choice.name, vectors_dir / "drives");
+      profile = find_profile(choice.name, dirs);
       if (!profile) bad_input(profile.error().to_string());
     }
     profile_choice = choice.why;
@@ -363,13 +367,13 @@ void run(const RunOptions& options) {
   info.tool_version = DRIVECHECK_VERSION;
   // Provenance for the reports: the revision, the vector set's digest, the cited documents.
   info.revision = std::string(reports::build_revision());
-  if (auto digest = conformance::vector_set_digest(vectors_dir)) {
+  if (auto digest = conformance::vector_set_digest(dirs.all())) {
     info.vector_digest = digest->sha256;
     info.vector_files = digest->files;
   } else {
     bad_input("drivecheck run: " + digest.error());
   }
-  info.documents = conformance::cited_documents(vectors_dir / "manuals.yaml");
+  info.documents = conformance::cited_documents(dirs.manual_lists());
   info.started_utc = utc_now();
   info.bus = options.bus;
   info.profile_file = profile->path.string();
@@ -515,10 +519,7 @@ void add_run_command(CLI::App& app) {
       ->type_name("FILE.log");
   cmd->add_option("--pcap", options->pcap, "Record every frame to a pcap file for Wireshark")
       ->type_name("FILE");
-  cmd->add_option("--vectors", options->vectors,
-                  "Vector directory instead of the shipped one (<prefix>/share/drivecheck/vectors)")
-      ->check(CLI::ExistingDirectory)
-      ->type_name("DIR");
+  add_vectors_option(*cmd, options->vectors);
   cmd->add_option("--deviation", options->deviations,
                   "Inject a named deviation into the embedded drive (repeatable; --bus sim only)")
       ->type_name("NAME");

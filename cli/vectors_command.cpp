@@ -5,8 +5,11 @@
 //   list  prints the catalogue: id, level, family, title, first source; exit 2 if the tree has
 //         errors (they are printed as by lint).
 // DIR defaults to the shipped vectors (cli/data_dir.hpp: <prefix>/share/drivecheck/vectors).
+// `--vectors DIR` (repeatable) adds a user's own vectors, profiles and manual list
+// (cli/vector_dirs.hpp); both commands check them with the tree.
 // The manuals for the sha256 check: --manuals DIR, else $DRIVECHECK_MANUALS; without either,
-// the sha256 check is skipped and the summary says so.
+// the sha256 check of the shipped manuals is skipped and the summary says so (a user's manuals,
+// kept beside their manuals.yaml, are always checked).
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -15,9 +18,11 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cli/commands.hpp"
 #include "cli/data_dir.hpp"
+#include "cli/vector_dirs.hpp"
 #include "conformance/vector_file.hpp"
 #include "conformance/vector_lint.hpp"
 
@@ -26,30 +31,13 @@ namespace {
 
 struct VectorsOptions {
   std::string dir;
+  std::vector<std::string> user;
   std::string manuals;
 };
 
-std::string default_vectors_dir() {
-  return shipped_vectors_dir().string();
-}
-
 conformance::LintReport lint(const VectorsOptions& options) {
-  const std::string dir = options.dir.empty() ? default_vectors_dir() : options.dir;
-  auto report = conformance::lint_vector_tree({dir, manuals_dir(options.manuals)});
-  for (const auto& error : report.errors) {
-    const auto text = error.to_string();
-    const auto colon = error.line > 0 || !error.file.empty() ? text.find(": ") : std::string::npos;
-    if (colon == std::string::npos) {
-      fmt::print(stderr, "error: {}\n", text);
-    } else {
-      fmt::print(stderr, "{}: error: {}\n", text.substr(0, colon), text.substr(colon + 2));
-    }
-  }
-  for (const auto& warning : report.warnings) {
-    const auto where =
-        warning.line > 0 ? fmt::format("{}:{}", warning.file, warning.line) : warning.file;
-    fmt::print(stderr, "{}: warning: {}\n", where, warning.message);
-  }
+  auto report = cli::lint(vector_dirs(options.user, options.dir), manuals_dir(options.manuals));
+  print_lint_findings(report);
   return report;
 }
 
@@ -71,11 +59,15 @@ void add_vectors_command(CLI::App& app) {
                    "$DRIVECHECK_MANUALS; without it the check is skipped)")
       ->check(CLI::ExistingDirectory)
       ->type_name("DIR");
+  add_vectors_option(*lint_cmd, options->user);
   lint_cmd->callback([options] {
     const auto report = lint(*options);
-    fmt::print("{} vectors in {} files, {} drive profiles{}: {} error(s), {} warning(s)\n",
+    fmt::print("{} vectors in {} files, {} drive profiles{}{}: {} error(s), {} warning(s)\n",
                report.vectors.size(), report.files, report.profiles,
                report.manuals_checked ? ", manuals verified" : fmt::format(", {}", kManualsSkipped),
+               report.user_manuals > 0
+                   ? fmt::format(", {} manual(s) of --vectors checked", report.user_manuals)
+                   : std::string(),
                report.errors.size(), report.warnings.size());
     exit_with(report.ok() ? kExitPass : kExitUsage);
   });
@@ -83,11 +75,22 @@ void add_vectors_command(CLI::App& app) {
   CLI::App* list = vectors->add_subcommand("list", "List the vectors with id, level and source");
   list->add_option("DIR", options->dir, "Vector directory (default: the shipped vectors)")
       ->check(CLI::ExistingDirectory);
+  add_vectors_option(*list, options->user);
   list->callback([options] {
-    const std::string dir = options->dir.empty() ? default_vectors_dir() : options->dir;
-    const auto set = conformance::load_vector_tree(dir);
-    for (const auto& error : set.errors)
-      fmt::print(stderr, "{}\n", error.to_string());
+    const auto dirs = vector_dirs(options->user, options->dir);
+    // The tree alone as before; with --vectors, linted as run lints it (ids, profiles, the
+    // user's manuals), so that what list shows is what run would accept.
+    conformance::VectorSet set;
+    if (dirs.user.empty()) {
+      set = conformance::load_vector_tree(dirs.tree);
+      for (const auto& error : set.errors)
+        fmt::print(stderr, "{}\n", error.to_string());
+    } else {
+      auto report = cli::lint(dirs, std::nullopt);
+      print_lint_findings(report, false);
+      set.vectors = std::move(report.vectors);
+      set.errors = std::move(report.errors);
+    }
     std::size_t id_width = 2;
     std::size_t family_width = 6;
     for (const auto& vector : set.vectors) {

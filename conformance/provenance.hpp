@@ -27,6 +27,11 @@ struct VectorSetDigest {
 //   cd vectors && find . -type f -name '*.yaml' | sed 's|^\./||' | LC_ALL=C sort |
 //     xargs sha256sum | sha256sum
 Expected<VectorSetDigest, std::string> vector_set_digest(const std::filesystem::path& dir);
+// The digest of a tree and user directories (`--vectors DIR`): the same listing, the first
+// directory's paths as above, the k-th user directory's (k from 1) as "+k/<path>", all sorted
+// together. With no user directory it is vector_set_digest(dirs.front()).
+Expected<VectorSetDigest, std::string> vector_set_digest(
+    const std::vector<std::filesystem::path>& dirs);
 
 // The editions of the standards whose clauses the vectors cite ("CiA 301 §7.2.4.3.17",
 // "CiA 402-2 §6060h modes of operation"): one table, shown once in every report.
@@ -48,5 +53,8 @@ inline constexpr std::array<std::array<std::string_view, 3>, 2> kCitedStandards{
 // `title:`/`edition:`, the `device:` when it has no title). An unreadable manual list gives
 // the standards only (the reports then show bare citations for the manuals).
 std::vector<CitedDocument> cited_documents(const std::filesystem::path& manuals_yaml);
+// The same over several manual lists (the shipped one, then each user directory's; a list that
+// does not exist adds nothing).
+std::vector<CitedDocument> cited_documents(const std::vector<std::filesystem::path>& manual_lists);
 
 }  // namespace drivecheck::conformance

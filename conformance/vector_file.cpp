@@ -1382,7 +1382,7 @@ VectorSet load_vector_file(const std::filesystem::path& path, const std::string&
   return parse_vectors(text.str(), name);
 }
 
-VectorSet load_vector_tree(const std::filesystem::path& dir) {
+VectorSet load_vector_tree(const std::filesystem::path& dir, bool as_given) {
   VectorSet set;
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) {
@@ -1408,7 +1408,8 @@ VectorSet load_vector_tree(const std::filesystem::path& dir) {
                         : dir.lexically_normal().parent_path().parent_path();
   std::map<std::string, std::pair<std::string, std::size_t>> seen;
   for (const auto& path : files) {
-    auto display = path.lexically_normal().lexically_relative(base).string();
+    auto display = as_given ? (dir / path.lexically_relative(dir)).lexically_normal().string()
+                            : path.lexically_normal().lexically_relative(base).string();
     if (display.empty()) display = path.string();
     auto one = load_vector_file(path, display);
     set.files.push_back(display);
@@ -1420,6 +1421,31 @@ VectorSet load_vector_tree(const std::filesystem::path& dir) {
         set.errors.push_back(TextError{vector.file, static_cast<int>(vector.line),
                                        fmt::format("duplicate id '{}' (first at {}:{})", vector.id,
                                                    it->second.first, it->second.second)});
+        continue;
+      }
+      set.vectors.push_back(std::move(vector));
+    }
+  }
+  return set;
+}
+
+VectorSet load_vector_trees(const std::vector<std::filesystem::path>& dirs) {
+  VectorSet set;
+  std::map<std::string, std::pair<std::string, std::size_t>> seen;
+  for (std::size_t i = 0; i < dirs.size(); ++i) {
+    auto one = load_vector_tree(dirs[i], i > 0);
+    for (auto& file : one.files)
+      set.files.push_back(std::move(file));
+    for (auto& error : one.errors)
+      set.errors.push_back(std::move(error));
+    for (auto& vector : one.vectors) {
+      const auto [it, inserted] = seen.emplace(vector.id, std::pair{vector.file, vector.line});
+      if (!inserted) {
+        set.errors.push_back(TextError{
+            vector.file, static_cast<int>(vector.line),
+            fmt::format("vector id '{}' is already defined at {}:{} (ids are unique across the "
+                        "shipped vectors and every --vectors DIR)",
+                        vector.id, it->second.first, it->second.second)});
         continue;
       }
       set.vectors.push_back(std::move(vector));

@@ -32,9 +32,15 @@ struct VectorSet {
 VectorSet parse_vectors(std::string_view text, const std::string& file);
 // Reads one file (display name: `display` or, when empty, the path as given).
 VectorSet load_vector_file(const std::filesystem::path& path, const std::string& display = {});
-// Reads a tree (display names relative to the parent of `dir`, e.g. "vectors/cia301/sdo.yaml"),
-// and checks that ids are unique across files.
-VectorSet load_vector_tree(const std::filesystem::path& dir);
+// Reads a tree (display names relative to the parent of `dir`, e.g. "vectors/cia301/sdo.yaml",
+// or, with `as_given`, `dir` as given joined with the file's relative path, e.g.
+// "/home/me/my-vectors/x.yaml"), and checks that ids are unique across files.
+VectorSet load_vector_tree(const std::filesystem::path& dir, bool as_given = false);
+// Reads several trees: the first (the shipped vectors, or the tree a command names) as
+// load_vector_tree(dir), each further one (a user's `--vectors DIR`) with display names as
+// given; ids must be unique across all of them: an id defined in two trees is an error at the
+// later definition that names both file:line.
+VectorSet load_vector_trees(const std::vector<std::filesystem::path>& dirs);
 
 // Writes vectors as a vector file (FORMAT.md) that parse_vectors reads back to vectors of the
 // same content (same_content), in the same order. Strings are double-quoted (every byte

@@ -1,9 +1,12 @@
 #include "conformance/vector_lint.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <fstream>
+#include <map>
 #include <set>
 
 #include "conformance/isolation.hpp"
@@ -149,6 +152,67 @@ void lint_isolation(const Vector& vector, LintReport& report) {
            fmt::format("vector {}: a clean-up step in steps: does not run after a failed step; "
                        "move it to finally:",
                        vector.id)});
+    }
+  }
+}
+
+// The 1-based line of a profile's top-level `name:` key (1 when there is none).
+int name_line(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::string text;
+  for (int line = 1; std::getline(in, text); ++line) {
+    if (text.rfind("name:", 0) == 0) return line;
+  }
+  return 1;
+}
+
+// Each user directory's manual list (DIR/manuals.yaml, optional): loaded, its manuals read
+// beside it with their sha256 checked, a file name the shipped list or an earlier user list
+// has refused; the manuals are added to `manuals` for the citations.
+void lint_user_manuals(const std::vector<std::filesystem::path>& user_dirs,
+                       const std::filesystem::path& shipped_list, std::vector<ManualEntry>& manuals,
+                       LintReport& report) {
+  std::map<std::string, std::string> where;  // file -> list:line
+  for (const auto& manual : manuals)
+    where.emplace(manual.file, fmt::format("{}:{}", shipped_list.string(), manual.line));
+  for (const auto& dir : user_dirs) {
+    const auto list = dir / "manuals.yaml";
+    std::error_code ec;
+    if (!std::filesystem::exists(list, ec)) continue;
+    auto loaded = load_manuals(list);
+    if (!loaded) {
+      for (auto& e : loaded.error())
+        report.errors.push_back(std::move(e));
+      continue;
+    }
+    for (auto& manual : *loaded) {
+      const int line = static_cast<int>(manual.line);
+      const auto [first, inserted] =
+          where.emplace(manual.file, fmt::format("{}:{}", list.string(), line));
+      if (!inserted) {
+        report.errors.push_back(
+            {list.string(), line,
+             fmt::format("manual '{}' is already listed at {} (manual file names are unique "
+                         "across the shipped list and every --vectors DIR)",
+                         manual.file, first->second)});
+        continue;
+      }
+      ++report.user_manuals;
+      const auto digest = sha256_file(dir / manual.file);
+      if (!digest) {
+        report.errors.push_back(
+            {list.string(), line,
+             fmt::format("manual '{}' is not in {} (a user's manuals are kept beside their "
+                         "manuals.yaml)",
+                         manual.file, dir.string())});
+      } else if (*digest != manual.sha256) {
+        report.errors.push_back(
+            {list.string(), line,
+             fmt::format("manual '{}' has sha256 {}, {} says {}: the text changed, so line "
+                         "citations may point elsewhere",
+                         manual.file, *digest, list.string(), manual.sha256)});
+      }
+      manuals.push_back(std::move(manual));
     }
   }
 }
@@ -333,7 +397,9 @@ std::string check_citation(const Source& source, const std::vector<ManualEntry>&
 
 LintReport lint_vector_tree(const LintOptions& options) {
   LintReport report;
-  auto set = load_vector_tree(options.dir);
+  std::vector<std::filesystem::path> roots{options.dir};
+  roots.insert(roots.end(), options.user_dirs.begin(), options.user_dirs.end());
+  auto set = load_vector_trees(roots);
   report.files = set.files.size();
   report.errors = std::move(set.errors);
 
@@ -364,6 +430,7 @@ LintReport lint_vector_tree(const LintOptions& options) {
       }
     }
   }
+  lint_user_manuals(options.user_dirs, manuals_path, manuals, report);
   for (const auto& vector : set.vectors) {
     for (auto& error : check_object_needs(vector))
       report.errors.push_back(std::move(error));
@@ -393,14 +460,29 @@ LintReport lint_vector_tree(const LintOptions& options) {
     lint_isolation(vector, report);
   }
 
-  // Drive profiles.
+  // Drive profiles: the tree's, then each user directory's.
   std::set<std::string> profile_names;
-  const auto drives = options.dir / "drives";
-  std::error_code ec;
-  if (std::filesystem::is_directory(drives, ec)) {
+  std::map<std::string, std::string> profile_where;  // name -> file:line of its name
+  std::vector<std::string> drives_dirs;
+  for (const auto& root : roots) {
+    const auto drives = root / "drives";
+    drives_dirs.push_back(drives.string());
+    std::error_code ec;
+    if (!std::filesystem::is_directory(drives, ec)) continue;
     for (const auto& name : profile::list_profiles(drives)) {
       ++report.profiles;
       const auto path = drives / (name + ".yaml");
+      const int line = name_line(path);
+      const auto [first, inserted] =
+          profile_where.emplace(name, fmt::format("{}:{}", path.string(), line));
+      if (!inserted) {
+        report.errors.push_back(
+            {path.string(), line,
+             fmt::format("profile '{}' is already defined at {} (profile names are unique across "
+                         "the shipped profiles and every --vectors DIR)",
+                         name, first->second)});
+        continue;
+      }
       auto drive = profile::load_profile(path);
       if (!drive) {
         report.errors.push_back(drive.error());
@@ -477,7 +559,7 @@ LintReport lint_vector_tree(const LintOptions& options) {
       if (profile_names.count(name) == 0)
         report.errors.push_back({vector.file, static_cast<int>(vector.line),
                                  fmt::format("vector {}: profiles: no drive profile '{}' in {}",
-                                             vector.id, name, drives.string())});
+                                             vector.id, name, fmt::join(drives_dirs, ", "))});
     }
   }
   report.vectors = std::move(set.vectors);

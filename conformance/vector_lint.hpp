@@ -13,6 +13,13 @@
 //  - a profile's commissioning writes cite listed manuals within range, write no object its
 //    `objects:` list read-only, and its globs match vectors (a warning otherwise);
 //  - every `profiles:` name of a vector is a profile in <dir>/drives/;
+//  - user directories (`--vectors DIR`, LintOptions::user_dirs) add their vector files, their
+//    drives/ profiles and their own manual list (DIR/manuals.yaml, the format of
+//    vectors/manuals.yaml) to the tree, all checked as above: a vector id, profile name or
+//    manual file that a user directory defines again (the shipped tree's or an earlier user
+//    directory's) is an error at the later definition naming both file:line; a user's manual
+//    files are read beside their list (DIR/<file>) and their sha256 is always checked (a
+//    missing file or another digest is an error at DIR/manuals.yaml:line);
 //  - a `bus_off` step is shorter than its vector's timeout;
 //  - every object a vector touches (sdo_read, sdo_write, poll, controlword (6040h),
 //    expect_state/expect_statusword (6041h), and SDO requests in raw `send:` frames to 600+N)
@@ -55,6 +62,7 @@ Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
 struct LintOptions {
   std::filesystem::path dir;                         // the vector tree (vectors/)
   std::optional<std::filesystem::path> manuals_dir;  // where the manuals are, if available
+  std::vector<std::filesystem::path> user_dirs;      // --vectors DIR, in order (see above)
 };
 
 struct LintReport {
@@ -64,6 +72,7 @@ struct LintReport {
   std::size_t files = 0;
   std::size_t profiles = 0;
   bool manuals_checked = false;  // sha256 of the manuals verified
+  std::size_t user_manuals = 0;  // manuals of the user directories' lists (always verified)
   bool ok() const { return errors.empty(); }
 };
 

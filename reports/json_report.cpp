@@ -56,6 +56,19 @@ json frames_json(const std::vector<conformance::EvidenceFrame>& list) {
   return frames;
 }
 
+// A failed check's typed observation (conformance::Observation): only the fields the step
+// filled, as integers (abort: the 32-bit SDO abort code; value: the value read, signed;
+// statusword: 16 bits) and true flags.
+json observation_json(const conformance::Observation& observed) {
+  json out = json::object();
+  if (observed.abort) out["abort"] = *observed.abort;
+  if (observed.value) out["value"] = *observed.value;
+  if (observed.statusword) out["statusword"] = *observed.statusword;
+  if (observed.nothing) out["nothing"] = true;
+  if (observed.accepted) out["accepted"] = true;
+  return out;
+}
+
 json vector_json(const VectorResult& vector) {
   json out;
   out["id"] = vector.id;
@@ -78,6 +91,7 @@ json vector_json(const VectorResult& vector) {
               {"actual", check.actual},
               {"ok", check.ok}};
     if (check.at) c["t_ns"] = ns_of(*check.at);
+    if (!check.observed.empty()) c["observed"] = observation_json(check.observed);
     checks.push_back(std::move(c));
   }
   out["checks"] = std::move(checks);
@@ -262,6 +276,21 @@ std::vector<conformance::EvidenceFrame> read_frames(Reader& reader, const json& 
 }
 
 // `version`: the report's schema_version (1: steps of checks numbered from 0).
+conformance::Observation read_observation(Reader& reader, const json& check) {
+  Scope scope(reader, "observed");
+  const json& in = reader.object(check, "observed");
+  conformance::Observation observed;
+  observed.abort = reader.optional_u32(in, "abort");
+  if (in.contains("value")) observed.value = reader.integer(in, "value");
+  if (const auto word = reader.optional_u32(in, "statusword")) {
+    if (*word > 0xFFFF) throw ReadError{reader.where("statusword") + ": out of range for 16 bits"};
+    observed.statusword = static_cast<std::uint16_t>(*word);
+  }
+  if (in.contains("nothing")) observed.nothing = reader.boolean(in, "nothing");
+  if (in.contains("accepted")) observed.accepted = reader.boolean(in, "accepted");
+  return observed;
+}
+
 VectorResult read_vector(Reader& reader, const json& in, std::int64_t version) {
   if (!in.is_object()) throw ReadError{reader.where("") + ": expected an object"};
   VectorResult vector;
@@ -298,6 +327,7 @@ VectorResult read_vector(Reader& reader, const json& in, std::int64_t version) {
     check.expected = reader.string(item, "expected");
     check.actual = reader.string(item, "actual");
     check.ok = reader.boolean(item, "ok");
+    if (item.contains("observed")) check.observed = read_observation(reader, item);
     vector.checks.push_back(std::move(check));
   }
   vector.frames = read_frames(reader, in, "frames");

@@ -30,11 +30,11 @@ namespace drivecheck::reports {
 Expected<void, std::string> write_file_atomically(const std::filesystem::path& path,
                                                   std::string_view contents);
 
-// ---- JSON (schema_version 2) -------------------------------------------------------------
+// ---- JSON (schema_version 3) -------------------------------------------------------------
 //
 // The schema, versioned, is reports/report.schema.json (JSON Schema 2020-12); every field is
 // described there. In short:
-//   { "schema_version": 2, "generator": "drivecheck <version>",
+//   { "schema_version": 3, "generator": "drivecheck <version>",
 //     "run": { tool_version, revision, vector_set: {sha256, files}, documents: [{key, title,
 //              edition}], started_utc, bus, node, profile: {name,title,file,commissioning?},
 //              eds: {file,sha256}, personality, deviations: [..], seed, order, strict,
@@ -46,7 +46,9 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 //     "vectors": [ { id, family, title, sources: [..], level, file, line, verdict, message,
 //                    deviation_id, deviation_source, warning,
 //                    checks: [{step (from 1 as in the vector file; 0 = setup), action,
-//                              expected, actual, ok, t_ns?}],
+//                              expected, actual, ok, t_ns?, observed?: {abort?, value?,
+//                              statusword?, nothing?, accepted?} (a failed check's typed
+//                              observation, conformance::Observation)}],
 //                    frames: [{t_ns, t_s, frame: "605#..", from_harness, decoded}],
 //                    frames_elided, frames_elided_at,
 //                    between_vectors: [frames that arrived before this vector's setup],
@@ -58,8 +60,8 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 // Verdicts and levels are the strings of conformance::to_string. Invalid UTF-8 in a string is
 // written as U+FFFD (the only lossy step: write → read gives back every valid-UTF-8 result).
 // The reader also reads schema 1 (steps counted from 0 there; no revision, digest, documents
-// or between_vectors).
-inline constexpr int kJsonSchemaVersion = 2;
+// or between_vectors) and 2 (no observed).
+inline constexpr int kJsonSchemaVersion = 3;
 inline constexpr int kOldestJsonSchemaVersion = 1;
 
 std::string render_json(const conformance::RunResult& result);

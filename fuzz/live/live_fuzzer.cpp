@@ -52,6 +52,29 @@ class Harness {
 
   // Bus time used so far, across power cycles.
   can::Duration elapsed() { return elapsed_ + (now() - segment_start_); }
+
+  // The run's hard end (LiveFuzzerOptions::duration). Once bound() is called, every wait ends
+  // at the end of the run at the latest, whatever it waits for (a window of 2.5 periods of a
+  // heartbeat a case set to FFFFh, a boot-up that does not come, minimisation). A wait cut
+  // short is noted (cut_short()): the case it belongs to is not judged. The drive's safe stop
+  // is never cut short.
+  void bound() { bounded_ = true; }
+  bool out_of_time() { return bounded_ && elapsed() >= options_.duration; }
+  bool cut_short() const { return cut_short_; }
+  void clear_cut_short() { cut_short_ = false; }
+  // A wait's deadline, bounded by the end of the run; `truncated`: the wait would have gone on
+  // past the end (it was cut short if it then reaches the deadline without what it waited for).
+  struct Limit {
+    can::TimePoint deadline;
+    bool truncated = false;
+  };
+  Limit limit(can::TimePoint wanted) {
+    if (!bounded_ || safe_stopping_) return {wanted};
+    const can::Duration used = elapsed();
+    const can::TimePoint end = now() + std::max(can::Duration{0}, options_.duration - used);
+    if (wanted <= end) return {wanted};
+    return {end, true};
+  }
   bool power_cycle() {
     const can::Duration used = now() - segment_start_;
     if (!target_.power_cycle()) return false;
@@ -80,20 +103,28 @@ class Harness {
     if (recording_) record(frame.frame, frame.timestamp, can::TraceDirection::receive);
   }
 
-  void pump_until(can::TimePoint deadline) {
+  void pump_until(can::TimePoint wanted) {
+    const auto [deadline, truncated] = limit(wanted);
     while (!interrupted()) {
       auto frame = port().receive(deadline);
-      if (!frame) return;
+      if (!frame) {
+        cut_short_ = cut_short_ || truncated;
+        return;
+      }
       observe(*frame);
     }
   }
 
   // The first frame matching `match` until `deadline`.
   template <typename Match>
-  std::optional<can::Frame> wait_for(can::TimePoint deadline, Match match) {
+  std::optional<can::Frame> wait_for(can::TimePoint wanted, Match match) {
+    const auto [deadline, truncated] = limit(wanted);
     while (!interrupted()) {
       auto frame = port().receive(deadline);
-      if (!frame) return std::nullopt;
+      if (!frame) {
+        cut_short_ = cut_short_ || truncated;
+        return std::nullopt;
+      }
       observe(*frame);
       if (!frame->own && match(frame->frame)) return frame->frame;
     }
@@ -136,7 +167,7 @@ class Harness {
 
   // Any SDO answer to reading 1000h: the server is alive.
   bool ping() {
-    for (int attempt = 0; attempt < 2 && !interrupted(); ++attempt) {
+    for (int attempt = 0; attempt < 2 && !interrupted() && !out_of_time(); ++attempt) {
       if (sdo(request(0x40, 0x1000, 0))) return true;
     }
     return false;
@@ -277,6 +308,8 @@ class Harness {
   bool recording_ = false;
   bool safe_stopping_ = false;
   bool guarding_at_start_ = false;
+  bool bounded_ = false;
+  bool cut_short_ = false;
 };
 
 std::vector<TimedStep> timed_steps(const std::vector<CaseStep>& steps) {
@@ -357,12 +390,15 @@ class Fuzzer {
     return harness_.recover();
   }
 
+  // The case's verdict; a case the end of the run cut short (Harness::cut_short()) has none.
   std::optional<Anomaly> run_steps(const std::vector<TimedStep>& steps, can::Duration tail) {
+    harness_.clear_cut_short();
     harness_.oracle().begin_case(harness_.now());
     harness_.start_log();
     harness_.run_steps(steps, tail);
     auto anomaly = harness_.check(frames_of(steps), summary_.cia402, &summary_.notes);
     harness_.stop_log();
+    if (harness_.cut_short()) return std::nullopt;
     return anomaly;
   }
 
@@ -386,6 +422,7 @@ class Fuzzer {
   void minimise(AnomalyRecord& record, const std::vector<TimedStep>& steps, can::Duration tail) {
     const AnomalyKind kind = record.anomaly.kind;
     bool lost = false;
+    std::size_t runs = 0;  // tries that ran (at the end of the run the rest return at once)
     const auto subset = [&](std::span<const std::size_t> indices) {
       std::vector<TimedStep> chosen;
       for (std::size_t i : indices)
@@ -395,12 +432,14 @@ class Fuzzer {
     const auto result = fuzz_live::minimise(
         steps.size(),
         [&](std::span<const std::size_t> indices) {
-          if (lost || harness_.interrupted()) return false;
+          if (lost || harness_.interrupted() || harness_.out_of_time()) return false;
           if (!fresh_device()) {
             lost = true;
             return false;
           }
+          ++runs;
           const auto anomaly = run_steps(subset(indices), tail);
+          if (harness_.cut_short()) return false;
           return anomaly && anomaly->kind == kind;
         },
         options_.max_minimise_tries);
@@ -415,6 +454,11 @@ class Fuzzer {
       record.minimisation_note = "interrupted";
       return;
     }
+    if (harness_.out_of_time()) {
+      record.minimisation_note =
+          fmt::format("stopped at the end of --duration after {} tries", runs);
+      return;
+    }
     // Once more, so that the minimised log holds the device's answers.
     const auto minimal = subset(result.kept);
     if (!fresh_device()) {
@@ -422,6 +466,10 @@ class Fuzzer {
       return;
     }
     const auto again = run_steps(minimal, tail);
+    if (harness_.cut_short()) {
+      record.minimisation_note = "the final run was cut short by the end of --duration";
+      return;
+    }
     if (!again || again->kind != kind) {
       record.minimisation_note =
           "the minimised sequence did not reproduce on its final run (flaky)";
@@ -449,6 +497,8 @@ class Fuzzer {
       summary_.notes.push_back("the drive was in Operation Enabled at the start: stopped first");
       harness_.safe_stop();
     }
+    // From here on the duration is a hard bound (Harness::bound()).
+    harness_.bound();
     std::vector<FuzzObject> objects = options_.objects;
     if (objects.empty()) {
       for (const auto& object : builtin_objects()) {
@@ -489,6 +539,12 @@ class Fuzzer {
       const can::Duration tail =
           fuzz_case.steps.empty() ? can::Duration{0} : fuzz_case.steps.back().delay_after;
       const auto anomaly = run_steps(steps, tail);
+      if (harness_.cut_short()) {
+        summary_.notes.push_back(
+            fmt::format("case {} ({}) was cut short by the end of --duration: not judged", number,
+                        fuzz_case.kind));
+        break;
+      }
       ++summary_.cases_run;
       ++summary_.cases_by_kind[fuzz_case.kind];
       summary_.emcy_frames += harness_.oracle().emcy_frames();
@@ -531,7 +587,9 @@ class Fuzzer {
       if (summary_.anomalies.size() < options_.max_logs || record.minimised)
         summary_.anomalies.push_back(std::move(record));
       if (harness_.interrupted()) continue;
+      if (harness_.out_of_time()) break;
       if (!fresh_device()) {
+        if (harness_.out_of_time()) break;  // the recovery was cut short, not refused
         summary_.device_lost = true;
         summary_.notes.push_back(fmt::format(
             "after case {} the device did not recover (NMT reset node, SDO ping): fuzzing ended",

@@ -25,6 +25,14 @@
 // power-cycle (a real bus) is recovered by NMT reset node and an SDO ping; if that fails the
 // device is lost: minimisation is skipped with a note, and fuzzing ends.
 //
+// Duration: LiveFuzzerOptions::duration is a hard bound. It counts bus time from the start
+// (the device probe included); from the first case on, every wait (case gaps, settle, boot-up,
+// observation window, SDO answers, minimisation, recovery) ends at the end of the run at the
+// latest, so a device whose waits are long (a case set 1017h to FFFFh and reset communication
+// keeps it) cannot stretch the run. A case cut short is not judged (a note says so); a
+// minimisation cut short keeps its note. Only the drive's final safe stop (below) may go past
+// the end: two SDO writes, each at most sdo_timeout when the drive does not answer.
+//
 // Safety: the generator's rules (case_generator.hpp), a CiA 402 drive found in Operation
 // Enabled is stopped before fuzzing, and at the end, on interruption and on a lost device the
 // drive gets quick stop (6040h := 0002h, waited for as conformance/setup.cpp does) and then
@@ -64,7 +72,7 @@ class Target {
 struct LiveFuzzerOptions {
   std::uint8_t node = 1;
   std::uint64_t seed = 1;
-  can::Duration duration = std::chrono::seconds(60);  // bus time, minimisation included
+  can::Duration duration = std::chrono::seconds(60);  // bus time, a hard bound (see above)
   std::uint64_t max_cases = 0;                        // 0: until the duration is over
   bool allow_motion = false;
   // Whether the device is a CiA 402 drive (safety stop); nullopt: 1000h bits 0..15 = 402.

@@ -1,5 +1,7 @@
 // `drivecheck run` and `drivecheck vectors` on bad input: exit 2 with file:line; the embedded
-// default on a small vector tree: reports written, exit code from the verdicts.
+// default on a small vector tree: reports written, exit code from the verdicts. The small tree
+// takes the shipped tree's place (DRIVECHECK_VECTORS); `--vectors DIR` would add to it
+// (tests/cli/user_vectors_test.cpp).
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -36,7 +38,8 @@ TEST_F(CliRun, BadVectorIsExit2WithFileLine) {
   // Given a vector with an unknown key on line 4
   write("- id: t/x\n  title: t\n  source: \"CiA 301 §1\"\n  stesp: []\n  steps: [{wait: 1ms}]\n");
   // When run and linted
-  const auto run = run_command({DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string()});
+  const auto run = run_command(
+      {"env", "DRIVECHECK_VECTORS=" + (dir_ / "vectors").string(), DRIVECHECK_EXE, "run"});
   const auto lint = run_command({DRIVECHECK_EXE, "vectors", "lint", (dir_ / "vectors").string()});
   // Then both exit 2 naming vectors/v.yaml:4
   EXPECT_EQ(run.exit_code, 2);
@@ -57,8 +60,8 @@ TEST_F(CliRun, EmbeddedRunWritesReportsAndFailsOnAFailure) {
       "      expect: {size: 3}\n");
   const auto json = (dir_ / "r.json").string();
   // When run
-  const auto run = run_command(
-      {DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(), "--json", json});
+  const auto run = run_command({"env", "DRIVECHECK_VECTORS=" + (dir_ / "vectors").string(),
+                                DRIVECHECK_EXE, "run", "--json", json});
   // Then exit 1, the JSON report exists and names both vectors
   EXPECT_EQ(run.exit_code, 1) << run.err;
   const std::string report = read_file(json);
@@ -91,8 +94,8 @@ class CliRunOrder : public CliRun {
     write(text);
   }
   drivecheck::test_support::CommandResult run(const std::string& order, const std::string& json) {
-    return run_command({DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(), "--order",
-                        order, "--json", (dir_ / json).string()});
+    return run_command({"env", "DRIVECHECK_VECTORS=" + (dir_ / "vectors").string(), DRIVECHECK_EXE,
+                        "run", "--order", order, "--json", (dir_ / json).string()});
   }
 };
 
@@ -165,8 +168,8 @@ TEST_F(CliRunNeeds, AnObjectTheDriveLacksIsNotApplicableWithTheProbesAnswer) {
   // Given the embedded drive, which has 1029h and no 2FFFh
   const auto json = (dir_ / "r.json").string();
   // When run without an EDS
-  const auto run = run_command(
-      {DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(), "--json", json});
+  const auto run = run_command({"env", "DRIVECHECK_VECTORS=" + (dir_ / "vectors").string(),
+                                DRIVECHECK_EXE, "run", "--json", json});
   // Then 1029h's vector passes, 2FFFh's is not applicable with the upload's answer, exit 0, and
   // the report records the probe and the profile choice
   EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
@@ -187,8 +190,9 @@ TEST_F(CliRunNeeds, TheEdsDecidesWhichObjectsThereAre) {
   const std::string eds = std::string(DRIVECHECK_SOURCE_DIR) +
                           "/tests/conformance/data/reference-drive-without-1029.eds";
   // When run with it (only the t/ vectors: the drive has 1029h, which the EDS check would catch)
-  const auto run = run_command({DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(),
-                                "--eds", eds, "--filter", "t/*", "--json", json});
+  const auto run =
+      run_command({"env", "DRIVECHECK_VECTORS=" + (dir_ / "vectors").string(), DRIVECHECK_EXE,
+                   "run", "--eds", eds, "--filter", "t/*", "--json", json});
   // Then the vector needing 1029h is not applicable "(not in the EDS)"
   EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
   const std::string report = read_file(json);

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "protocol/can/sim_bus.hpp"
+#include "protocol/cia301/store_restore.hpp"
 #include "reference_drive/deviations.hpp"
 #include "reference_drive/servo_drive.hpp"
 
@@ -21,7 +22,11 @@ constexpr std::uint8_t kNode = 4;
 // The reference servo drive on a simulated bus; power_cycle() builds both anew.
 class ServoTarget final : public Target {
  public:
-  explicit ServoTarget(std::vector<std::string> deviations) : deviations_(std::move(deviations)) {
+  // `storage`: where 1010h saves to, kept across power cycles (nullptr: the drive's own memory,
+  // lost at each power cycle).
+  explicit ServoTarget(std::vector<std::string> deviations,
+                       cia301::ParameterStorage* storage = nullptr)
+      : deviations_(std::move(deviations)), storage_(storage) {
     EXPECT_TRUE(power_cycle());
   }
   can::Bus& port() override { return *port_; }
@@ -37,6 +42,7 @@ class ServoTarget final : public Target {
     reference_drive::ServoDriveOptions options;
     options.node = kNode;
     options.deviations = std::move(*parsed);
+    options.storage = storage_;
     auto drive = reference_drive::ServoDrive::create(*drive_port_, std::move(options));
     if (!drive) return false;
     drive_ = std::move(*drive);
@@ -49,6 +55,7 @@ class ServoTarget final : public Target {
 
  private:
   std::vector<std::string> deviations_;
+  cia301::ParameterStorage* storage_ = nullptr;
   std::unique_ptr<can::SimBus> bus_;
   std::unique_ptr<can::SimPort> port_;
   std::unique_ptr<can::SimPort> drive_port_;
@@ -227,6 +234,75 @@ TEST(LiveFuzzer, HeartbeatSetAtRunTimeIsFollowedAcrossResets) {
   EXPECT_EQ(summary.outcome, FuzzOutcome::clean);
   for (const auto& a : summary.anomalies)
     ADD_FAILURE() << "case " << a.case_number << " " << a.case_kind << ": " << a.anomaly.detail;
+}
+
+// The drive of issue 19's report: 1017h = FFFFh (65.5 s), saved (1010h sub 2, communication
+// parameters), so that neither NMT reset communication nor a power cycle undoes it. Every
+// observation window wants 2.5 periods (capped at LivenessOracle::kMaxWindow) and every reset
+// brings the period back.
+void store_long_heartbeat(can::Bus& port) {
+  port.run_for(50ms);
+  // ccs=1 e=1 s=1 n=2, index 1017h sub 0, FFFFh
+  ASSERT_TRUE(sdo(port, {0x2B, 0x17, 0x10, 0x00, 0xFF, 0xFF, 0, 0}));
+  // ccs=1 e=1 s=1 n=0, index 1010h sub 2, "save" (73 61 76 65)
+  const auto saved = sdo(port, {0x23, 0x10, 0x10, 0x02, 0x73, 0x61, 0x76, 0x65});
+  ASSERT_TRUE(saved);
+  ASSERT_EQ(saved->data[0], 0x60) << "save refused";
+}
+
+// What may pass the end of the run: the final safe stop of a CiA 402 drive, two SDO writes of
+// at most sdo_timeout (100 ms) each when the drive does not answer (live_fuzzer.hpp).
+constexpr can::Duration kOverrunMargin = 250ms;
+
+TEST(LiveFuzzer, DurationIsHonouredAgainstALongStoredHeartbeat) {
+  // Given the standard drive with a stored 1017h of FFFFh (65.5 s): windows of 2 s per case
+  cia301::MemoryParameterStorage storage;
+  ServoTarget target({}, &storage);
+  store_long_heartbeat(target.port());
+  ASSERT_TRUE(target.power_cycle());
+  // When it is fuzzed for 9 s (the start probe already counts)
+  auto options = options_for(fresh_dir("long_heartbeat"), 9s);
+  const auto summary = run_live_fuzzer(target, options);
+  // Then it saw the 65.5 s heartbeat, ran cases, found nothing, and ended within 9 s + margin
+  EXPECT_EQ(summary.heartbeat_period, 65535ms);
+  EXPECT_GT(summary.cases_run, 0U);
+  EXPECT_EQ(summary.outcome, FuzzOutcome::clean);
+  ::testing::Test::RecordProperty("elapsed_us", std::to_string(summary.elapsed.count() / 1000));
+  EXPECT_GE(summary.elapsed, 9s);
+  EXPECT_LE(summary.elapsed, 9s + kOverrunMargin)
+      << "overrun "
+      << std::chrono::duration_cast<std::chrono::milliseconds>(summary.elapsed - 9s).count()
+      << " ms";
+}
+
+TEST(LiveFuzzer, DurationBoundsMinimisationAgainstALongStoredHeartbeat) {
+  // Given a drive with a stored 1017h of FFFFh whose SDO server also hangs on a missing
+  // sub-index: case 11 (seed 1) makes it device-silent (no SDO answer, and no heartbeat within
+  // a 2 s window), and each minimisation try takes 2 s or more
+  cia301::MemoryParameterStorage storage;
+  ServoTarget target({"fatal-sdo-hang-on-missing-sub"}, &storage);
+  store_long_heartbeat(target.port());
+  ASSERT_TRUE(target.power_cycle());
+  // When it is fuzzed for 24 s: the anomaly comes at about 22 s
+  constexpr can::Duration kDuration = 24s;
+  const auto summary = run_live_fuzzer(target, options_for(fresh_dir("long_hang"), kDuration));
+  // Then the anomaly is found, its minimisation stops at the end of the run, and the run ends
+  // within 24 s + margin
+  std::string notes;
+  for (const auto& note : summary.notes)
+    notes += note + "\n";
+  ASSERT_FALSE(summary.anomalies.empty()) << summary.cases_run << " cases\n" << notes;
+  const AnomalyRecord& first = summary.anomalies.front();
+  EXPECT_EQ(first.anomaly.kind, AnomalyKind::device_silent);
+  EXPECT_FALSE(first.minimised);
+  EXPECT_NE(first.minimisation_note.find("end of --duration"), std::string::npos)
+      << first.minimisation_note;
+  ::testing::Test::RecordProperty("elapsed_us", std::to_string(summary.elapsed.count() / 1000));
+  EXPECT_GE(summary.elapsed, kDuration);
+  EXPECT_LE(summary.elapsed, kDuration + kOverrunMargin)
+      << "overrun "
+      << std::chrono::duration_cast<std::chrono::milliseconds>(summary.elapsed - kDuration).count()
+      << " ms";
 }
 
 TEST(LiveFuzzer, DurationCountsFromTheStartNotFromTheClockEpoch) {

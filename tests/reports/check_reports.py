@@ -100,6 +100,9 @@ def main():
     parser.add_argument("--out")
     parser.add_argument("--expect-exit", type=int, default=0)
     parser.add_argument("--json", nargs="*", default=[])
+    parser.add_argument("--expect-observed", metavar="KEY",
+                        help="every failed sdo_read/sdo_write check of a failed vector carries "
+                             "observed.KEY (the typed observation, e.g. abort)")
     parser.add_argument("run_args", nargs="*")
     args = parser.parse_args()
 
@@ -204,6 +207,23 @@ def main():
             vector_id, _, message = line[2:].partition(" — ")
             if vector_id in by_id:
                 check_message(f"console {vector_id}", message, by_id[vector_id], failures)
+
+    # 4b. Typed observations of failed checks (checks[].observed).
+    if args.expect_observed:
+        seen = 0
+        for vector in vectors:
+            if tally(vector) not in ("fail", "warning"):
+                continue
+            for check in vector["checks"]:
+                if check["ok"] or check["action"] not in ("sdo_read", "sdo_write"):
+                    continue
+                seen += 1
+                if args.expect_observed not in check.get("observed", {}):
+                    failures.append(f"JSON {vector['id']} step {check['step']}: failed "
+                                    f"{check['action']} without observed.{args.expect_observed}")
+        if seen == 0:
+            failures.append("no failed sdo_read/sdo_write check to carry an observation")
+        print(f"failed SDO checks with observed.{args.expect_observed}: {seen}")
 
     # 5. Provenance.
     run = report["run"]

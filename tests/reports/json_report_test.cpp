@@ -25,10 +25,10 @@ conformance::RunResult valid_utf8_run() {
 TEST(JsonReport, HasSchemaVersionCountsAndTimesInNanosecondsAndSeconds) {
   // Given the synthetic run with every verdict
   // When written as JSON
-  // Then the document has schema_version 2, counts per tally (a warning is not a fail), the
+  // Then the document has schema_version 3, counts per tally (a warning is not a fail), the
   //      exit code, and each frame's time both as t_ns and t_s
   const json document = json::parse(render_json(valid_utf8_run()));
-  EXPECT_EQ(document["schema_version"], 2);
+  EXPECT_EQ(document["schema_version"], 3);
   EXPECT_EQ(document["counts"]["pass"], 2);
   EXPECT_EQ(document["counts"]["fail"], 1);
   EXPECT_EQ(document["counts"]["warning"], 1);
@@ -45,6 +45,17 @@ TEST(JsonReport, HasSchemaVersionCountsAndTimesInNanosecondsAndSeconds) {
   EXPECT_EQ(document["run"]["dut"]["vendor_id"], 0x1D);
   EXPECT_FALSE(document["run"]["dut"].contains("hardware_version"));  // not readable
   EXPECT_EQ(document["vectors"][2]["deviation_source"], "000_33c1d912b8b6010a.txt §6.1 L5426-5444");
+}
+
+TEST(JsonReport, FailedCheckCarriesItsTypedObservation) {
+  // Given the synthetic run, whose failed expect_frame observed abort 06020000h
+  // When written as JSON
+  // Then that check has observed.abort as an integer and nothing else; passed checks have none
+  const json document = json::parse(render_json(valid_utf8_run()));
+  const json& failed = document["vectors"][1]["checks"][0];
+  ASSERT_FALSE(failed["ok"].get<bool>());
+  EXPECT_EQ(failed["observed"], json({{"abort", 0x06020000}}));
+  EXPECT_FALSE(document["vectors"][0]["checks"][0].contains("observed"));
 }
 
 TEST(JsonReport, WriteThenReadGivesTheSameRun) {
@@ -83,6 +94,9 @@ TEST(JsonReport, WriteThenReadGivesTheSameRun) {
       EXPECT_EQ(b.timings[t].max, a.timings[t].max);
     }
     EXPECT_EQ(b.samples.size(), a.samples.size());
+    ASSERT_EQ(b.checks.size(), a.checks.size());
+    for (std::size_t c = 0; c < a.checks.size(); ++c)
+      EXPECT_EQ(b.checks[c].observed, a.checks[c].observed);
   }
 }
 
@@ -193,8 +207,8 @@ TEST(JsonReportRead, StructuralErrorsNameTheKey) {
   // Then each error names the JSON path and what is wrong
   json document = json::parse(render_json(valid_utf8_run()));
   json wrong_version = document;
-  wrong_version["schema_version"] = 3;
-  EXPECT_NE(parse_json_report(wrong_version.dump()).error().message.find("schema_version: 3"),
+  wrong_version["schema_version"] = 4;
+  EXPECT_NE(parse_json_report(wrong_version.dump()).error().message.find("schema_version: 4"),
             std::string::npos);
   json bad_verdict = document;
   bad_verdict["vectors"][3]["verdict"] = "pased";

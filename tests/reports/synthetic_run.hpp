@@ -103,6 +103,7 @@ inline conformance::RunResult synthetic_run() {
                           "SDO tx  node 5  abort 6041:00 06020000h </pre><b>x</b>")};
   fail.checks = {
       {1, "expect_frame", "585#8041600002000106", "585#8041600000000206", false, at_ms(22), {}}};
+  fail.checks[0].observed.abort = 0x06020000;  // what the DUT answered, typed
   // a late answer to the vector before, which arrived before this vector's setup
   fail.between_vectors = {
       evidence(20, "585#8040600000000508", false, "SDO tx  node 5  abort 6040:00 08000005h")};
