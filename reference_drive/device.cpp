@@ -95,6 +95,7 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
     auto store = cia301::StoreRestore::create(*od_, *storage);
     if (!store) return Unexpected(store.error());
     store_ = std::move(*store);
+    store_->set_restore_guard(config_.restore_guard);
   }
 
   pdos_ = std::make_unique<cia301::PdoService>(*od_, bus_, config_.dictionary.pdo.dummy_mapping,
