@@ -259,6 +259,9 @@ std::string_view action_name(const Action& action);
 struct Step {
   Action action;
   std::string note;
+  // `clause:` on the step: the clause (CiA) or manual line that gives its literal time bound
+  // (FORMAT.md "Timing"), and for expect_frame also its literal abort code.
+  std::string clause;
   std::size_t line = 0;
 };
 
