@@ -216,7 +216,7 @@ TEST_F(LintTree, MustLevelLiteralTimeBoundNeedsItsClause) {
             "      clause: \"fast enough\"\n" +
             "- id: a/keys\n" + head +
             "  steps:\n    - expect_frame: \"701#05\"\n      within: $timing.response\n"
-            "    - expect_statusword: {mask: 0x6F, value: 0x27}\n" +
+            "    - expect_bootup: {}\n" +
             "- id: a/should\n" + head + "  level: should\n" +
             "  steps:\n    - expect_frame: \"701#05\"\n      within: 1ms\n");
   // When linted
@@ -227,7 +227,7 @@ TEST_F(LintTree, MustLevelLiteralTimeBoundNeedsItsClause) {
   for (const auto& e : report.errors)
     texts.push_back(e.to_string());
   ASSERT_EQ(texts.size(), 6U) << ::testing::PrintToString(texts);
-  EXPECT_NE(texts[0].find("v.yaml:6: vector a/bare: expect_frame within: 40ms is a literal time "
+  EXPECT_NE(texts[0].find("v.yaml:5: vector a/bare: expect_frame within: 40ms is a literal time "
                           "bound in a must-level vector"),
             std::string::npos)
       << texts[0];
