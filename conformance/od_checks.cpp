@@ -122,7 +122,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
           make(object, "read",
                fmt::format("{} ({}) MUST be readable{}", name, info.name,
                            info.size != 0 ? fmt::format(" with {} byte(s)", info.size) : ""),
-               Step{read, {}, 0}));
+               Step{read, {}, 0, {}}));
       if (object.default_value && range) {
         SdoReadStep value{object.index,
                           object.sub,
@@ -135,7 +135,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
         vectors.push_back(
             make(object, "default",
                  fmt::format("{} MUST read its default {}", name, *object.default_value),
-                 Step{value, {}, 0}));
+                 Step{value, {}, 0, {}}));
       }
     } else if (!dynamic) {
       SdoReadStep read{object.index, object.sub, Transfer::automatic, {}, false, {}};
@@ -144,7 +144,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
       vectors.push_back(make(object, "read-wo",
                              fmt::format("A read of write-only {} MUST abort ({})", name,
                                          read.expect.abort.describe()),
-                             Step{read, {}, 0}));
+                             Step{read, {}, 0, {}}));
     }
     if (!cia301::is_writable(object.access) && info.size != 0 && info.size <= 8) {
       SdoWriteStep write;
@@ -156,7 +156,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
       vectors.push_back(make(object, "write-ro",
                              fmt::format("A write to read-only {} MUST abort ({})", name,
                                          write.expect.abort.describe()),
-                             Step{write, {}, 0}));
+                             Step{write, {}, 0, {}}));
     }
     if (cia301::is_writable(object.access) && range) {
       const auto limit_vector = [&](std::int64_t value, const char* check, const char* what) {
@@ -180,7 +180,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
         vectors.push_back(make(object, check,
                                fmt::format("Writing {} ({}) to {} MUST abort ({})", value, what,
                                            name, write.expect.abort.describe()),
-                               Step{write, {}, 0}));
+                               Step{write, {}, 0, {}}));
       };
       if (object.min && *object.min > range->first)
         limit_vector(*object.min - 1, "below-min", "min - 1");

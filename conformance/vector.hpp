@@ -260,6 +260,10 @@ struct Step {
   Action action;
   std::string note;
   std::size_t line = 0;
+  // `clause:` on the step: the clause (CiA) or manual line that gives its literal time bound
+  // (FORMAT.md "Timing"), and for expect_frame also its literal abort code. Last, so that the
+  // aggregate initialisations {action, note, line} keep their meaning.
+  std::string clause;
 };
 
 // A parsed source citation.

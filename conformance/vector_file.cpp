@@ -332,15 +332,15 @@ const std::vector<StepSyntax>& step_syntax() {
       {"simulate", {}},
       {"mark", {}},
       {"expect_frame", {"within", "mark", "since", "abort", "clause", "or"}},
-      {"expect_silence", {"for", "since"}},
-      {"expect_bootup", {"within", "mark", "since"}},
-      {"expect_heartbeat", {"within", "mark", "since"}},
-      {"expect_emcy", {"within", "mark", "since"}},
-      {"expect_state", {"within"}},
-      {"expect_statusword", {"within"}},
-      {"poll", {"within", "every"}},
-      {"measure", {}},
-      {"expect_periodic", {"period", "tolerance", "count", "mark"}},
+      {"expect_silence", {"for", "since", "clause"}},
+      {"expect_bootup", {"within", "mark", "since", "clause"}},
+      {"expect_heartbeat", {"within", "mark", "since", "clause"}},
+      {"expect_emcy", {"within", "mark", "since", "clause"}},
+      {"expect_state", {"within", "clause"}},
+      {"expect_statusword", {"within", "clause"}},
+      {"poll", {"within", "every", "clause"}},
+      {"measure", {"clause"}},
+      {"expect_periodic", {"period", "tolerance", "count", "mark", "clause"}},
       {"bus_off", {}},
   };
   return kSyntax;
@@ -1170,6 +1170,10 @@ class Parser {
     Step step;
     step.line = line_of(node);
     if (const auto note = node["note"]) step.note = scalar(note, "note").value_or("");
+    if (const auto clause = node["clause"]) {
+      step.clause = scalar(clause, "clause").value_or("");
+      if (step.clause.empty() && syntax->action != "expect_frame") error(clause, "clause: empty");
+    }
     auto action = parse_action(syntax->action, action_value, node);
     if (!action) return std::nullopt;
     step.action = std::move(*action);

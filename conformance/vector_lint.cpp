@@ -5,9 +5,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <chrono>
 #include <fstream>
 #include <map>
 #include <set>
+#include <type_traits>
+#include <variant>
 
 #include "conformance/isolation.hpp"
 #include "conformance/sha256.hpp"
@@ -300,6 +303,69 @@ std::string check_abort_expectation(const Step& step) {
   return {};
 }
 
+namespace {
+std::string describe_duration(can::Duration d) {
+  const auto us = std::chrono::duration_cast<std::chrono::microseconds>(d).count();
+  if (us % 1000 != 0) return fmt::format("{}us", us);
+  if (us % 1000000 != 0) return fmt::format("{}ms", us / 1000);
+  return fmt::format("{}s", us / 1000000);
+}
+}  // namespace
+
+std::vector<std::string> check_timing_bounds(const Vector& vector, const Step& step,
+                                             const std::vector<ManualEntry>& manuals) {
+  std::vector<std::string> messages;
+  if (vector.level != Level::must) return messages;
+  // The literal bounds of the step, by the key they are written under.
+  std::vector<std::pair<std::string_view, const DurationSpec*>> bounds;
+  const auto add = [&](std::string_view key, const DurationSpec& d) {
+    if (!d.is_timing()) bounds.emplace_back(key, &d);
+  };
+  std::visit(
+      [&](const auto& a) {
+        using T = std::decay_t<decltype(a)>;
+        if constexpr (std::is_same_v<T, ExpectFrameStep> || std::is_same_v<T, ExpectBootupStep> ||
+                      std::is_same_v<T, ExpectEmcyStep> || std::is_same_v<T, ExpectStateStep> ||
+                      std::is_same_v<T, ExpectStatuswordStep> || std::is_same_v<T, PollStep>) {
+          add("within", a.within);
+        } else if constexpr (std::is_same_v<T, ExpectHeartbeatStep>) {
+          if (a.within) add("within", *a.within);
+        } else if constexpr (std::is_same_v<T, ExpectSilenceStep>) {
+          add("for", a.duration);
+        } else if constexpr (std::is_same_v<T, ExpectPeriodicStep>) {
+          add("tolerance", a.tolerance);
+        } else if constexpr (std::is_same_v<T, MeasureStep>) {
+          if (a.min) add("min", *a.min);
+          if (a.max) add("max", *a.max);
+        }
+      },
+      step.action);
+  if (bounds.empty()) return messages;
+  const std::string action(action_name(step.action));
+  if (step.clause.empty()) {
+    for (const auto& [key, d] : bounds)
+      messages.push_back(fmt::format(
+          "{} {}: {} is a literal time bound in a must-level vector: give clause: (the CiA "
+          "clause or manual line that gives it), or use a $timing key, or make the vector "
+          "should (FORMAT.md \"Timing\")",
+          action, key, describe_duration(d->value)));
+    return messages;
+  }
+  // The clause begins with a citation: up to the first " (", ";" or ",".
+  std::string head = step.clause;
+  for (const char* stop : {" (", ";", ","}) {
+    if (const auto at = head.find(stop); at != std::string::npos) head.resize(at);
+  }
+  auto citation = parse_source(head);
+  if (!citation) {
+    messages.push_back(fmt::format("{} clause: '{}' does not begin with a citation: {}", action,
+                                   step.clause, citation.error()));
+  } else if (auto problem = check_citation(*citation, manuals); !problem.empty()) {
+    messages.push_back(fmt::format("{} clause: {}", action, problem));
+  }
+  return messages;
+}
+
 Expected<std::vector<ManualEntry>, std::vector<TextError>> load_manuals(
     const std::filesystem::path& path) {
   const std::string file = path.string();
@@ -442,6 +508,10 @@ LintReport lint_vector_tree(const LintOptions& options) {
     // those codes; a raw SDO abort frame with a fixed code likewise.
     for (const auto& step : vector.steps) {
       if (auto message = check_abort_expectation(step); !message.empty())
+        report.errors.push_back({vector.file, static_cast<int>(step.line),
+                                 fmt::format("vector {}: {}", vector.id, message)});
+      // Every must-level literal time bound carries its clause (FORMAT.md "Timing").
+      for (auto& message : check_timing_bounds(vector, step, manuals))
         report.errors.push_back({vector.file, static_cast<int>(step.line),
                                  fmt::format("vector {}: {}", vector.id, message)});
     }

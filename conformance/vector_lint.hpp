@@ -21,6 +21,7 @@
 //    files are read beside their list (DIR/<file>) and their sha256 is always checked (a
 //    missing file or another digest is an error at DIR/manuals.yaml:line);
 //  - a `bus_off` step is shorter than its vector's timeout;
+//  - every literal time bound of a must-level vector has `clause:` (check_timing_bounds);
 //  - every object a vector touches (sdo_read, sdo_write, poll, controlword (6040h),
 //    expect_state/expect_statusword (6041h), and SDO requests in raw `send:` frames to 600+N)
 //    that the object requirement tables (protocol/cia301/object_requirements.inc,
@@ -85,6 +86,17 @@ std::vector<TextError> check_object_needs(const Vector& vector);
 // fixed code and neither `abort:` nor `clause:`.
 std::string check_abort_expectation(const Step& step);
 
+// The literal time bounds of one step of a `level: must` vector that lack their clause (FORMAT.md
+// "Timing"): one message per bound, empty when fine. A time bound is `within:` (expect_frame,
+// expect_bootup, expect_heartbeat, expect_emcy, expect_state, expect_statusword, poll), `for:`
+// (expect_silence), `tolerance:` (expect_periodic) and `min:`/`max:` (measure). A `$timing.KEY`
+// bound (and an omitted one: its default is a key) carries the timing table's basis. A literal
+// needs `clause:` on the step that begins with a citation parse_source() reads ("CiA 301
+// §7.2.8.3.2.2 ..." or "<manual> §x L<a>-<b> ..."; a manual must be listed in `manuals`, within
+// its lines). `period:` is the value the vector configured (1017h, 1006h, an event timer), not
+// a bound. Vectors of level should/may and `finally:` steps are not checked.
+std::vector<std::string> check_timing_bounds(const Vector& vector, const Step& step,
+                                             const std::vector<ManualEntry>& manuals);
 // Checks a source citation against the manual list ("" when fine).
 std::string check_citation(const Source& source, const std::vector<ManualEntry>& manuals);
 

@@ -211,6 +211,11 @@ class Writer {
   void step(const Step& step) {
     out_ << YAML::BeginMap;
     std::visit([this](const auto& action) { this->action(action); }, step.action);
+    // expect_frame writes its clause: with the action.
+    if (!step.clause.empty() && !std::holds_alternative<ExpectFrameStep>(step.action)) {
+      key("clause");
+      quoted(step.clause);
+    }
     if (!step.note.empty()) {
       key("note");
       quoted(step.note);
@@ -510,7 +515,7 @@ std::string to_yaml(const std::vector<Vector>& vectors) {
 
 bool same_content(const Vector& a, const Vector& b) {
   const auto same_step = [](const Step& x, const Step& y) {
-    return x.action == y.action && x.note == y.note;
+    return x.action == y.action && x.note == y.note && x.clause == y.clause;
   };
   return a.id == b.id && a.title == b.title &&
          std::equal(a.sources.begin(), a.sources.end(), b.sources.begin(), b.sources.end(),

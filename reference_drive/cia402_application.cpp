@@ -151,7 +151,7 @@ std::unique_ptr<OperationMode> Cia402Application::make_standard_mode(cia402::Mod
     case cia402::Mode::profile_torque:
       return std::make_unique<ProfileTorqueMode>();
     case cia402::Mode::interpolated_position:
-      return std::make_unique<InterpolatedPositionMode>(config_.ip_submode);
+      return std::make_unique<InterpolatedPositionMode>(config_.ip_submode, config_.ip_max_buffer);
     case cia402::Mode::cyclic_sync_position:
       return std::make_unique<CyclicSyncMode>(CyclicKind::position);
     case cia402::Mode::cyclic_sync_velocity:
@@ -280,8 +280,10 @@ Expected<void, std::string> Cia402Application::add_shared_objects(cia301::Object
       {cia402::kPolarity, DataType::unsigned8, AccessType::rw, u(0), true},
       {cia402::kMaxProfileVelocity, DataType::unsigned32, AccessType::rw,
        u(static_cast<std::uint64_t>(a.max_speed)), true},
-      {cia402::kMaxMotorSpeed, DataType::unsigned32, AccessType::rw,
-       u(static_cast<std::uint64_t>(a.max_speed)), true},
+      config_.max_motor_speed_rpm
+          ? Var{cia402::kMaxMotorSpeed, DataType::unsigned16, AccessType::rw, u(32768), true}
+          : Var{cia402::kMaxMotorSpeed, DataType::unsigned32, AccessType::rw,
+                u(static_cast<std::uint64_t>(a.max_speed)), true},
       {cia402::kProfileVelocity, DataType::unsigned32, AccessType::rw, u(10000), true},
       {cia402::kEndVelocity, DataType::unsigned32, AccessType::rw, u(0), true},
       {cia402::kProfileAcceleration, DataType::unsigned32, AccessType::rw, u(100000), true},
@@ -480,9 +482,18 @@ void Cia402Application::read_parameters() {
   if (config_.deviations.has(Deviation::factor_polarity_ignored)) factors_.polarity = 0;
   axis_.set_acceleration_factor(factors_.acceleration_to_internal(1.0));
   axis_.set_torque_limit(static_cast<double>(context_->read_unsigned(cia402::kMaxTorque)));
-  const double max_speed = factors_.speed_to_internal(
-      static_cast<double>(context_->read_unsigned(cia402::kMaxMotorSpeed)));
-  axis_.set_max_speed(max_speed > 0.0 ? max_speed : config_.axis.max_speed);
+  const double max_motor_speed =
+      static_cast<double>(context_->read_unsigned(cia402::kMaxMotorSpeed));
+  if (config_.max_motor_speed_rpm) {
+    // min^-1 -> increments/s; the simulated motor's own limit stays the ceiling.
+    const double speed =
+        max_motor_speed * static_cast<double>(config_.axis.encoder_increments) / 60.0;
+    axis_.set_max_speed(speed > 0.0 ? std::min(speed, config_.axis.max_speed)
+                                    : config_.axis.max_speed);
+  } else {
+    const double max_speed = factors_.speed_to_internal(max_motor_speed);
+    axis_.set_max_speed(max_speed > 0.0 ? max_speed : config_.axis.max_speed);
+  }
   const double lo = static_cast<double>(context_->read_signed(cia402::kSoftwarePositionLimitMin));
   const double hi = static_cast<double>(context_->read_signed(cia402::kSoftwarePositionLimitMax));
   if (lo < hi) {

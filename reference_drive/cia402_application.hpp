@@ -143,6 +143,12 @@ struct Cia402ApplicationConfig {
   bool pp_change_on_set_point = true;
   // 60C0h: the one interpolation sub-mode accepted, also its default (InterpolatedPositionMode).
   std::int16_t ip_submode = 0;
+  // ip: 60C4h sub 01h max_buffer_size (personality key ip_max_buffer), 0..16; 0: no buffer,
+  // the last 60C1h record written is taken at the next SYNC (Festo 000 §7.4.2 L6620-6638).
+  std::uint32_t ip_max_buffer = 16;
+  // 6080h max motor speed as UNSIGNED16 in min^-1 (Festo 000 §7.5.2 L6939-6948, default
+  // 32768), converted with the axis's encoder_increments; false: UNSIGNED32 in velocity units.
+  bool max_motor_speed_rpm = false;
 };
 
 // The factor group as the dictionary holds it: 6093h/6094h/6097h (a fraction with a zero part

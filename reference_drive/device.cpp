@@ -95,6 +95,7 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
     auto store = cia301::StoreRestore::create(*od_, *storage);
     if (!store) return Unexpected(store.error());
     store_ = std::move(*store);
+    store_->set_restore_guard(config_.restore_guard);
   }
 
   if (has(Deviation::store_misses_sync_objects)) {  // deviation: not part of any store group

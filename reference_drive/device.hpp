@@ -139,6 +139,10 @@ struct DriveConfig {
   // TPDOs of type n without a SYNC start value start their count at the first SYNC (personality
   // key tpdo_sync_phase: first-sync; PdoService::set_first_sync_phase).
   bool tpdo_first_sync_phase = false;
+  // Asked before a 1011h "load" is carried out (StoreRestore::set_restore_guard): an abort it
+  // returns answers the write (Festo: 08000022h with the output stage on, 000 §5.1 L2501).
+  // Empty: every restore is carried out.
+  std::function<Expected<void, cia301::SdoAbort>()> restore_guard;
   // Named deviations (deviations.hpp; empty: the conformant drive). The drive applies the
   // CiA 301 ones (a DeviationPort between it and `bus`, and its own hooks); the application
   // applies the CiA 402 ones from its own copy.

@@ -108,23 +108,31 @@ Expected<void, std::string> apply_option_codes(const profile::Personality& p,
   OptionCodeSupport& support = plan.application.pds.option_code_support;
   for (const auto& [code, values] : *p.option_codes) {
     std::uint16_t bits = 0;
+    std::uint16_t manufacturer = 0;
     for (int value : values) {
+      // The one manufacturer value with behaviour: 605Ch = -1 (Festo 000 §6.1.6 L5871-5887,
+      // power_drive_system.hpp).
+      if (value == -1 && to_drive(code) == OptionCode::disable_operation) {
+        manufacturer = static_cast<std::uint16_t>(manufacturer | 1U);
+        continue;
+      }
       if (value < 0 || value > 15) {
         plan.not_applied.push_back(
             fmt::format("option code {} = {}: the reference drive accepts "
-                        "0..15 only",
+                        "0..15 (and 605Ch -1) only",
                         profile::to_string(code), value));
         continue;
       }
       bits = static_cast<std::uint16_t>(bits | (1U << static_cast<unsigned>(value)));
     }
-    if (bits == 0) {
+    if (bits == 0 && manufacturer == 0) {
       plan.not_applied.push_back(
           fmt::format("option code {}: no value it could accept, CiA 402's values kept",
                       profile::to_string(code)));
       continue;
     }
     support.values[static_cast<std::size_t>(to_drive(code))] = bits;
+    support.manufacturer[static_cast<std::size_t>(to_drive(code))] = manufacturer;
   }
   for (const auto& [code, value] : p.option_defaults) {
     const OptionCode drive_code = to_drive(code);
@@ -147,6 +155,10 @@ Expected<void, std::string> apply_option_codes(const profile::Personality& p,
         plan.overrides.push_back({info.id.index, 0, v, cia301::ResetKind::application});
         break;
       }
+    }
+    if (support.values[static_cast<std::size_t>(info.code)] == 0 &&
+        support.accepts(info.code, -1)) {
+      plan.overrides.push_back({info.id.index, 0, -1, cia301::ResetKind::application});
     }
   }
   return {};
@@ -599,6 +611,10 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
   plan.refuse_empty_pdo = p.empty_pdo_valid == profile::EmptyPdoValid::refuse;
   plan.drive.tpdo_first_sync_phase = p.tpdo_sync_phase == profile::TpdoSyncPhase::first_sync;
   plan.application.setpoint_buffer = p.setpoint_buffer;
+  plan.application.pds.initial_mode = p.initial_mode;
+  plan.application.ip_max_buffer = p.ip_max_buffer;
+  plan.application.max_motor_speed_rpm = p.max_motor_speed == profile::MaxMotorSpeed::rpm_u16;
+  plan.restore_output_stage_off = p.restore_output_stage_off;
   if (profile != nullptr) {
     if (auto r = apply_pdo_defaults(profile->pdo_defaults, plan); !r) return Unexpected(r.error());
   }

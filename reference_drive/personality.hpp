@@ -196,6 +196,24 @@
 //       pp: the set-points a set of set-points (controlword bit 5 = 0) buffers behind the
 //       running one (CiA 402-2 profile position: the buffer depth is the device's). Set-point
 //       acknowledge clears once bit 4 is 0 and the buffer has room. Standard: 1.
+//   initial_mode: -128..127
+//       PowerDriveConfig::initial_mode: 6060h and 6061h after power on (and each reset). The
+//       value must be 0 or one of the modes. Festo: 3 (6061h default 3, 000 §7.1.2
+//       L5996-6005; 6060h default '-', L5967-5975). Standard: 0.
+//   ip_max_buffer: 0..16
+//       InterpolatedPositionMode: 60C4h sub 01h max_buffer_size and sub 02h's default; 0: no
+//       buffer (60C4h sub 02h accepts 0 only; a 60C1h record replaces the one not yet taken and
+//       is taken at the next SYNC). Festo: 0 (linear interpolation without buffer, 000 §7.4.2
+//       L6606-6638). Standard: 16.
+//   max_motor_speed: velocity-u32 | rpm-u16
+//       6080h: UNSIGNED32 in velocity units (CiA 402-2), or UNSIGNED16 in min^-1 with default
+//       32768, converted with encoder_resolution and capped by the simulated motor's own limit
+//       (Festo 000 §7.5.2 L6939-6948). Standard: velocity-u32.
+//   restore_output_stage_off: true | false
+//       A 1011h "load" while the power stage is on (SWITCHED ON, OPERATION ENABLED, QUICK STOP
+//       ACTIVE, FAULT REACTION ACTIVE) aborts 08000022h and restores nothing (Festo 000 §5.1
+//       L2450, L2501; the output stage is switched on by transition 3, Tab. 6.2 L5219).
+//       Standard: false.
 //   note: text
 //       Why the values are what they are; not used.
 //
@@ -254,6 +272,10 @@ struct PersonalityPlan {
   profile::ResponseDelay sdo_response_delay;
   bool static_pdo_mapping = false;  // pdo_mapping: static
   bool refuse_empty_pdo = false;    // empty_pdo_valid: refuse
+  // restore_output_stage_off: ServoDrive sets DriveConfig::restore_guard (08000022h while the
+  // PDS has the power stage on: SWITCHED ON, OPERATION ENABLED, QUICK STOP / FAULT REACTION
+  // ACTIVE).
+  bool restore_output_stage_off = false;
   // What the personality asks for that the reference drive cannot show (one line each).
   std::vector<std::string> not_applied;
 };

@@ -41,6 +41,9 @@ std::optional<std::int16_t> initial_option_code(const OptionCodeSupport& support
   for (std::int16_t value = 0; value < 16; ++value) {
     if (support.accepts(code, value)) return value;
   }
+  for (std::int16_t value = -1; value >= -16; --value) {
+    if (support.accepts(code, value)) return value;
+  }
   return std::nullopt;
 }
 
@@ -241,9 +244,11 @@ void PowerDriveSystem::execute(const Transition& row, can::TimePoint now) {
     case 8: {
       const std::int16_t option = row.number == 5 ? option_code(OptionCode::disable_operation)
                                                   : option_code(OptionCode::shutdown);
-      if (option == 1 && torque_on_) {
+      // -1 on 605Ch (Festo L5871-5887): braking with the quick stop deceleration 6085h.
+      const bool quick_stop_ramp = row.number == 5 && option == -1;
+      if ((option == 1 || quick_stop_ramp) && torque_on_) {
         // Slow down ramp, then disable the drive function: the state changes at standstill.
-        axis_.ramp_to_stop(slow_down_);
+        axis_.ramp_to_stop(quick_stop_ramp ? quick_stop_ : slow_down_);
         pending_ = row.number;
         if (axis_.is_stopped()) complete_pending(now);
         return;

@@ -46,7 +46,8 @@
 //                                       allow transition 16 (enable operation)
 //   605Bh shutdown (transition 8), default 0: 0 disable drive function, 1 slow down ramp then
 //                                       disable
-//   605Ch disable operation (transition 5), default 1: as 605Bh
+//   605Ch disable operation (transition 5), default 1: as 605Bh; -1 (a personality's, Festo):
+//                                       quick stop ramp (6085h), then disable
 //   605Dh halt (bit 8), default 1:      1 slow down ramp, 2 quick stop ramp, 3 current limit,
 //                                       4 voltage limit; the state stays OPERATION ENABLED
 //   605Eh fault reaction, default 2:    0 disable drive function (motor free to rotate),
@@ -213,8 +214,11 @@ constexpr const OptionCodeInfo& info_of(OptionCode code) {
   return kOptionCodes[static_cast<std::size_t>(code)];
 }
 
-// The values a drive accepts, bit n = value n (0..15); negative values are never accepted.
-// Default: every CiA 402 value. A personality restricts them (Festo: 605Ah {2}, 605Bh {0}).
+// The values a drive accepts, bit n = value n (0..15); `manufacturer` bit n = value -(n + 1)
+// (-1..-16, CiA 402: -32768..-1 manufacturer specific). Default: every CiA 402 value, no
+// manufacturer value. A personality restricts them (Festo: 605Ah {2}, 605Bh {0}, 605Ch {-1}).
+// The only manufacturer value with behaviour is 605Ch = -1 (Festo 000 §6.1.6 L5871-5887:
+// transition 5 brakes with the quick stop deceleration 6085h, then disables the drive function).
 struct OptionCodeSupport {
   std::array<std::uint16_t, kOptionCodeCount> values{
       info_of(OptionCode::abort_connection).standard_values,
@@ -224,9 +228,13 @@ struct OptionCodeSupport {
       info_of(OptionCode::halt).standard_values,
       info_of(OptionCode::fault_reaction).standard_values,
   };
+  std::array<std::uint16_t, kOptionCodeCount> manufacturer{};
   bool accepts(OptionCode code, std::int16_t value) const {
-    return value >= 0 && value < 16 &&
-           (values[static_cast<std::size_t>(code)] & (1u << static_cast<unsigned>(value))) != 0;
+    const auto i = static_cast<std::size_t>(code);
+    if (value < 0) {
+      return value >= -16 && (manufacturer[i] & (1u << static_cast<unsigned>(-value - 1))) != 0;
+    }
+    return value < 16 && (values[i] & (1u << static_cast<unsigned>(value))) != 0;
   }
 };
 

@@ -402,6 +402,17 @@ Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& 
   } else if (p.bus_off == profile::BusOffReaction::esr_8180) {
     config.on_bus_off = bus_off_fault(*servo->application_, kBusOff8180, false);
   }
+  if (p.restore_output_stage_off) {
+    config.restore_guard = [app = servo->application_.get()]() -> Expected<void, cia301::SdoAbort> {
+      const cia402::State state = app->pds().state();
+      if (state == cia402::State::switched_on || state == cia402::State::operation_enabled ||
+          state == cia402::State::quick_stop_active ||
+          state == cia402::State::fault_reaction_active) {
+        return Unexpected(cia301::SdoAbort::cannot_transfer_device_state);
+      }
+      return {};
+    };
+  }
   auto drive = ReferenceDrive::create(*port, std::move(config));
   if (!drive) return Unexpected(drive.error());
   servo->drive_ = std::move(*drive);

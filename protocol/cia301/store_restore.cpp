@@ -89,6 +89,9 @@ void StoreRestore::bind() {
                                 const ObjectDictionary&, const Entry&,
                                 std::span<const std::uint8_t> data) -> Expected<void, SdoAbort> {
         if (load_unsigned(data) != signature) return Unexpected(SdoAbort::cannot_transfer);
+        if (!is_save && restore_guard_) {
+          if (auto allowed = restore_guard_(); !allowed) return allowed;
+        }
         return is_save ? save(group) : restore_defaults(group);
       });
       // The signature is a command, not a value: the entry reads its capabilities again.

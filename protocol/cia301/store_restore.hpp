@@ -33,6 +33,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -99,6 +100,11 @@ class StoreRestore {
   Expected<void, SdoAbort> save(std::uint8_t group);
   Expected<void, SdoAbort> restore_defaults(std::uint8_t group);
 
+  // Asked before a restore command is carried out (after the signature check); an abort it
+  // returns answers the 1011h write and nothing is restored. Empty (default): always carried out.
+  using RestoreGuard = std::function<Expected<void, SdoAbort>()>;
+  void set_restore_guard(RestoreGuard guard) { restore_guard_ = std::move(guard); }
+
   // What the storage holds now (as last read or written).
   const ObjectDictionary::StoredParameters& stored() const { return stored_; }
   // The storage's message of the last failed write (empty when none failed).
@@ -115,6 +121,7 @@ class StoreRestore {
   ParameterStorage& storage_;
   ObjectDictionary::StoredParameters stored_;
   std::string last_error_;
+  RestoreGuard restore_guard_;
 };
 
 }  // namespace drivecheck::cia301

@@ -699,6 +699,17 @@ void read_choice_keys(const Reader& r, const MapView& map, Personality& p) {
   if (auto v = map.get("setpoint_buffer")) {
     p.setpoint_buffer = static_cast<unsigned>(integer(r, *v, "personality.setpoint_buffer", 1, 8));
   }
+  if (auto v = map.get("initial_mode")) {
+    p.initial_mode =
+        static_cast<std::int8_t>(integer(r, *v, "personality.initial_mode", -128, 127));
+  }
+  if (auto v = map.get("ip_max_buffer")) {
+    p.ip_max_buffer = static_cast<unsigned>(integer(r, *v, "personality.ip_max_buffer", 0, 16));
+  }
+  choose("max_motor_speed", p.max_motor_speed, MaxMotorSpeed::velocity_u32, MaxMotorSpeed::rpm_u16);
+  if (auto v = map.get("restore_output_stage_off")) {
+    p.restore_output_stage_off = boolean(r, *v, "personality.restore_output_stage_off");
+  }
 }
 
 Personality read_personality(const Reader& r, const YAML::Node& node) {
@@ -747,6 +758,10 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "empty_pdo_valid",
                      "tpdo_sync_phase",
                      "setpoint_buffer",
+                     "initial_mode",
+                     "ip_max_buffer",
+                     "max_motor_speed",
+                     "restore_output_stage_off",
                      "note"});
   Personality p;
   if (auto v = map.get("identity")) p.identity = read_identity(r, *v, "personality.identity");
@@ -1483,6 +1498,17 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
   if (p.setpoint_buffer != 1) {
     out << YAML::Key << "setpoint_buffer" << YAML::Value << p.setpoint_buffer;
   }
+  if (p.initial_mode != 0) {
+    out << YAML::Key << "initial_mode" << YAML::Value << static_cast<int>(p.initial_mode);
+  }
+  if (p.ip_max_buffer != 16) out << YAML::Key << "ip_max_buffer" << YAML::Value << p.ip_max_buffer;
+  if (p.max_motor_speed != MaxMotorSpeed::velocity_u32) {
+    out << YAML::Key << "max_motor_speed" << YAML::Value
+        << std::string(to_string(p.max_motor_speed));
+  }
+  if (p.restore_output_stage_off) {
+    out << YAML::Key << "restore_output_stage_off" << YAML::Value << "true";
+  }
   if (p.heartbeat_time_ms) {
     out << YAML::Key << "heartbeat_time_ms" << YAML::Value << *p.heartbeat_time_ms;
   }
@@ -1664,6 +1690,10 @@ std::string_view to_string(PdoMapping mapping) {
 
 std::string_view to_string(EmptyPdoValid policy) {
   return policy == EmptyPdoValid::refuse ? "refuse" : "accept";
+}
+
+std::string_view to_string(MaxMotorSpeed speed) {
+  return speed == MaxMotorSpeed::rpm_u16 ? "rpm-u16" : "velocity-u32";
 }
 
 std::string_view to_string(TpdoSyncPhase phase) {

@@ -104,6 +104,9 @@ enum class EmptyPdoValid : std::uint8_t { accept, refuse };
 // transmission at the n-th SYNC after entering Operational. first-sync: at the first SYNC after
 // entering Operational, then at every n-th.
 enum class TpdoSyncPhase : std::uint8_t { nth_sync, first_sync };
+// 6080h max motor speed: UNSIGNED32 in the velocity units of the factor group (CiA 402-2), or
+// UNSIGNED16 in min^-1 (Festo 000 §7.5.2 L6939-6948: UINT16, 0..32768 min^-1, default 32768).
+enum class MaxMotorSpeed : std::uint8_t { velocity_u32, rpm_u16 };
 
 // Indices first..last (inclusive) of objects the drive does not have (personality key
 // `absent_objects`).
@@ -225,6 +228,14 @@ struct Personality {
   // pp: how many set-points the drive buffers behind the running one (CiA 402-2 pp: a set of
   // set-points; the depth is the device's). 1..8.
   unsigned setpoint_buffer = 1;
+  // 6060h/6061h after power on (0: no mode). Festo: 3 (6061h default, 000 §7.1.2 L5996-6005).
+  std::int8_t initial_mode = 0;
+  // ip: 60C4h sub 01h max_buffer_size, 0..16; 0: no buffer (the last record written is taken at
+  // the next SYNC; Festo 000 §7.4.2 L6620-6638). Standard: 16.
+  unsigned ip_max_buffer = 16;
+  MaxMotorSpeed max_motor_speed = MaxMotorSpeed::velocity_u32;
+  // 1011h "load" only with the output stage off, else abort 08000022h (Festo 000 §5.1 L2501).
+  bool restore_output_stage_off = false;
   std::string note;  // free text (why these values)
 
   friend bool operator==(const Personality&, const Personality&) = default;
@@ -244,6 +255,7 @@ std::string_view to_string(ManufacturerModeLogic logic);  // "behaves-as", "irts
 std::string_view to_string(PositionSampling sampling);    // "none", "festo"
 std::string_view to_string(PdoMapping mapping);           // "dynamic", "static"
 std::string_view to_string(EmptyPdoValid policy);         // "accept", "refuse"
+std::string_view to_string(MaxMotorSpeed speed);          // "velocity-u32", "rpm-u16"
 std::string_view to_string(TpdoSyncPhase phase);          // "nth-sync", "first-sync"
 std::string_view to_string(
     GuardingLoss loss);  // "error-behaviour", "pre-operational", "no-nmt-change"

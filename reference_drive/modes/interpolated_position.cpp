@@ -66,9 +66,9 @@ Expected<void, std::string> InterpolatedPositionMode::add_objects(cia301::Object
                           ObjectCode::record,
                           {count(6),
                            entry(1, "maximum buffer size", DataType::unsigned32, AccessType::ro,
-                                 Value::of_unsigned(kMaxBuffer), false),
+                                 Value::of_unsigned(max_buffer_), false),
                            entry(2, "actual buffer size", DataType::unsigned32, AccessType::rw,
-                                 Value::of_unsigned(kMaxBuffer), false),
+                                 Value::of_unsigned(max_buffer_), false),
                            entry(3, "buffer organisation", DataType::unsigned8, AccessType::rw,
                                  Value::of_unsigned(0), false),
                            entry(4, "buffer position", DataType::unsigned16, AccessType::rw,
@@ -83,26 +83,30 @@ Expected<void, std::string> InterpolatedPositionMode::add_objects(cia301::Object
   od.find(0x60C1, 1)->set_write_validator(
       [this](const cia301::ObjectDictionary&, const cia301::Entry&,
              std::span<const std::uint8_t>) -> Expected<void, cia301::SdoAbort> {
-        if (!buffer_enabled_ || fifo_.size() >= buffer_size_) {
+        // Without a buffer a new record replaces the one not yet taken.
+        if (!buffer_enabled_ || (max_buffer_ != 0 && fifo_.size() >= capacity())) {
           return Unexpected(cia301::SdoAbort::cannot_transfer_device_state);
         }
         return {};
       });
   od.find(0x60C1, 1)->set_write_observer([this](cia301::ObjectDictionary&, cia301::Entry& e) {
-    if (buffer_enabled_ && fifo_.size() < buffer_size_) {
-      fifo_.push_back(static_cast<std::int32_t>(e.as_signed()));
-    }
+    if (!buffer_enabled_) return;
+    if (max_buffer_ == 0) fifo_.clear();
+    if (fifo_.size() < capacity()) fifo_.push_back(static_cast<std::int32_t>(e.as_signed()));
   });
   od.find(0x60C4, 2)->set_write_validator(
-      [](const cia301::ObjectDictionary&, const cia301::Entry&,
-         std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+      [max = max_buffer_](const cia301::ObjectDictionary&, const cia301::Entry&,
+                          std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
         const auto v = cia301::load_unsigned(data);
-        if (v < 1 || v > kMaxBuffer) return Unexpected(cia301::SdoAbort::invalid_value);
+        // 1..max_buffer_size; without a buffer only 0 (Festo L6620-6626: value range 0).
+        if (max == 0 ? v != 0 : (v < 1 || v > max)) {
+          return Unexpected(cia301::SdoAbort::invalid_value);
+        }
         return {};
       });
   od.find(0x60C4, 2)->set_write_observer([this](cia301::ObjectDictionary&, cia301::Entry& e) {
     buffer_size_ = static_cast<std::uint32_t>(e.as_unsigned());
-    while (fifo_.size() > buffer_size_)
+    while (fifo_.size() > capacity())
       fifo_.pop_front();
   });
   for (std::uint8_t sub : {std::uint8_t{3}, std::uint8_t{5}, std::uint8_t{6}}) {
@@ -127,8 +131,9 @@ Expected<void, std::string> InterpolatedPositionMode::add_objects(cia301::Object
 void InterpolatedPositionMode::on_reset(ModeContext& ctx) {
   fifo_.clear();
   buffer_enabled_ = ctx.read_unsigned({0x60C4, 6}) != 0;
-  buffer_size_ = static_cast<std::uint32_t>(
-      std::clamp<std::uint64_t>(ctx.read_unsigned({0x60C4, 2}), 1, kMaxBuffer));
+  buffer_size_ = max_buffer_ == 0 ? 0
+                                  : static_cast<std::uint32_t>(std::clamp<std::uint64_t>(
+                                        ctx.read_unsigned({0x60C4, 2}), 1, max_buffer_));
   active_ = false;
   start_ = end_ = ctx.axis.position();
   segment_at_.reset();

@@ -25,6 +25,7 @@
 // Deviation: ip-active-bit-never-set.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <deque>
 #include <optional>
@@ -42,7 +43,10 @@ class InterpolatedPositionMode final : public OperationMode {
 
   // `submode`: the one 60C0h value accepted, also its default (CiA 402: 0, linear
   // interpolation; a personality's manufacturer value, Festo -2, runs the same interpolation).
-  explicit InterpolatedPositionMode(std::int16_t submode = 0) : submode_(submode) {}
+  // `max_buffer`: 60C4h sub 01h, 0..kMaxBuffer; 0: no buffer (one record, the last written,
+  // taken at the next SYNC; 60C4h sub 02h then reads and accepts 0 only).
+  explicit InterpolatedPositionMode(std::int16_t submode = 0, std::uint32_t max_buffer = kMaxBuffer)
+      : submode_(submode), max_buffer_(std::min(max_buffer, kMaxBuffer)) {}
 
   std::int8_t mode() const override { return 7; }
   Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override;
@@ -65,6 +69,9 @@ class InterpolatedPositionMode final : public OperationMode {
   std::optional<can::TimePoint> segment_at_;
   std::uint16_t bits_ = 0;
   std::int16_t submode_ = 0;
+  std::uint32_t max_buffer_ = kMaxBuffer;
+  // The records the FIFO holds at most: the buffer size, or one without a buffer.
+  std::size_t capacity() const { return max_buffer_ == 0 ? 1 : buffer_size_; }
 };
 
 }  // namespace drivecheck::reference_drive

@@ -191,5 +191,76 @@ TEST_F(LintTree, RestoreDefaultsOnlyForRestoreOrDefaultsAndCleanUpInFinally) {
   EXPECT_NE(report.warnings[0].message.find("move it to finally:"), std::string::npos);
 }
 
+TEST_F(LintTree, MustLevelLiteralTimeBoundNeedsItsClause) {
+  // Given must-level vectors with a literal within:, for:, tolerance: and min:/max: and no
+  // clause, one with a clause citing a CiA clause, one citing the manual, one with a clause that
+  // is no citation, one using $timing keys, and a should-level vector with a literal bound
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  const std::string head = "  title: t\n  source: \"CiA 301 §1\"\n";
+  write("v.yaml",
+        "- id: a/bare\n" + head +
+            "  steps:\n"
+            "    - expect_frame: \"701#05\"\n      within: 40ms\n"
+            "    - expect_silence: any\n      for: 20ms\n"
+            "    - expect_periodic: \"700+N\"\n      period: 50ms\n      tolerance: 3ms\n"
+            "    - mark: a\n    - mark: b\n"
+            "    - measure: {from: a, to: b, min: 1ms, max: 2ms}\n" +
+            "- id: a/cia\n" + head +
+            "  steps:\n    - expect_heartbeat: operational\n      within: 100ms\n"
+            "      clause: \"CiA 301 §7.2.8.3.2.2 (two periods of 1017h = 50 ms)\"\n" +
+            "- id: a/manual\n" + head +
+            "  steps:\n    - poll: {index: 0x2000, sub: 0, value: 1}\n      within: 10ms\n"
+            "      clause: \"m.txt §1 L1-2 (within 10 ms)\"\n" +
+            "- id: a/not-a-citation\n" + head +
+            "  steps:\n    - expect_bootup: {}\n      within: 1s\n"
+            "      clause: \"fast enough\"\n" +
+            "- id: a/keys\n" + head +
+            "  steps:\n    - expect_frame: \"701#05\"\n      within: $timing.response\n"
+            "    - expect_bootup: {}\n" +
+            "- id: a/should\n" + head + "  level: should\n" +
+            "  steps:\n    - expect_frame: \"701#05\"\n      within: 1ms\n");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  // Then each bare bound of a/bare is an error at its step's line, and so is the clause that
+  // cites nothing; the cited, $timing and should-level bounds pass
+  std::vector<std::string> texts;
+  for (const auto& e : report.errors)
+    texts.push_back(e.to_string());
+  ASSERT_EQ(texts.size(), 6U) << ::testing::PrintToString(texts);
+  EXPECT_NE(texts[0].find("v.yaml:5: vector a/bare: expect_frame within: 40ms is a literal time "
+                          "bound in a must-level vector"),
+            std::string::npos)
+      << texts[0];
+  EXPECT_NE(texts[1].find("expect_silence for: 20ms"), std::string::npos) << texts[1];
+  EXPECT_NE(texts[2].find("expect_periodic tolerance: 3ms"), std::string::npos) << texts[2];
+  EXPECT_NE(texts[3].find("measure min: 1ms"), std::string::npos) << texts[3];
+  EXPECT_NE(texts[4].find("measure max: 2ms"), std::string::npos) << texts[4];
+  EXPECT_NE(texts[5].find("vector a/not-a-citation: expect_bootup clause: 'fast enough' does not "
+                          "begin with a citation"),
+            std::string::npos)
+      << texts[5];
+}
+
+TEST_F(LintTree, TimingClauseCitesAListedManualWithinItsLines) {
+  // Given a must-level bound whose clause cites lines past the end of the listed manual, and one
+  // citing a manual that manuals.yaml does not list
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  const std::string head = "  title: t\n  source: \"CiA 301 §1\"\n";
+  write("v.yaml", "- id: a/past\n" + head +
+                      "  steps:\n    - expect_frame: \"701#05\"\n      within: 5ms\n"
+                      "      clause: \"m.txt §1 L3-9\"\n" +
+                      "- id: a/unlisted\n" + head +
+                      "  steps:\n    - expect_frame: \"701#05\"\n      within: 5ms\n"
+                      "      clause: \"other.txt §1 L1-2; the manual's bound\"\n");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  // Then both clauses are errors naming the problem
+  ASSERT_EQ(report.errors.size(), 2U);
+  EXPECT_NE(report.errors[0].message.find("line 9 is past the end of m.txt"), std::string::npos)
+      << report.errors[0].to_string();
+  EXPECT_NE(report.errors[1].message.find("manual 'other.txt' is not listed"), std::string::npos)
+      << report.errors[1].to_string();
+}
+
 }  // namespace
 }  // namespace drivecheck::conformance

@@ -72,7 +72,8 @@ TEST(Applicability, SimulationMotionAndProfiles) {
 TEST(Applicability, BusOffStepNeedsTheSimulatedBus) {
   // Given a vector with a bus_off step
   auto vector = make_vector("cia301/bus-off/x");
-  vector.steps.push_back(Step{BusOffStep{DurationSpec{std::chrono::milliseconds(50), {}}}, {}, 1});
+  vector.steps.push_back(
+      Step{BusOffStep{DurationSpec{std::chrono::milliseconds(50), {}}}, {}, 1, {}});
   const auto p = make_profile();
   // When checked with and without bus-off control; Then not applicable without it, by name
   EXPECT_EQ(not_applicable_reason(vector, p, {true, true, false}),

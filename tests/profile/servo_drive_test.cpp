@@ -94,6 +94,35 @@ TEST(ServoDriveFesto, QuickStopOptionCodeRefusesFive) {
   EXPECT_EQ(rig.read(0x1018, 1), 0x1DU);                 // Festo vendor-ID
 }
 
+TEST(ServoDriveFesto, ObjectsAndRestoreAsTheManualDocuments) {
+  // Given the Festo drive after power on / When 605Ch, 6061h, 60C4h, 6080h are read and "load"
+  // is written to 1011h:01 with the output stage on and off / Then the manual's values: 605Ch
+  // -1 (L5871-5887), 6061h 3 (L5996-6005), 60C4h:01/02 0 (L6606-6638), 6080h 2 bytes = 32768
+  // (L6939-6948), restore refused with 08000022h while the output stage is on (L2501)
+  ServoRig rig("festo-cmmp");
+  ASSERT_TRUE(rig.ok());
+  EXPECT_EQ(static_cast<std::int16_t>(rig.read(0x605C)), -1);
+  EXPECT_EQ(rig.write(0x605C, 0, 1, 2), kInvalidValue);  // fixed: cannot be changed
+  EXPECT_EQ(rig.read(0x6061), 3U);
+  EXPECT_EQ(rig.read(0x6060), 3U);
+  EXPECT_EQ(rig.read(0x60C4, 1), 0U);
+  EXPECT_EQ(rig.read(0x60C4, 2), 0U);
+  EXPECT_EQ(rig.write(0x60C4, 2, 1, 4), kInvalidValue);  // value range 0 .. max_buffer_size
+  const auto speed = rig.upload(0x6080, 0);
+  ASSERT_TRUE(speed.has_value());
+  EXPECT_EQ(speed->data[0], 0x4B);  // expedited upload, 2 bytes
+  EXPECT_EQ(rig.read(0x6080), 32768U);
+  rig.enable();
+  ASSERT_EQ(rig.state(), cia402::State::operation_enabled);
+  constexpr std::uint32_t kLoad = 0x64616F6C;
+  EXPECT_EQ(rig.write(0x1011, 1, kLoad, 4), 0x0800'0022U);
+  rig.controlword(0x0007);  // disable operation: SWITCHED ON, the output stage still on
+  EXPECT_EQ(rig.write(0x1011, 1, kLoad, 4), 0x0800'0022U);
+  rig.controlword(0x0000);  // disable voltage: the output stage off
+  rig.run(500ms);           // 605Ch -1 brakes with 6085h first
+  EXPECT_EQ(rig.write(0x1011, 1, kLoad, 4), 0U);
+}
+
 TEST(ServoDriveFesto, ShortSdoRequestIsPadded) {
   // Given the Festo drive (its examples print requests with 4 bytes, L744-756) and the standard
   // drive / When "40 61 60 00" (upload 6061h, DLC 4) comes / Then Festo answers, standard not
