@@ -314,6 +314,29 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     if (from == marks_.end() || to == marks_.end())
       return harness_error(
           name, fmt::format("unknown mark '{}'", from == marks_.end() ? e->from : e->to));
+    if (e->frames) {
+      // Frames on the bus between the two marks, by their timestamps: the harness's own too
+      // (their echo is their wire time), so what counts is what was on the bus, not when the
+      // harness meant to send it.
+      const auto first = from->second.at;
+      const auto last = to->second.at;
+      std::size_t count = 0;
+      for (const EvidenceFrame& seen : result_.frames) {
+        if (seen.at > first && seen.at <= last && e->frames->matches(seen.frame, node())) ++count;
+      }
+      const auto bound = [](const std::optional<std::size_t>& n) {
+        return n ? fmt::format("{}", *n) : std::string("-");
+      };
+      const auto expected =
+          fmt::format("frames matching {} between {} and {}: [{}, {}]", e->frames->text, e->from,
+                      e->to, bound(e->min_count), bound(e->max_count));
+      const bool ok =
+          (!e->min_count || count >= *e->min_count) && (!e->max_count || count <= *e->max_count);
+      const auto actual = fmt::format("{} ({} after {})", count, ms(last - first), e->from);
+      if (!ok) return fail(name, expected, actual);
+      check(name, expected, actual, true);
+      return StepStatus::ok;
+    }
     const auto interval = to->second.at - from->second.at;
     Timing timing{fmt::format("{}→{}", e->from, e->to), interval, std::nullopt, std::nullopt, true};
     if (e->min) timing.min = resolve(*e->min);
@@ -362,6 +385,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       } else if (!e->mark.empty()) {
         set_mark(e->mark, at, *hit + 1);
       }
+      if (n + 1 == e->count && !e->last.empty()) set_mark(e->last, at, *hit + 1);
       previous = at;
       from = *hit + 1;
     }

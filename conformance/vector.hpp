@@ -231,11 +231,18 @@ struct PollStep {
   DurationSpec every{{}, "poll"};
   friend bool operator==(const PollStep&, const PollStep&) = default;
 };
+// Between two marks: the time (min/max durations), or with `frames:` the number of frames
+// matching that pattern on the bus in between, the harness's own (by their loopback echo) and
+// the DUT's (min_count/max_count): e.g. the SYNCs between two synchronous TPDOs, which judges
+// "every n-th SYNC" by the SYNCs that were on the bus, whenever the harness sent them.
 struct MeasureStep {
   std::string from;
   std::string to;
   std::optional<DurationSpec> min;
   std::optional<DurationSpec> max;
+  std::optional<FrameSpec> frames;
+  std::optional<std::size_t> min_count;
+  std::optional<std::size_t> max_count;
   friend bool operator==(const MeasureStep&, const MeasureStep&) = default;
 };
 struct ExpectPeriodicStep {
@@ -243,7 +250,8 @@ struct ExpectPeriodicStep {
   DurationSpec period;
   DurationSpec tolerance{{}, "heartbeat_tolerance"};
   std::size_t count = 2;
-  std::string mark;
+  std::string mark;  // the first frame
+  std::string last;  // the last frame (with `mark:`, a measure over all the periods)
   friend bool operator==(const ExpectPeriodicStep&, const ExpectPeriodicStep&) = default;
 };
 

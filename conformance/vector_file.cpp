@@ -340,7 +340,7 @@ const std::vector<StepSyntax>& step_syntax() {
       {"expect_statusword", {"within", "clause"}},
       {"poll", {"within", "every", "clause"}},
       {"measure", {"clause"}},
-      {"expect_periodic", {"period", "tolerance", "count", "mark", "clause"}},
+      {"expect_periodic", {"period", "tolerance", "count", "mark", "last", "clause"}},
       {"bus_off", {}},
   };
   return kSyntax;
@@ -1081,15 +1081,31 @@ class Parser {
     }
     if (action == "measure") {
       MeasureStep step;
-      if (!check_map(value, "measure", {"from", "to", "min", "max"})) return std::nullopt;
+      if (!check_map(value, "measure", {"from", "to", "min", "max", "frames"})) return std::nullopt;
       if (!value["from"] || !value["to"]) {
         error(value, "measure: 'from' and 'to' are required");
         return std::nullopt;
       }
       step.from = mark_reference(value["from"], "from");
       step.to = mark_reference(value["to"], "to");
-      if (value["min"]) step.min = duration(value["min"], "min");
-      if (value["max"]) step.max = duration(value["max"], "max");
+      if (value["frames"]) {
+        // A count of frames: min and max are numbers of frames, not durations.
+        auto text = scalar(value["frames"], "measure frames");
+        if (!text) return std::nullopt;
+        auto pattern = parse_frame_spec(*text, true);
+        if (!pattern) {
+          error(value["frames"], fmt::format("measure frames: {}", pattern.error()));
+          return std::nullopt;
+        }
+        step.frames = std::move(*pattern);
+        if (value["min"]) step.min_count = integer<std::size_t>(value["min"], "min", 0, 10000);
+        if (value["max"]) step.max_count = integer<std::size_t>(value["max"], "max", 0, 10000);
+        if (step.min_count && step.max_count && *step.min_count > *step.max_count)
+          error(value, "measure: 'min' is above 'max'");
+      } else {
+        if (value["min"]) step.min = duration(value["min"], "min");
+        if (value["max"]) step.max = duration(value["max"], "max");
+      }
       if (!value["min"] && !value["max"]) error(value, "measure: give 'min', 'max' or both");
       return step;
     }
@@ -1116,6 +1132,7 @@ class Parser {
       if (const auto node = modifier("count"))
         step.count = integer<std::size_t>(node, "count", 2, 10000).value_or(2);
       if (const auto node = modifier("mark")) step.mark = mark_definition(node);
+      if (const auto node = modifier("last")) step.last = mark_definition(node);
       return step;
     }
     error(value, fmt::format("internal: action '{}' has no parser", action));

@@ -483,6 +483,18 @@ class Writer {
     quoted(s.from);
     key("to");
     quoted(s.to);
+    if (s.frames) {
+      key("frames");
+      quoted(s.frames->text);
+      if (s.min_count) {
+        key("min");
+        plain(fmt::format("{}", *s.min_count));
+      }
+      if (s.max_count) {
+        key("max");
+        plain(fmt::format("{}", *s.max_count));
+      }
+    }
     if (s.min) duration_key("min", *s.min);
     if (s.max) duration_key("max", *s.max);
     out_ << YAML::EndMap;
@@ -495,6 +507,7 @@ class Writer {
     key("count");
     plain(fmt::format("{}", s.count));
     name_key("mark", s.mark);
+    name_key("last", s.last);
   }
 
   YAML::Emitter out_;

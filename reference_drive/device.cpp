@@ -16,6 +16,8 @@ constexpr auto kCommunicationBit =
     static_cast<std::uint8_t>(cia301::ErrorRegisterBit::communication);
 constexpr auto kRecoveredFromBusOff =
     static_cast<std::uint16_t>(cia301::EmcyCode::recovered_from_bus_off);
+// Control cycles a late tick runs to catch up (at 1 ms: a stall of 100 ms).
+constexpr std::int64_t kMaxCatchUpCycles = 100;
 
 }  // namespace
 
@@ -442,10 +444,21 @@ void ReferenceDrive::tick() {
   in_tick_ = true;
   const can::TimePoint now = bus_.now();
   if (now >= next_cycle_) {
-    while (next_cycle_ <= now)
-      next_cycle_ += config_.control_cycle;
-    ++stats_.cycles;
-    if (config_.application != nullptr) config_.application->on_cycle(*this, now);
+    // Every control cycle runs at its own time, also the ones a process woken late missed (a
+    // busy host: `drivecheck drive`): the modes and the axis step by the control cycle as a
+    // drive's control loop does, never one long step, in which the position controller would
+    // chase a stale demand and overshoot (606Ch above 6081h). After a stall longer than
+    // kMaxCatchUpCycles the older cycles are skipped (one longer step), so that the drive
+    // cannot fall further behind. On the simulated bus the timer is never late: one cycle.
+    const auto cycle = config_.control_cycle;
+    const auto missed = (now - next_cycle_) / cycle + 1;
+    if (missed > kMaxCatchUpCycles) next_cycle_ += (missed - kMaxCatchUpCycles) * cycle;
+    while (next_cycle_ <= now) {
+      const can::TimePoint at = next_cycle_;
+      next_cycle_ += cycle;
+      ++stats_.cycles;
+      if (config_.application != nullptr) config_.application->on_cycle(*this, at);
+    }
   }
   handle(pdos_->on_time(now));
   in_tick_ = false;

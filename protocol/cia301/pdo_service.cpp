@@ -776,10 +776,20 @@ PdoOutput PdoService::on_time(can::TimePoint now) {
   }
   for (Tpdo& pdo : tpdos_) {
     if (!pdo.active || pdo.type < 254) continue;
-    if (pdo.event_due <= now) pdo.event = true;
+    // The event timer elapsed at event_due: it restarts from then, not from when its owner got
+    // round to it (a process woken late), so that lateness does not add up period by period.
+    // Late by a whole period or more, or held by the inhibit time, it restarts from now.
+    const bool timer_elapsed = pdo.event_due <= now;
+    const can::TimePoint elapsed_at = pdo.event_due;
+    const bool held = pdo.inhibit_until > elapsed_at;
+    if (timer_elapsed) pdo.event = true;
     const auto payload = pack(pdo);
     if (!pdo.sent_once || changed(pdo, payload)) pdo.event = true;
-    if (pdo.event && now >= pdo.inhibit_until) transmit(pdo, payload, now, true);
+    if (pdo.event && now >= pdo.inhibit_until) {
+      transmit(pdo, payload, now, true);
+      if (timer_elapsed && !held && now - elapsed_at < pdo.event_timer)
+        pdo.event_due = elapsed_at + pdo.event_timer;
+    }
   }
   return output();
 }

@@ -530,8 +530,11 @@ TEST_F(EngineTest, UnknownMarkAtRunTimeIsAHarnessError) {
   vector.id = "t/marks";
   vector.setup = Setup::none;
   vector.nmt.reset();
-  vector.steps.push_back(
-      Step{MeasureStep{"a", "b", std::nullopt, DurationSpec{1ms, {}}}, {}, 1, {}});
+  MeasureStep measure;
+  measure.from = "a";
+  measure.to = "b";
+  measure.max = DurationSpec{1ms, {}};
+  vector.steps.push_back(Step{measure, {}, 1});
   // When run; Then a harness error, not a DUT failure
   const auto result = run(vector);
   EXPECT_EQ(result.verdict, Verdict::error);

@@ -115,5 +115,78 @@ TEST(FairTiming, HarnessLateHeartbeatIsAnErrorNotAFailure) {
   EXPECT_EQ(on_time.verdict, Verdict::fail) << on_time.message;
 }
 
+// Three SYNCs sent 20 ms apart (as the harness means to), then the TPDO that follows them,
+// and the SYNCs counted on the bus between the mark and the TPDO.
+const std::string kEveryThird =
+    "    - mark: syncs\n"
+    "    - send: \"080#\"\n    - wait: 20ms\n"
+    "    - send: \"080#\"\n    - wait: 20ms\n"
+    "    - send: \"080#\"\n    - wait: 20ms\n"
+    "    - expect_frame: \"1A0#01\"\n      since: syncs\n      within: 1s\n      mark: tpdo\n"
+    "    - measure: {from: syncs, to: tpdo, frames: \"080#\", min: 3, max: 3}\n";
+
+TEST(FairTiming, SyncsAreCountedOnTheBusNotInTime) {
+  // Given a harness descheduled for 15 ms after each SYNC it sends (SYNCs on the bus at 1, 36
+  // and 71 ms instead of 20 ms apart) and a DUT whose TPDO follows the third SYNC at 72 ms
+  test_support::ManualBus bus;
+  bus.set_echo_delay(1ms);
+  bus.set_send_lag(15ms);
+  bus.inject(*can::parse_candump("1A0#01"), TimePoint{} + 72ms);
+  // When the vector counts the SYNCs before the TPDO
+  const auto result = run(bus, make_vector(kEveryThird));
+  // Then it passes: three SYNCs were on the bus before it, whatever their spacing
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+}
+
+TEST(FairTiming, WrongSyncCountFailsTheDeviceEvenWhenTheHarnessWasLate) {
+  // Given SYNCs that leave 20 ms late (the harness is late: beyond $timing.harness_slack) and
+  // a DUT whose TPDO follows the second SYNC
+  test_support::ManualBus bus;
+  bus.set_echo_delay(20ms);
+  bus.inject(*can::parse_candump("1A0#01"), TimePoint{} + 45ms);
+  // When the vector counts the SYNCs before the TPDO
+  const auto result = run(bus, make_vector(kEveryThird));
+  // Then it fails the device: two SYNCs were on the bus before its TPDO, which no lateness of
+  // the harness changes (a count, not a timing)
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_EQ(result.message.find("harness late"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("frames matching 080#"), std::string::npos) << result.message;
+}
+
+// 21 frames on 1A0h at `period` apart, each `jitter` late or early in turn (not adding up).
+void inject_periodic(test_support::ManualBus& bus, can::Duration period, can::Duration jitter) {
+  for (int n = 0; n < 21; ++n) {
+    const auto offset = n % 2 == 0 ? jitter : -jitter;
+    bus.inject(*can::parse_candump("1A0#01"), TimePoint{} + 5ms + n * period + offset);
+  }
+}
+
+const std::string kAveragePeriod =
+    "    - expect_periodic: \"1A0\"\n      period: 10ms\n      tolerance: 10ms\n"
+    "      count: 21\n      mark: first\n      last: last\n"
+    "    - measure: {from: first, to: last, min: 180ms, max: 220ms}\n";
+
+TEST(FairTiming, AveragePeriodIgnoresOneFramesJitter) {
+  // Given a 10 ms timer whose frames go out 4 ms late or early in turn (bus arbitration, a
+  // late task), never adding up
+  test_support::ManualBus bus;
+  inject_periodic(bus, 10ms, 4ms);
+  // When the vector measures the average period over 20 periods
+  const auto result = run(bus, make_vector(kAveragePeriod));
+  // Then it passes: the timer holds 10 ms
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+}
+
+TEST(FairTiming, AveragePeriodCatchesASlowTimer) {
+  // Given a timer that runs at 12 ms instead of 10 ms, without jitter
+  test_support::ManualBus bus;
+  inject_periodic(bus, 12ms, 0ms);
+  // When the vector measures the average period over 20 periods
+  const auto result = run(bus, make_vector(kAveragePeriod));
+  // Then it fails: 20 periods take 240 ms
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_NE(result.message.find("first → last"), std::string::npos) << result.message;
+}
+
 }  // namespace
 }  // namespace drivecheck::conformance

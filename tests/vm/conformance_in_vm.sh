@@ -21,6 +21,11 @@ sleep 1
 if ! kill -0 "$drive" 2>/dev/null; then
   echo "conformance_in_vm: drivecheck drive did not start:"; cat "$out/drive.log"; exit 1
 fi
+# The drive stands in for a device, which is hardware of its own: in the VM's one CPU it runs
+# before the harness (nice -20), so that the harness's own work never delays the device's
+# frames. What the host's load does to the whole VM still reaches both.
+renice -n -20 -p "$drive" > /dev/null ||
+  echo "conformance_in_vm: note: could not raise the drive's priority"
 
 # The same profile as the embedded run (without --profile a real bus chooses from 1000h).
 drivecheck run --bus socketcan:vcan0 --node 1 --profile cia402-reference --allow-motion \
@@ -41,13 +46,20 @@ echo "conformance_in_vm: socketcan run exit $socketcan_status, embedded run exit
 drivecheck report diff "$out/sim.json" "$out/socketcan.json" > "$out/diff.txt" 2>&1
 diff_status=$?
 cat "$out/diff.txt"
-# The one expected difference: vectors that need simulated inputs (faults, switches) are not
-# applicable on a real bus. Every other change is a difference.
+# The expected differences: vectors that need simulated inputs (faults, switches) or the DUT's
+# CAN controller on the simulated bus (bus_off) are not applicable on a real bus. Every other
+# change is a difference.
 grep -E "^(new failure|fixed|changed|added|removed)" "$out/diff.txt" |
-  grep -v -- "-> not-applicable: requires simulation" > "$out/unexpected.txt"
+  grep -v -e "-> not-applicable: requires simulation" \
+    -e "-> not-applicable: the bus_off step needs the DUT's CAN controller on the simulated bus" \
+    > "$out/unexpected.txt"
 if [ "$socketcan_status" != "$sim_status" ] || [ "$diff_status" != 0 ] ||
   [ -s "$out/unexpected.txt" ]; then
   cat "$out/unexpected.txt"
+  # What the SocketCAN run said about each of them (the whole message, not its first line).
+  for id in $(cut -c14- "$out/unexpected.txt" | awk '{ print $1 }'); do
+    grep -F -A3 -- " $id " "$out/socketcan.txt" | head -8
+  done
   echo "conformance_in_vm: FAILED: the SocketCAN run differs from the embedded run"
   exit 1
 fi
