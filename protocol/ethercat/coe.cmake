@@ -5,6 +5,8 @@
 # it merges beside the lower layers' own target).
 add_library(drivecheck_ethercat_coe
   ${CMAKE_CURRENT_LIST_DIR}/mailbox.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/coe.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/coe_sdo_server.cpp
 )
 add_library(drivecheck::ethercat_coe ALIAS drivecheck_ethercat_coe)
 target_include_directories(drivecheck_ethercat_coe PUBLIC ${PROJECT_SOURCE_DIR})

@@ -183,6 +183,9 @@ class MailboxSlave {
   // Repeat request: the last message taken, again, unchanged (nullopt when none was taken).
   std::optional<std::vector<std::uint8_t>> repeat_last() const;
 
+  // Queues an ERR reply (e.g. a protocol handler's service_not_supported).
+  void post_error(MailboxError error, std::uint16_t address = 0) { queue_error(error, address); }
+
   std::size_t pending() const { return queue_.size(); }
   // Back to the power-on state (INIT): no counters seen, queue and last reply forgotten.
   void reset();

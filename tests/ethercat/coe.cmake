@@ -3,4 +3,6 @@
 drivecheck_add_gtest(ethercat_coe_tests
   SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/coe_mailbox_test.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/coe_codec_test.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/coe_sdo_server_test.cpp
   LIBRARIES drivecheck::ethercat_coe)
