@@ -9,6 +9,7 @@ add_library(drivecheck_ethercat_coe
   ${CMAKE_CURRENT_LIST_DIR}/coe_sdo_server.cpp
   ${CMAKE_CURRENT_LIST_DIR}/coe_sdo_client.cpp
   ${CMAKE_CURRENT_LIST_DIR}/coe_objects.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/coe_sdo_info.cpp
 )
 add_library(drivecheck::ethercat_coe ALIAS drivecheck_ethercat_coe)
 target_include_directories(drivecheck_ethercat_coe PUBLIC ${PROJECT_SOURCE_DIR})

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <utility>
 
+#include "protocol/ethercat/coe_sdo_info.hpp"
+
 namespace drivecheck::ethercat {
 
 using cia301::SdoAbort;
@@ -367,7 +369,7 @@ std::vector<std::uint8_t> CoeSdoServer::finish_download() {
 
 CoeSlave::CoeSlave(cia301::ObjectDictionary& od, MailboxSlaveConfig mailbox,
                    CoeSdoServerOptions sdo)
-    : mailbox_(std::move(mailbox)), sdo_(od, sdo) {}
+    : mailbox_(std::move(mailbox)), sdo_(od, sdo), od_(od), options_(sdo) {}
 
 void CoeSlave::on_write_mailbox(std::span<const std::uint8_t> buffer) {
   const MailboxReceived received = mailbox_.receive(buffer);
@@ -377,6 +379,16 @@ void CoeSlave::on_write_mailbox(std::span<const std::uint8_t> buffer) {
   const auto service = peek_coe_service(data);
   if (!service) {
     mailbox_.post_error(MailboxError::size_too_short, h.address);
+    return;
+  }
+  if (*service == static_cast<std::uint8_t>(CoeService::sdo_information) &&
+      options_.sdo_information) {
+    for (const auto& fragment : answer_sdo_information(od_, data, mailbox_.config().read_size)) {
+      if (auto ok = mailbox_.post(MailboxType::coe, fragment, h.address); !ok) {
+        mailbox_.post_error(ok.error(), h.address);
+        return;
+      }
+    }
     return;
   }
   if (*service != static_cast<std::uint8_t>(CoeService::sdo_request)) {

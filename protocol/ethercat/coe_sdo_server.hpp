@@ -67,6 +67,7 @@ Expected<void, cia301::SdoAbort> write_complete_access(cia301::ObjectDictionary&
 struct CoeSdoServerOptions {
   std::size_t read_size = 128;  // the read mailbox (SM1) length, header included
   bool complete_access = true;
+  bool sdo_information = true;  // CoeSlave answers SDO information requests (coe_sdo_info.hpp)
   // The longest download the server buffers; more aborts 05040005h (out of memory). A hostile
   // master may announce any complete size: the buffer grows only with octets received.
   std::size_t max_download = 1 << 20;
@@ -120,6 +121,8 @@ class CoeSdoServer {
 //   SM1 free (read by the master)    → take_reply(): the next SM1 content, if any
 //   SM1 repeat request toggled       → repeat_last(): SM1 content again, then toggle the ack
 //   an EMCY of the drive              → post_emergency(emcy)
+// CoE services other than SDO request (and SDO information, unless switched off) get the
+// mailbox error service_not_supported.
 //   AL state INIT (mailbox off)       → reset()
 class CoeSlave {
  public:
@@ -138,6 +141,8 @@ class CoeSlave {
  private:
   MailboxSlave mailbox_;
   CoeSdoServer sdo_;
+  cia301::ObjectDictionary& od_;
+  CoeSdoServerOptions options_;
 };
 
 }  // namespace drivecheck::ethercat

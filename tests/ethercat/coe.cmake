@@ -7,4 +7,5 @@ drivecheck_add_gtest(ethercat_coe_tests
     ${CMAKE_CURRENT_LIST_DIR}/coe_sdo_server_test.cpp
     ${CMAKE_CURRENT_LIST_DIR}/coe_sdo_client_test.cpp
     ${CMAKE_CURRENT_LIST_DIR}/coe_objects_test.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/coe_sdo_info_test.cpp
   LIBRARIES drivecheck::ethercat_coe)

@@ -251,8 +251,8 @@ TEST_F(CoeSdoServerTest, SlaveAnswersThroughTheMailbox) {
 }
 
 TEST_F(CoeSdoServerTest, SlaveRefusesOtherCoeServicesAndShortMessages) {
-  // Given a CoE slave
-  CoeSlave slave(od);
+  // Given a CoE slave without SDO information
+  CoeSlave slave(od, {}, {.sdo_information = false});
   // When the master sends a CoE emergency, an SDO information request and a 1-octet CoE message
   slave.on_write_mailbox(mailbox(1, encode(CoeEmergency{})));
   slave.on_write_mailbox(mailbox(2, Bytes{0x00, 0x80, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00}));
