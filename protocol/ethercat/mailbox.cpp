@@ -312,6 +312,7 @@ void MailboxMaster::reset() {
   last_reply_counter_.reset();
   waiting_since_.reset();
   last_request_.clear();
+  repeat_bit_ = false;
 }
 
 }  // namespace drivecheck::ethercat

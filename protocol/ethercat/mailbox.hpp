@@ -243,6 +243,16 @@ class MailboxMaster {
   // A read of SM1. Errors: the buffer is no mailbox (size_too_short / invalid_size).
   Expected<MailboxReply, MailboxError> accept(std::span<const std::uint8_t> buffer);
 
+  // Repeat request (ETG.1000.4 mailbox repeat: the master toggles the repeat request bit of
+  // SM1, the slave puts its last reply back into SM1 and toggles its repeat acknowledge bit to
+  // the same value). toggle_repeat_request() gives the bit to write; repeat_acknowledged(ack)
+  // says whether the slave's ack bit shows it done (then read SM1 again).
+  bool toggle_repeat_request() {
+    repeat_bit_ = !repeat_bit_;
+    return repeat_bit_;
+  }
+  bool repeat_acknowledged(bool ack_bit) const { return ack_bit == repeat_bit_; }
+
   // The caller's transaction got its answer (a reply it matched): the wait ends. Unsolicited
   // messages (a CoE emergency) arrive through accept() too, so accept() cannot end it.
   void reply_matched() { waiting_since_.reset(); }
@@ -257,6 +267,7 @@ class MailboxMaster {
   std::optional<std::uint8_t> last_reply_counter_;
   std::optional<std::chrono::nanoseconds> waiting_since_;
   std::vector<std::uint8_t> last_request_;
+  bool repeat_bit_ = false;
 };
 
 }  // namespace drivecheck::ethercat

@@ -241,5 +241,29 @@ TEST(MailboxMaster, ReadsErrorRepliesAndTimesOut) {
   EXPECT_EQ(master.accept(build_mailbox(h, Bytes{1, 0})).error(), MailboxError::size_too_short);
 }
 
+TEST(MailboxMaster, RepeatRequestRecoversALostReply) {
+  // Given a slave whose reply to request 1 the master lost (read, then corrupted on the wire)
+  MailboxSlave slave;
+  MailboxMaster master;
+  ASSERT_EQ(slave.receive(master.request(MailboxType::coe, Bytes(10, 1), milliseconds(0))).receipt,
+            MailboxReceipt::deliver);
+  ASSERT_TRUE(slave.post(MailboxType::coe, Bytes(10, 2)));
+  const auto lost = slave.take_reply();
+  ASSERT_TRUE(lost);
+  // When the master toggles the repeat request and the front end answers with repeat_last()
+  const bool request_bit = master.toggle_repeat_request();
+  EXPECT_FALSE(master.repeat_acknowledged(!request_bit));
+  const auto again = slave.repeat_last();
+  // Then the slave's ack bit (toggled to the request bit) completes it and the same reply, same
+  // counter, reaches the master as its next reply
+  EXPECT_TRUE(master.repeat_acknowledged(request_bit));
+  ASSERT_TRUE(again);
+  EXPECT_EQ(*again, *lost);
+  const auto reply = master.accept(*again);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->order, ReplyOrder::next);
+  EXPECT_EQ(reply->message.data[0], 2);
+}
+
 }  // namespace
 }  // namespace drivecheck::ethercat
