@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <iterator>
 
+#include "protocol/ethercat/mailbox.hpp"
+
 namespace drivecheck::ethercat {
 namespace {
 
@@ -363,6 +365,55 @@ Expected<CoeEmergency, CoeDecodeError> decode_emergency(std::span<const std::uin
   std::copy(b.begin() + 3, b.begin() + 8, e.emcy.manufacturer.begin());
   e.extra.assign(b.begin() + 8, b.end());
   return e;
+}
+
+std::string describe_mailbox_message(std::span<const std::uint8_t> buffer) {
+  const auto m = parse_mailbox(buffer);
+  if (!m) return "no mailbox: " + describe_mailbox_error(static_cast<std::uint16_t>(m.error()));
+  const MailboxHeader& h = m->header;
+  const std::string head = fmt::format("{} cnt {}", describe_mailbox_type(h.type), h.counter);
+  if (h.type == static_cast<std::uint8_t>(MailboxType::err)) {
+    const auto code = parse_mailbox_error_data(m->data);
+    if (!code) return head + ": malformed mailbox error reply";
+    return fmt::format("{}: {}", head, describe_mailbox_error(*code));
+  }
+  if (h.type != static_cast<std::uint8_t>(MailboxType::coe)) {
+    return fmt::format("{}: {} octets", head, m->data.size());
+  }
+  const auto service = peek_coe_service(m->data);
+  if (!service) return head + ": shorter than a CoE header";
+  switch (*service) {
+    case static_cast<std::uint8_t>(CoeService::sdo_request): {
+      const auto r = decode_sdo_request(m->data);
+      return fmt::format(
+          "{}: {}", head,
+          r ? to_string(*r) : "malformed SDO request: " + std::string(r.error().reason));
+    }
+    case static_cast<std::uint8_t>(CoeService::sdo_response): {
+      const auto r = decode_sdo_response(m->data);
+      return fmt::format(
+          "{}: {}", head,
+          r ? to_string(*r) : "malformed SDO response: " + std::string(r.error().reason));
+    }
+    case static_cast<std::uint8_t>(CoeService::emergency): {
+      const auto e = decode_emergency(m->data);
+      if (!e) return head + ": malformed emergency";
+      return fmt::format("{}: emergency {}, register {:02X}h", head,
+                         cia301::describe_emcy_code(e->emcy.error_code), e->emcy.error_register);
+    }
+    case static_cast<std::uint8_t>(CoeService::sdo_information): {
+      if (m->data.size() < kCoeHeaderSize + 4) return head + ": malformed SDO information";
+      return fmt::format("{}: SDO information opcode {}, {} fragment(s) left", head,
+                         m->data[kCoeHeaderSize] & 0x7F,
+                         m->data[kCoeHeaderSize + 2] | (m->data[kCoeHeaderSize + 3] << 8));
+    }
+    default: {
+      const auto name = coe_service_name(*service);
+      return fmt::format("{}: {} ({} octets)", head,
+                         name ? std::string(*name) : fmt::format("service {}", *service),
+                         m->data.size());
+    }
+  }
 }
 
 }  // namespace drivecheck::ethercat

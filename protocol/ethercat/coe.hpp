@@ -181,4 +181,10 @@ Expected<CoeEmergency, CoeDecodeError> decode_emergency(std::span<const std::uin
 // The CoE service of mailbox data, or nullopt when it is shorter than a CoE header.
 std::optional<std::uint8_t> peek_coe_service(std::span<const std::uint8_t> data);
 
+// One line for a trace or a report, of a whole mailbox (an SM0 or SM1 content), total over any
+// input: "CoE cnt 1: SDO upload initiate 1018h:01", "ERR cnt 2: 0004h service_not_supported:
+// ...", "CoE cnt 3: emergency 8611h Following error, register 20h", "CoE cnt 4: SDO information
+// opcode 2, 1 fragment(s) left", "FoE cnt 1: 12 octets", or why it is no mailbox.
+std::string describe_mailbox_message(std::span<const std::uint8_t> buffer);
+
 }  // namespace drivecheck::ethercat

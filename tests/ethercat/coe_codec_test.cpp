@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "protocol/ethercat/coe.hpp"
+#include "protocol/ethercat/mailbox.hpp"
 
 namespace drivecheck::ethercat {
 namespace {
@@ -122,6 +123,30 @@ TEST(CoeEmergency, CarriesTheCanopenEmcy) {
   // And a 9-octet or non-emergency message is refused
   EXPECT_FALSE(decode_emergency(Bytes(data.begin(), data.end() - 1)));
   EXPECT_FALSE(decode_emergency(Bytes{0x00, 0x20, 0x10, 0x43, 0x08, 0, 0, 0, 0, 0}));
+}
+
+TEST(MailboxDescription, OneLinePerMessage) {
+  // Given an SDO request, an ERR reply, an emergency, an FoE message and 3 stray octets
+  const auto wrap = [](std::uint8_t type, std::uint8_t counter, const Bytes& data) {
+    MailboxHeader h;
+    h.type = type;
+    h.counter = counter;
+    return build_mailbox(h, data, 32);
+  };
+  // When each is described
+  // Then each line names type, counter and content, and garbage says why it is none
+  EXPECT_EQ(
+      describe_mailbox_message(wrap(3, 1, encode(CoeSdoRequest{CoeUploadInitiate{{0x1018, 1}}}))),
+      "CoE cnt 1: SDO upload initiate 1018h:01");
+  EXPECT_EQ(describe_mailbox_message(wrap(0, 2, mailbox_error_data(MailboxError::invalid_channel))),
+            "ERR cnt 2: 0003h invalid_channel: Channel field contains a wrong value (a slave may "
+            "ignore the channel)");
+  EXPECT_EQ(describe_mailbox_message(
+                wrap(3, 3, encode(CoeEmergency{cia301::Emcy{0x8611, 0x20, {}}, {}}))),
+            "CoE cnt 3: emergency 8611h Following error, register 20h");
+  EXPECT_EQ(describe_mailbox_message(wrap(4, 1, Bytes(12, 0))), "FoE cnt 1: 12 octets");
+  EXPECT_EQ(describe_mailbox_message(Bytes{1, 2, 3}),
+            "no mailbox: 0006h size_too_short: Length of the received mailbox data is too short");
 }
 
 }  // namespace
