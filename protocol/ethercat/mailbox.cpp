@@ -202,7 +202,7 @@ MailboxReceived MailboxSlave::receive(std::span<const std::uint8_t> buffer) {
     queue_error(*result.error, h.address);
     return result;
   }
-  if (h.counter != 0 && h.counter == last_request_counter_) {
+  if (config_.honour_counter && h.counter != 0 && h.counter == last_request_counter_) {
     result.receipt = MailboxReceipt::repeated;
     if (config_.repeat == RepeatPolicy::reply_again && queue_.empty() && last_taken_) {
       queue_.push_back(*last_taken_);

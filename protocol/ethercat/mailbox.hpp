@@ -146,6 +146,9 @@ struct MailboxSlaveConfig {
   std::vector<MailboxType> protocols{MailboxType::coe};  // what the slave serves
   bool check_channel = true;                             // refuse Channel != 0 with invalid_channel
   RepeatPolicy repeat = RepeatPolicy::reply_again;
+  // false is a fault for named deviations ("mailbox counter ignored"): every request is
+  // delivered, a repeated one is executed again.
+  bool honour_counter = true;
   std::size_t queue_limit = 16;  // replies waiting for SM1; more → no_more_memory
 };
 

@@ -107,6 +107,17 @@ TEST(MailboxSlave, DiscardPolicyDropsRepeats) {
   EXPECT_EQ(slave.pending(), 0u);
 }
 
+TEST(MailboxSlave, IgnoringTheCounterIsAFault) {
+  // Given a slave with the fault "mailbox counter ignored" (honour_counter = false)
+  MailboxSlaveConfig config;
+  config.honour_counter = false;
+  MailboxSlave slave(config);
+  // When request 4 arrives twice
+  // Then both are delivered (a repeated SDO download would be executed twice)
+  EXPECT_EQ(slave.receive(coe_request(4)).receipt, MailboxReceipt::deliver);
+  EXPECT_EQ(slave.receive(coe_request(4)).receipt, MailboxReceipt::deliver);
+}
+
 TEST(MailboxSlave, CounterZeroIsNeverARepeat) {
   // Given a master that does not count (Cnt 0)
   MailboxSlave slave;

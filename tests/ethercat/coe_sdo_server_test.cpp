@@ -119,6 +119,7 @@ TEST_F(CoeSdoServerTest, LyingSizesAbort) {
   // Given downloads whose announced complete size lies: 5 announced, 13 sent; 20 announced,
   // 8 sent and the last segment flagged; 2 announced with 6 octets in the initiate
   CoeSdoServer server(od);
+  // When each is sent
   (void)ask(server, CoeDownloadInitiate{{0x2000, 0}, false, false, true, 5, {}});
   const auto too_many = ask(server, CoeDownloadSegment{false, true, Bytes(13, 1)});
   (void)ask(server, CoeDownloadInitiate{{0x2000, 0}, false, false, true, 20, Bytes(1, 1)});
