@@ -133,6 +133,31 @@ TEST_F(CoeSdoServerTest, LyingSizesAbort) {
   EXPECT_EQ(od.find(0x2000, 0)->bytes().size(), 0u);
 }
 
+TEST_F(CoeSdoServerTest, LyingExpeditedSizesAndTinyMailboxes) {
+  // Given 6040h (UNSIGNED16) and a server whose read mailbox is the smallest for CoE (16)
+  CoeSdoServer server(od, {.read_size = 16});
+  // When an expedited download says 1 octet (n=3) and one says 3 octets (n=1)
+  // ccs=1 n=3 e=1 s=1 (2Fh) and n=1 (27h), index 6040h sub 0
+  const auto one = server.handle(Bytes{0x00, 0x20, 0x2F, 0x40, 0x60, 0x00, 0x01, 0x02, 0x03, 0x04});
+  const auto three =
+      server.handle(Bytes{0x00, 0x20, 0x27, 0x40, 0x60, 0x00, 0x01, 0x02, 0x03, 0x04});
+  // Then the dictionary's length codes come back, too low and too high
+  EXPECT_EQ(abort_code(*decode_sdo_response(*one.coe)), 0x06070013u);
+  EXPECT_EQ(abort_code(*decode_sdo_response(*three.coe)), 0x06070012u);
+  // And a 40-octet upload still works: nothing in the initiate, then segments of 7
+  const auto init =
+      std::get<CoeUploadInitiateResponse>(ask(server, CoeUploadInitiate{{0x1008, 0}}));
+  EXPECT_TRUE(init.data.empty());
+  std::size_t received = 0;
+  bool toggle = false;
+  for (int i = 0; i < 10 && server.busy(); ++i, toggle = !toggle) {
+    const auto segment = std::get<CoeUploadSegment>(ask(server, CoeUploadSegmentRequest{toggle}));
+    EXPECT_LE(segment.data.size(), 7u);
+    received += segment.data.size();
+  }
+  EXPECT_EQ(received, 40u);
+}
+
 TEST_F(CoeSdoServerTest, DictionaryAbortsPassThrough) {
   // Given the dictionary's checks
   CoeSdoServer server(od);
