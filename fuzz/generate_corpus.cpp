@@ -36,6 +36,7 @@
 
 #include "conformance/vector_file.hpp"
 #include "fuzz/support/cia402_input.hpp"
+#include "fuzz/support/ethercat_coe_input.hpp"
 #include "fuzz/support/frame_record.hpp"
 #include "fuzz/support/sdo_client_input.hpp"
 #include "protocol/can/candump_log.hpp"
@@ -47,6 +48,9 @@
 #include "protocol/cia301/sdo_codec.hpp"
 #include "protocol/cia306/eds_fields.hpp"
 #include "protocol/cia402/state_machine.hpp"
+#include "protocol/ethercat/coe.hpp"
+#include "protocol/ethercat/coe_sdo_info.hpp"
+#include "protocol/ethercat/mailbox.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
@@ -1602,6 +1606,214 @@ void vector_profile_cia402_dictionaries(Output& out, const fs::path& root) {
 
 }  // namespace
 
+// --- ethercat_coe ---------------------------------------------------------------------------
+// Seeds: the exchanges of tests/ethercat/coe_*_test.cpp built with the protocol's own encoders
+// (a seed cannot drift from the format), and hostile replies into the master's parsers.
+
+namespace ecoe {
+
+using namespace drivecheck::ethercat;
+using fuzz::EthercatCoeOp;
+
+Bytes mailbox(const Bytes& data, std::uint8_t counter, MailboxType type = MailboxType::coe,
+              std::uint8_t channel = 0, std::size_t size = 0) {
+  MailboxHeader h;
+  h.type = static_cast<std::uint8_t>(type);
+  h.counter = counter;
+  h.channel = channel;
+  return build_mailbox(h, data, size);
+}
+// A slave's SM1 content (the whole SM).
+Bytes sm1(const Bytes& data, std::uint8_t counter, MailboxType type = MailboxType::coe) {
+  return mailbox(data, counter, type, 0, fuzz::kEthercatCoeMailboxSize);
+}
+Bytes request(const CoeSdoRequest& m) {
+  return encode(m);
+}
+Bytes response(const CoeSdoResponse& m) {
+  return encode(m);
+}
+Bytes range(std::uint8_t from, std::uint8_t to) {
+  Bytes out;
+  for (unsigned i = from; i < to; ++i)
+    out.push_back(static_cast<std::uint8_t>(i));
+  return out;
+}
+
+struct Seed {
+  Bytes bytes;
+  Seed& op(std::uint8_t code, const Bytes& octets = {}) {
+    fuzz::add_ethercat_coe_record(bytes, code, octets);
+    return *this;
+  }
+  Seed& sm0(const Bytes& octets) {
+    return op(static_cast<std::uint8_t>(EthercatCoeOp::sm0_write), octets);
+  }
+};
+
+}  // namespace ecoe
+
+void ethercat_coe_corpus(Output& out) {
+  using namespace ecoe;
+  constexpr auto sm0 = static_cast<std::uint8_t>(EthercatCoeOp::sm0_write);
+  constexpr auto read = static_cast<std::uint8_t>(EthercatCoeOp::sm1_read);
+  constexpr auto coe = static_cast<std::uint8_t>(EthercatCoeOp::client_coe);
+  constexpr auto control = static_cast<std::uint8_t>(EthercatCoeOp::control);
+  constexpr auto upload_first = fuzz::kEthercatCoeStartTransfer;
+  constexpr auto download_first = fuzz::kEthercatCoeStartTransfer | fuzz::kEthercatCoeDownload;
+  const std::string t = "ethercat_coe";
+  out.seed(t, "expedited-upload-1018-01",
+           Seed{}.sm0(mailbox(request(CoeUploadInitiate{{0x1018, 1}, false}), 1)).bytes);
+  out.seed(
+      t, "segmented-download-2000",
+      Seed{}
+          .sm0(mailbox(
+              request(CoeDownloadInitiate{{0x2000, 0}, false, false, true, 20, range(0, 6)}), 1))
+          .sm0(mailbox(request(CoeDownloadSegment{false, false, range(6, 13)}), 2))
+          .sm0(mailbox(request(CoeDownloadSegment{true, true, range(13, 20)}), 3))
+          .sm0(mailbox(request(CoeUploadInitiate{{0x2000, 0}, false}), 4))
+          .op(sm0, mailbox(request(CoeUploadSegmentRequest{false}), 5))
+          .bytes);
+  out.seed(t, "complete-access-uploads",
+           Seed{}
+               .sm0(mailbox(request(CoeUploadInitiate{{0x1018, 0}, true}), 1))
+               .sm0(mailbox(request(CoeUploadInitiate{{0x2001, 1}, true}), 2))
+               .bytes);
+  out.seed(
+      t, "pdo-assignment-procedure",
+      Seed{}
+          .sm0(mailbox(request(CoeDownloadInitiate{{0x1C12, 0}, false, true, true, 1, {0}}), 1))
+          .sm0(mailbox(
+              request(CoeDownloadInitiate{{0x1C12, 1}, false, true, true, 2, {0x00, 0x16}}), 2))
+          .sm0(mailbox(request(CoeDownloadInitiate{{0x1C12, 0}, false, true, true, 1, {1}}), 3))
+          .sm0(mailbox(
+              request(CoeDownloadInitiate{{0x1C12, 1}, false, true, true, 2, {0x00, 0x16}}), 4))
+          .op(control | fuzz::kEthercatCoeTogglePreop)
+          .sm0(mailbox(request(CoeDownloadInitiate{{0x1C12, 0}, false, true, true, 1, {0}}), 5))
+          .bytes);
+  out.seed(
+      t, "complete-access-1c12-and-sync-mode",
+      Seed{}
+          .sm0(mailbox(request(CoeDownloadInitiate{
+                           {0x1C12, 0}, true, true, true, 4, {0x01, 0x00, 0x00, 0x16}}),
+                       1))
+          .sm0(mailbox(
+              request(CoeDownloadInitiate{{0x1C32, 1}, false, true, true, 2, {0x02, 0x00}}), 2))
+          .bytes);
+  out.seed(t, "sdo-information",
+           Seed{}
+               .sm0(mailbox(sdo_info_od_list_request(OdListType::all_objects), 1))
+               .sm0(mailbox(sdo_info_entry_request(0x1018, 1, 0x10), 2))
+               .sm0(mailbox(sdo_info_object_request(0x7000), 3))
+               .bytes);
+  out.seed(t, "mailbox-errors",
+           Seed{}
+               .sm0(mailbox(request(CoeUploadInitiate{{0x1018, 1}, false}), 1, MailboxType::foe))
+               .sm0(mailbox(request(CoeUploadInitiate{{0x1018, 1}, false}), 2, MailboxType::coe, 1))
+               .sm0(Bytes{0x01, 0x02, 0x03})
+               .sm0(mailbox(encode(CoeEmergency{}), 3))
+               .bytes);
+  out.seed(t, "repeated-counter-and-repeat-request",
+           Seed{}
+               .sm0(mailbox(request(CoeUploadInitiate{{0x1018, 1}, false}), 5))
+               .sm0(mailbox(request(CoeUploadInitiate{{0x1018, 1}, false}), 5))
+               .op(control | fuzz::kEthercatCoeRepeat)
+               .bytes);
+  out.seed(
+      t, "segment-toggle-out-of-order",
+      Seed{}
+          .sm0(mailbox(
+              request(CoeDownloadInitiate{{0x2000, 0}, false, false, true, 20, range(0, 6)}), 1))
+          .sm0(mailbox(request(CoeDownloadSegment{true, false, range(6, 13)}), 2))
+          .sm0(mailbox(request(CoeUploadSegmentRequest{false}), 3))
+          .bytes);
+  out.seed(t, "client-upload-expedited",
+           Seed{}
+               .op(read | upload_first, sm1(response(CoeUploadInitiateResponse{
+                                                {0x2000, 0}, false, true, true, 2, {0x0F, 0x00}}),
+                                            1))
+               .bytes);
+  out.seed(t, "client-upload-wrong-toggle",
+           Seed{}
+               .op(read | upload_first, sm1(response(CoeUploadInitiateResponse{
+                                                {0x2000, 0}, false, false, true, 20, range(0, 4)}),
+                                            1))
+               .op(read, sm1(response(CoeUploadSegment{true, false, range(4, 11)}), 2))
+               .bytes);
+  out.seed(t, "client-download-segments",
+           Seed{}
+               .op(coe | download_first, response(CoeDownloadInitiateResponse{{0x2000, 0}}))
+               .op(coe, response(CoeDownloadSegmentResponse{false}))
+               .op(control | fuzz::kEthercatCoeTimeout)
+               .bytes);
+  out.seed(t, "client-mailbox-error-and-duplicate",
+           Seed{}
+               .op(read | upload_first, sm1(mailbox_error_data(MailboxError::service_not_supported),
+                                            1, MailboxType::err))
+               .op(read, sm1(response(CoeAbort{{0x2000, 0}, 0x06020000}), 1))
+               .bytes);
+
+  // The dictionary: record ops, then every value of the mailbox and CoE tables.
+  std::string text(kBanner);
+  text += comment(
+      "ethercat_coe record ops (fuzz/support/ethercat_coe_input.hpp): SM0 write, "
+      "SM1 read, CoE into the client, control; transfers started first");
+  text += token("op_sm0", Bytes{sm0});
+  text += token("op_sm1_after_upload_start", Bytes{static_cast<std::uint8_t>(read | upload_first)});
+  text += token("op_client_after_download_start",
+                Bytes{static_cast<std::uint8_t>(coe | download_first)});
+  text += token("op_control_all", Bytes{static_cast<std::uint8_t>(control | 0x3C)});
+  for (const MailboxTypeInfo& row : mailbox_type_table()) {
+    text +=
+        comment(fmt::format("mailbox header byte 5: type {} ({}), counter 1 "
+                            "(protocol/ethercat/mailbox_types.inc)",
+                            row.abbreviation, row.text));
+    text += token(fmt::format("mbx_type_{}", row.name),
+                  Bytes{static_cast<std::uint8_t>(static_cast<std::uint8_t>(row.type) | 0x10)});
+  }
+  for (const MailboxErrorInfo& row : mailbox_error_table()) {
+    const auto code = static_cast<std::uint16_t>(row.code);
+    text += comment(fmt::format("mailbox ERR reply data: service 0001h, {:04X}h {} ({})", code,
+                                row.name, row.source));
+    text += token(fmt::format("mbx_error_{}", row.name),
+                  Bytes{0x01, 0x00, static_cast<std::uint8_t>(code & 0xFF),
+                        static_cast<std::uint8_t>(code >> 8)});
+  }
+  for (std::uint8_t service = 1; service <= 8; ++service) {
+    text += comment(fmt::format("CoE header, service {} {} (protocol/ethercat/coe_services.inc)",
+                                service, *coe_service_name(service)));
+    text += token(fmt::format("coe_service_{}", service),
+                  Bytes{0x00, static_cast<std::uint8_t>(service << 4)});
+  }
+  text += comment(
+      "CoE SDO command bytes: upload, upload with complete access, expedited "
+      "download of 2 octets, normal download (+ complete access), last segment "
+      "t=1, upload segment t=1, abort (CiA 301 §7.2.4.3 + ETG.1000.6 bit 4; coe.hpp)");
+  for (const auto& [name, byte] : {std::pair{"sdo_upload", 0x40},
+                                   {"sdo_upload_ca", 0x50},
+                                   {"sdo_download_2", 0x2B},
+                                   {"sdo_download_normal", 0x21},
+                                   {"sdo_download_normal_ca", 0x31},
+                                   {"sdo_segment_last_t1", 0x11},
+                                   {"sdo_upload_segment_t1", 0x70},
+                                   {"sdo_abort", 0x80}}) {
+    text += token(name, Bytes{static_cast<std::uint8_t>(byte)});
+  }
+  text += comment(
+      "SDO information requests: OD list of all objects, object description, entry "
+      "description (protocol/ethercat/coe_sdo_info_codes.inc)");
+  text += token("info_od_list_all", Bytes{0x01, 0x00, 0x00, 0x00, 0x01, 0x00});
+  text += token("info_object", Bytes{0x03, 0x00, 0x00, 0x00});
+  text += token("info_entry", Bytes{0x05, 0x00, 0x00, 0x00});
+  text += comment("objects of the fuzzed dictionary: 1C12h, 1C13h, 1C32h, 1C33h, 2000h, 1018h");
+  for (const std::uint16_t index : {0x1C12, 0x1C13, 0x1C32, 0x1C33, 0x2000, 0x1018}) {
+    text += token(fmt::format("index_{:04X}", index), Bytes{static_cast<std::uint8_t>(index & 0xFF),
+                                                            static_cast<std::uint8_t>(index >> 8)});
+  }
+  text += cia301::sdo_abort_fuzz_dictionary();
+  out.dictionary(t, text);
+}
+
 int main(int argc, char** argv) {
   if (argc != 3) {
     std::fprintf(stderr, "usage: %s <repo root> <output dir>\n", argv[0]);
@@ -1639,6 +1851,7 @@ int main(int argc, char** argv) {
   vectors_corpus(out, root);
   profile_corpus(out, root);
   cia402_corpus(out, root);
+  ethercat_coe_corpus(out);
   dictionaries(out);
   vector_profile_cia402_dictionaries(out, root);
   out.write();

@@ -31,13 +31,24 @@ TEST(SdoAbortTable, HasEveryCia301Code) {
 }
 
 TEST(SdoAbortTable, HasNoCodesCia301DoesNotDefine) {
-  // Given 06040040h and 06080000h, which a manual digest names as CiA codes, and CoE-only codes
+  // Given 06040040h and 06080000h, which a manual digest names as CiA codes, and 0
   // When they are looked up
   // Then the table does not know them (they are reported as unknown codes)
-  for (std::uint32_t code : {0x06040040u, 0x06080000u, 0x06010003u, 0x06010004u, 0x00000000u}) {
+  for (std::uint32_t code : {0x06040040u, 0x06080000u, 0x00000000u}) {
     EXPECT_FALSE(find_sdo_abort(code)) << std::hex << code;
   }
   EXPECT_EQ(describe_sdo_abort(0x06080000), "06080000h (unknown abort code)");
+}
+
+TEST(SdoAbortTable, CoeCodesCiteEtherCatNotCia) {
+  // Given the two EtherCAT CoE codes 06010003h and 06010004h (ETG.1000.6)
+  // When they are looked up
+  // Then the table knows them with ETG.1000.6 as their source, never CiA 301
+  for (std::uint32_t code : {0x06010003u, 0x06010004u}) {
+    const auto info = find_sdo_abort(code);
+    ASSERT_TRUE(info) << std::hex << code;
+    EXPECT_EQ(info->source, "ETG.1000.6 CoE") << std::hex << code;
+  }
 }
 
 TEST(SdoAbortTable, KnowsEveryCodeTheManualsList) {
@@ -63,7 +74,8 @@ TEST(SdoAbortTable, KnowsEveryCodeTheManualsList) {
   ASSERT_TRUE(manual_only);
   EXPECT_EQ(manual_only->code, SdoAbort::kollmorgen_command_buffer_full);
   EXPECT_EQ(manual_only->source, "002_953174ea6ca45cdb.txt §4.4.5.6 L940");
-  EXPECT_EQ(sdo_abort_table().size(), std::size(kCia301Codes) + 1);
+  // The CiA codes, the Kollmorgen code and the two EtherCAT CoE codes.
+  EXPECT_EQ(sdo_abort_table().size(), std::size(kCia301Codes) + 1 + 2);
 }
 
 TEST(SdoAbortTable, KeepsCiaTextWhereManualsDiffer) {
