@@ -65,6 +65,7 @@ struct RunOptions {
   std::string rerun;
   bool strict = false;
   bool allow_motion = false;
+  bool allow_factory_restore = false;
   std::uint64_t seed = 1;
   std::string order = "file";
   std::string junit;
@@ -352,6 +353,7 @@ void run(const RunOptions& options) {
   engine_options.node = static_cast<std::uint8_t>(options.node);
   engine_options.strict = options.strict;
   engine_options.allow_motion = options.allow_motion;
+  engine_options.allow_factory_restore = options.allow_factory_restore;
   engine_options.real_bus = !sim;
   // The selection is made above (filters, levels, --rerun); the engine runs what it is given.
   engine_options.simulation = drive ? drive->simulation() : nullptr;
@@ -499,6 +501,9 @@ void add_run_command(CLI::App& app) {
                 "SHOULD and MAY failures are failures (default: warnings)");
   cmd->add_flag("--allow-motion", options->allow_motion,
                 "Allow vectors that move the motor (needed on a real bus)");
+  cmd->add_flag("--allow-factory-restore", options->allow_factory_restore,
+                "Allow vectors that restore the factory defaults (1011h), which wipes the "
+                "drive's stored parameters, its commissioning (needed on a real bus)");
   cmd->add_option("--seed", options->seed, "Seed of the simulated bus and faults")
       ->check(seed_validator())
       ->capture_default_str();

@@ -125,9 +125,12 @@ class Engine::Impl {
     const auto wall_start = std::chrono::steady_clock::now();
 
     const ApplicabilityContext applicability{
-        options_.simulation != nullptr, !options_.real_bus || options_.allow_motion,
+        options_.simulation != nullptr,
+        !options_.real_bus || options_.allow_motion,
         !options_.real_bus && options_.simulation != nullptr && options_.simulation->can_bus_off(),
-        &capabilities_};
+        &capabilities_,
+        !options_.real_bus || options_.allow_factory_restore,
+        options_.node};
     if (auto reason = not_applicable_reason(vector, profile_, applicability); !reason.empty()) {
       result.verdict = Verdict::not_applicable;
       result.message = std::move(reason);
@@ -495,6 +498,7 @@ RunResult Engine::run(const std::vector<Vector>& vectors, RunInfo info) {
   info.node = options.node;
   info.strict = options.strict;
   info.allow_motion = options.allow_motion;
+  info.allow_factory_restore = options.allow_factory_restore;
   info.filter = options.filter;
   info.profile_name = impl_->profile_.name;
   info.profile_title = impl_->profile_.title;

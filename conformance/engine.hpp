@@ -5,7 +5,9 @@
 // Per vector:
 //   1. applicability (verdict.hpp): `profiles:` must name the selected profile, every
 //      `requires:` feature must be supported by the profile (`simulation`: a SimulationControl
-//      is present; `motion`: the bus is simulated or --allow-motion was given). Else N/A.
+//      is present; `motion`: the bus is simulated or --allow-motion was given); a vector that
+//      restores the factory defaults (setup restore-defaults, a step writing 1011h) runs on a
+//      real bus only with --allow-factory-restore (allow_factory_restore). Else N/A.
 //   2. setup (setup.cpp): reset-node / reset-communication (boot-up awaited within
 //      $timing.bootup) / restore-defaults (reset communication, 1011h sub 1 "load", then
 //      reset node) / none; then the profile's commissioning writes (FORMAT.md
@@ -78,6 +80,9 @@ struct EngineOptions {
   std::uint8_t node = 1;  // the DUT's node-ID
   bool strict = false;    // should/may failures are failures
   bool allow_motion = false;
+  // On a real bus, vectors that restore the factory defaults (setup restore-defaults, a step
+  // writing 1011h) run only with this (--allow-factory-restore); else they are not applicable.
+  bool allow_factory_restore = false;
   bool real_bus = false;  // SocketCAN: safety measures (motion guard, heartbeat, envelope)
   // Isolation (isolation.hpp): snapshot before and restore after each vector, leaks. Off only
   // for tests that script every frame of a peer.
@@ -109,7 +114,8 @@ class Engine {
   Engine& operator=(const Engine&) = delete;
 
   // Runs every vector that passes the filter, in order. `info` is copied into the result
-  // (the engine fills dut, strict, allow_motion, filter, node, profile name/title/file).
+  // (the engine fills dut, strict, allow_motion, allow_factory_restore, filter, node, profile
+  // name/title/file).
   RunResult run(const std::vector<Vector>& vectors, RunInfo info = {});
   // One vector, with setup and teardown (no identity read, no dut-lost accounting).
   VectorResult run_vector(const Vector& vector);

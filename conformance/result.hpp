@@ -200,6 +200,7 @@ struct RunInfo {
   std::string order = "file";
   bool strict = false;
   bool allow_motion = false;
+  bool allow_factory_restore = false;  // --allow-factory-restore (a real bus needs it)
   std::string filter;
   DutIdentity dut;
   // What the DUT has, probed once at the start of the run (conformance/capabilities.hpp): one

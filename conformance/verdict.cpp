@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "conformance/isolation.hpp"
+
 namespace drivecheck::conformance {
 
 namespace {
@@ -24,6 +26,10 @@ std::string missing_feature(std::string_view feature, const profile::DriveProfil
 }
 
 }  // namespace
+
+bool restores_factory_defaults(const Vector& vector, std::uint8_t node) {
+  return vector.setup == Setup::restore_defaults || writes_restore_defaults(vector, node);
+}
 
 std::vector<profile::ObjectNeed> object_needs(const Vector& vector) {
   std::vector<profile::ObjectNeed> needs;
@@ -63,6 +69,8 @@ std::string not_applicable_reason(const Vector& vector, const profile::DriveProf
     if (auto missing = missing_feature("restore", profile, context); !missing.empty())
       return "setup restore-defaults: " + missing;
   }
+  if (!context.factory_restore_allowed && restores_factory_defaults(vector, context.node))
+    return kFactoryRestoreNotAllowed;
   return {};
 }
 

@@ -3,6 +3,7 @@
 // them directly.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "conformance/capabilities.hpp"
@@ -19,9 +20,25 @@ struct ApplicabilityContext {
   // What the DUT has (object needs, detected features); null: nothing probed, so object needs
   // count as met and detected features as unknown (present).
   const Capabilities* capabilities = nullptr;
+  // A factory restore (setup restore-defaults, or a step writing 1011h) wipes the DUT's stored
+  // parameters, a real drive's commissioning with them: allowed on the simulated bus, on a real
+  // bus only with --allow-factory-restore.
+  bool factory_restore_allowed = false;
+  std::uint8_t node = 1;  // the DUT's node-ID (to decode the SDO downloads of `send:` frames)
 };
 
+// Whether the vector would restore the DUT's factory defaults: `setup: restore-defaults`, or a
+// step (`steps:` or `finally:`) that writes 1011h (an sdo_write, or an SDO download a `send:`
+// frame makes to 600h + node).
+bool restores_factory_defaults(const Vector& vector, std::uint8_t node);
+
+// The reason a vector that would factory-restore is not applicable without the opt-in.
+inline constexpr const char* kFactoryRestoreNotAllowed =
+    "would restore factory defaults and wipe the device's stored parameters; pass "
+    "--allow-factory-restore";
+
 // "" when the vector applies; else the reason it is not applicable, e.g.
+// kFactoryRestoreNotAllowed (a factory restore without context.factory_restore_allowed),
 // "requires mode.hm (profile festo-cmmp lacks it)", "only for profile festo-cmmp",
 // "needs object 1029h: absent (upload answered 06020000h)",
 // "requires heartbeat.producer (probed: absent, 1017h: upload answered 06020000h)".

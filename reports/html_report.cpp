@@ -664,9 +664,10 @@ void render_run_info(std::string& out, const RunResult& result) {
     row("Injected deviations", list);
   }
   row("Options",
-      fmt::format("seed {}{}{}{}{}", info.seed,
+      fmt::format("seed {}{}{}{}{}{}", info.seed,
                   info.order == "file" ? "" : ", --order " + info.order,
                   info.strict ? ", --strict" : "", info.allow_motion ? ", --allow-motion" : "",
+                  info.allow_factory_restore ? ", --allow-factory-restore" : "",
                   info.filter.empty() ? "" : ", --filter " + info.filter));
   row("Duration",
       fmt::format("{:.3f} s bus time, {:.3f} s wall",

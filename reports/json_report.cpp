@@ -485,6 +485,9 @@ RunResult read_run(Reader& reader, const json& document) {
     info.order = reader.optional_string(run, "order").value_or("file");
     info.strict = reader.boolean(run, "strict");
     info.allow_motion = reader.boolean(run, "allow_motion");
+    // Optional: older reports had no such option (their factory restores ran unasked).
+    info.allow_factory_restore =
+        run.contains("allow_factory_restore") && reader.boolean(run, "allow_factory_restore");
     info.filter = reader.string(run, "filter");
     {
       Scope inner(reader, "dut");
@@ -551,6 +554,7 @@ std::string render_json(const RunResult& result) {
   run["order"] = info.order;
   run["strict"] = info.strict;
   run["allow_motion"] = info.allow_motion;
+  run["allow_factory_restore"] = info.allow_factory_restore;
   run["filter"] = info.filter;
   run["dut"] = dut_json(info.dut);
   run["interrupted"] = result.interrupted;

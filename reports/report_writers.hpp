@@ -38,8 +38,9 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 //     "run": { tool_version, revision, vector_set: {sha256, files}, documents: [{key, title,
 //              edition}], started_utc, bus, node, profile: {name,title,file,commissioning?},
 //              eds: {file,sha256}, personality, deviations: [..], seed, order, strict,
-//              allow_motion, filter, dut: {...} (absent = not readable), interrupted, dut_lost,
-//              harness_notes, simulated_ns, simulated_s, wall_s },
+//              allow_motion, allow_factory_restore, filter, dut: {...} (absent = not
+//              readable), interrupted, dut_lost, harness_notes, simulated_ns, simulated_s, wall_s
+//              },
 //     "counts": { pass, fail, warning, deviation, not-applicable, error, interrupted, total }
 //               (conformance::VerdictCounts: each vector in exactly one),
 //     "exit_code": 0|1|3|130,

@@ -91,8 +91,8 @@ TEST(CliHelp, RunHelpListsTheContractOptions) {
   const auto result = drivecheck({"run", "--help"});
   ASSERT_EQ(result.exit_code, 0);
   for (const char* option :
-       {"--bus", "--node", "--profile", "--eds", "--filter", "--strict", "--allow-motion", "--seed",
-        "--junit", "--html", "--json", "--trace", "--pcap"}) {
+       {"--bus", "--node", "--profile", "--eds", "--filter", "--strict", "--allow-motion",
+        "--allow-factory-restore", "--seed", "--junit", "--html", "--json", "--trace", "--pcap"}) {
     EXPECT_NE(result.out.find(option), std::string::npos) << option;
   }
 }

@@ -69,6 +69,27 @@ TEST_F(CliRun, EmbeddedRunWritesReportsAndFailsOnAFailure) {
   EXPECT_NE(report.find("\"t/fail\""), std::string::npos);
 }
 
+TEST_F(CliRun, EmbeddedRunAllowsFactoryRestoreAndReportsTheChoice) {
+  // Given a vector with setup restore-defaults (a factory restore) against the embedded drive
+  write(
+      "- id: t/defaults\n  title: t\n  source: \"CiA 301 §1\"\n  setup: restore-defaults\n"
+      "  steps:\n    - sdo_read: {index: 0x1018, sub: 0}\n");
+  const auto plain = (dir_ / "plain.json").string();
+  const auto opted = (dir_ / "opted.json").string();
+  // When run without and with --allow-factory-restore
+  const auto run_plain = run_command(
+      {DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(), "--json", plain});
+  const auto run_opted =
+      run_command({DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(),
+                   "--allow-factory-restore", "--json", opted});
+  // Then both pass (the simulated bus allows it), and the reports record the choice
+  EXPECT_EQ(run_plain.exit_code, 0) << run_plain.out << run_plain.err;
+  EXPECT_EQ(run_opted.exit_code, 0) << run_opted.out << run_opted.err;
+  EXPECT_NE(read_file(plain).find("\"allow_factory_restore\": false"), std::string::npos);
+  EXPECT_NE(read_file(opted).find("\"allow_factory_restore\": true"), std::string::npos);
+  EXPECT_NE(read_file(plain).find("\"verdict\": \"pass\""), std::string::npos);
+}
+
 // The ids of the vectors in a JSON report, in report order.
 std::vector<std::string> report_ids(const std::filesystem::path& json) {
   const std::string report = read_file(json);

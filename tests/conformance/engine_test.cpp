@@ -611,6 +611,44 @@ TEST_F(EngineDriveTest, BusOffStepOnARealBusIsNotApplicable) {
   EXPECT_NE(result.message.find("bus_off step"), std::string::npos) << result.message;
 }
 
+TEST_F(EngineDriveTest, FactoryRestoreOnARealBusNeedsTheOptIn) {
+  // Given a profile with restore and a vector with setup restore-defaults (1011h "load")
+  auto parsed = profile::parse_profile(
+      "name: r\ntitle: R\nfeatures: [sdo.segmented, store, restore]\n",
+      {.file_name = "r.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  profile_ = *parsed;
+  const auto set = parse_vectors(
+      "- id: t/defaults\n  title: t\n  source: \"CiA 301 §1\"\n  setup: restore-defaults\n"
+      "  steps:\n    - sdo_read: {index: 0x1018, sub: 0}\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  EngineOptions real_bus;
+  real_bus.real_bus = true;
+  EngineOptions allowed = real_bus;
+  allowed.allow_factory_restore = true;
+  // When it runs on a real bus without and with --allow-factory-restore, and on the simulated
+  // bus
+  const auto refused = run(set.vectors.front(), real_bus);
+  const auto opted_in = run(set.vectors.front(), allowed);
+  const auto simulated = run(set.vectors.front(), EngineOptions{});
+  // Then without the opt-in it is not applicable, with the reason, and sends no 1011h download;
+  // with it, and on the simulated bus, it runs
+  EXPECT_EQ(refused.verdict, Verdict::not_applicable);
+  EXPECT_EQ(refused.message,
+            "would restore factory defaults and wipe the device's stored parameters; pass "
+            "--allow-factory-restore");
+  EXPECT_TRUE(refused.frames.empty());
+  EXPECT_EQ(opted_in.verdict, Verdict::pass) << opted_in.message;
+  EXPECT_EQ(simulated.verdict, Verdict::pass) << simulated.message;
+  const auto loads = [](const VectorResult& result) {
+    return std::count_if(result.frames.begin(), result.frames.end(), [](const auto& frame) {
+      return frame.frame.id == 0x601 && frame.frame.data[1] == 0x11 && frame.frame.data[2] == 0x10;
+    });
+  };
+  EXPECT_EQ(loads(opted_in), 1);
+}
+
 TEST_F(EngineDriveTest, DetectedFeaturesAndObjectNeedsAreProbedOnceAndDecideApplicability) {
   // Given a generic profile that detects time and heartbeat.producer, and vectors needing time
   // (the reference drive has no 1012h), heartbeat.producer, object 1029h and object 2FFFh

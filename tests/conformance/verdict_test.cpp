@@ -82,6 +82,49 @@ TEST(Applicability, BusOffStepNeedsTheSimulatedBus) {
   EXPECT_EQ(not_applicable_reason(vector, p, {true, true, true}), "");
 }
 
+TEST(Applicability, FactoryRestoreNeedsTheOptIn) {
+  // Given a profile with restore, and vectors that restore the factory defaults in their setup,
+  // by an sdo_write of 1011h, by a raw SDO download of 1011h to node 5, in finally:, and one
+  // that only reads 1011h
+  const auto parsed = profile::parse_profile(
+      "name: r\ntitle: R\nfeatures: [store, restore]\n",
+      {.file_name = "r.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(parsed) << parsed.error().to_string();
+  const auto set = parse_vectors(
+      "- id: t/setup\n  title: t\n  source: \"CiA 301 §1\"\n  setup: restore-defaults\n"
+      "  steps:\n    - sdo_read: {index: 0x1018, sub: 0}\n"
+      "- id: t/write\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_write: {index: 0x1011, sub: 1, value: 0x64616F6C, size: 4}\n"
+      "- id: t/send\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - send: \"605#2311100164616F6C\"\n"
+      "- id: t/finally\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1018, sub: 0}\n  finally:\n"
+      "    - sdo_write: {index: 0x1011, sub: 4, value: 0x64616F6C, size: 4}\n"
+      "- id: t/read\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1011, sub: 1}\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  ApplicabilityContext real_bus;
+  real_bus.motion_allowed = true;
+  real_bus.node = 5;
+  ApplicabilityContext allowed = real_bus;
+  allowed.factory_restore_allowed = true;
+  // When checked without and with the opt-in
+  // Then each restoring vector is not applicable without it, with the reason, and applies with
+  // it; the read of 1011h applies either way
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Vector& vector = set.vectors[i];
+    EXPECT_TRUE(restores_factory_defaults(vector, 5)) << vector.id;
+    EXPECT_EQ(not_applicable_reason(vector, *parsed, real_bus),
+              "would restore factory defaults and wipe the device's stored parameters; pass "
+              "--allow-factory-restore")
+        << vector.id;
+    EXPECT_EQ(not_applicable_reason(vector, *parsed, allowed), "") << vector.id;
+  }
+  EXPECT_FALSE(restores_factory_defaults(set.vectors[4], 5));
+  EXPECT_EQ(not_applicable_reason(set.vectors[4], *parsed, real_bus), "");
+}
+
 // A result whose one check failed with `observed` (and `actual`).
 VectorResult failed_with(Observation observed, std::string actual = "x") {
   VectorResult result;

@@ -177,6 +177,27 @@ TEST(JsonReport, RunOrderIsWrittenAndReadBackAndDefaultsToFile) {
   EXPECT_EQ(read_older->info.order, "file");
 }
 
+TEST(JsonReport, FactoryRestoreChoiceIsWrittenAndReadBackAndDefaultsToNotAllowed) {
+  // Given a run made with --allow-factory-restore
+  TempDir dir;
+  auto run = valid_utf8_run();
+  run.info.allow_factory_restore = true;
+  // When written as JSON and read back
+  ASSERT_TRUE(write_json_report(dir / "run.json", run));
+  const auto read = read_json_report(dir / "run.json");
+  ASSERT_TRUE(read) << read.error().to_string();
+  // Then run.allow_factory_restore holds it; a report without the key (older drivecheck) reads
+  // as not allowed
+  EXPECT_EQ(json::parse(render_json(run))["run"]["allow_factory_restore"], true);
+  EXPECT_TRUE(read->info.allow_factory_restore);
+  json older = json::parse(render_json(run));
+  older["run"].erase("allow_factory_restore");
+  ASSERT_TRUE(write_file_atomically(dir / "older.json", older.dump()));
+  const auto read_older = read_json_report(dir / "older.json");
+  ASSERT_TRUE(read_older) << read_older.error().to_string();
+  EXPECT_FALSE(read_older->info.allow_factory_restore);
+}
+
 TEST(JsonReport, InvalidUtf8IsWrittenAsReplacementCharacter) {
   // Given a device name with invalid UTF-8 bytes
   // When written as JSON
