@@ -3,11 +3,11 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include <fstream>
 #include <system_error>
 
 #include "cli/commands.hpp"
 #include "cli/data_dir.hpp"
+#include "conformance/vector_lint.hpp"
 
 namespace drivecheck::cli {
 
@@ -49,19 +49,6 @@ void add_vectors_option(CLI::App& command, std::vector<std::string>& dirs) {
       ->type_name("DIR");
 }
 
-namespace {
-
-int name_line(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::string text;
-  for (int line = 1; std::getline(in, text); ++line) {
-    if (text.rfind("name:", 0) == 0) return line;
-  }
-  return 1;
-}
-
-}  // namespace
-
 Expected<profile::DriveProfile, TextError> find_profile(std::string_view name_or_path,
                                                         const VectorDirs& dirs) {
   const std::string text(name_or_path);
@@ -75,10 +62,10 @@ Expected<profile::DriveProfile, TextError> find_profile(std::string_view name_or
   }
   if (found.size() > 1) {
     return Unexpected(TextError{
-        found[1].string(), name_line(found[1]),
+        found[1].string(), conformance::profile_name_line(found[1]),
         fmt::format("profile '{}' is already defined at {}:{} (profile names are unique across "
                     "the shipped profiles and every --vectors DIR)",
-                    text, found[0].string(), name_line(found[0]))});
+                    text, found[0].string(), conformance::profile_name_line(found[0]))});
   }
   if (found.size() == 1) return profile::load_profile(found.front());
   // Not found: find_profile names the known profiles (of every directory).

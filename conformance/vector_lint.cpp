@@ -159,16 +159,6 @@ void lint_isolation(const Vector& vector, LintReport& report) {
   }
 }
 
-// The 1-based line of a profile's top-level `name:` key (1 when there is none).
-int name_line(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::string text;
-  for (int line = 1; std::getline(in, text); ++line) {
-    if (text.rfind("name:", 0) == 0) return line;
-  }
-  return 1;
-}
-
 // Each user directory's manual list (DIR/manuals.yaml, optional): loaded, its manuals read
 // beside it with their sha256 checked, a file name the shipped list or an earlier user list
 // has refused; the manuals are added to `manuals` for the citations.
@@ -221,6 +211,16 @@ void lint_user_manuals(const std::vector<std::filesystem::path>& user_dirs,
 }
 
 }  // namespace
+
+// The 1-based line of a profile's top-level `name:` key (1 when there is none).
+int profile_name_line(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::string text;
+  for (int line = 1; std::getline(in, text); ++line) {
+    if (text.rfind("name:", 0) == 0) return line;
+  }
+  return 1;
+}
 
 std::vector<TextError> check_object_needs(const Vector& vector) {
   std::vector<TextError> errors;
@@ -542,7 +542,7 @@ LintReport lint_vector_tree(const LintOptions& options) {
     for (const auto& name : profile::list_profiles(drives)) {
       ++report.profiles;
       const auto path = drives / (name + ".yaml");
-      const int line = name_line(path);
+      const int line = profile_name_line(path);
       const auto [first, inserted] =
           profile_where.emplace(name, fmt::format("{}:{}", path.string(), line));
       if (!inserted) {

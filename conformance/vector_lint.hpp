@@ -79,6 +79,10 @@ struct LintReport {
 
 LintReport lint_vector_tree(const LintOptions& options);
 
+// The 1-based line of a profile file's top-level `name:` key (1 when there is none), for
+// file:line messages about a profile as a whole.
+int profile_name_line(const std::filesystem::path& path);
+
 // The object-need findings of one vector (see above): file:line errors, empty when fine.
 std::vector<TextError> check_object_needs(const Vector& vector);
 // "" when the step's abort expectation is fine; else why not: an sdo_read/sdo_write `abort:`
