@@ -534,7 +534,7 @@ TEST_F(EngineTest, UnknownMarkAtRunTimeIsAHarnessError) {
   measure.from = "a";
   measure.to = "b";
   measure.max = DurationSpec{1ms, {}};
-  vector.steps.push_back(Step{measure, {}, 1});
+  vector.steps.push_back(Step{measure, {}, 1, {}});
   // When run; Then a harness error, not a DUT failure
   const auto result = run(vector);
   EXPECT_EQ(result.verdict, Verdict::error);

@@ -52,7 +52,7 @@ TEST_F(LintTree, CitationPastTheManualsEnd) {
   write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
   write("v.yaml", "- id: a/b\n  title: t\n  source: \"m.txt §1 L2-4\"\n  steps: [{wait: 1ms}]\n");
   // When linted with the manuals available
-  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals", {}});
   // Then one error at the source's line; the sha256 matched
   ASSERT_EQ(report.errors.size(), 1U);
   EXPECT_NE(report.errors[0].to_string().find(
@@ -90,7 +90,7 @@ TEST_F(LintTree, AbortCodesNeedASetOrAClause) {
     - expect_frame: "580+N#80001000........"
 )");
   // When linted
-  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals", {}});
   // Then exactly the two without set or clause are errors, at their steps' lines
   ASSERT_EQ(report.errors.size(), 2U);
   EXPECT_NE(report.errors[0].to_string().find(
@@ -125,7 +125,7 @@ deviations:
     description: y
 )");
   // When linted
-  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals", {}});
   // Then the unknown id is an error at the deviation's line, the empty one a warning
   ASSERT_EQ(report.errors.size(), 1U);
   EXPECT_NE(report.errors[0].to_string().find("p.yaml:5: deviation d: no vector 'a/c'"),
@@ -141,7 +141,7 @@ TEST_F(LintTree, UnlistedManualAndChangedManual) {
   write("v.yaml",
         "- id: a/b\n  title: t\n  source: \"other.txt §1 L1-1\"\n  steps: [{wait: 1ms}]\n");
   // When linted
-  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals"});
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals", {}});
   // Then both are errors
   ASSERT_EQ(report.errors.size(), 2U);
   EXPECT_NE(report.errors[0].message.find("the text changed"), std::string::npos);
@@ -153,7 +153,7 @@ TEST_F(LintTree, WithoutManualsTheShaIsNotChecked) {
   // Given a wrong sha256 but no manuals directory; When linted; Then no error, not checked
   write("manuals.yaml", manuals(std::string(64, '0')));
   write("v.yaml", "- id: a/b\n  title: t\n  source: \"m.txt §1 L1-3\"\n  steps: [{wait: 1ms}]\n");
-  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt, {}});
   EXPECT_TRUE(report.ok());
   EXPECT_FALSE(report.manuals_checked);
 }
@@ -161,7 +161,7 @@ TEST_F(LintTree, WithoutManualsTheShaIsNotChecked) {
 TEST_F(LintTree, BadManualListHasLines) {
   // Given an unknown key in manuals.yaml; When linted; Then its line
   write("manuals.yaml", "- file: m.txt\n  device: d\n  sha256: x\n  lines: 3\n  pages: 2\n");
-  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt, {}});
   ASSERT_FALSE(report.errors.empty());
   EXPECT_EQ(report.errors[0].line, 5);
 }
@@ -180,7 +180,7 @@ TEST_F(LintTree, RestoreDefaultsOnlyForRestoreOrDefaultsAndCleanUpInFinally) {
                       "- id: a/cleans-up\n" + head +
                       "  steps:\n    - nmt: reset-node\n      note: \"clean up: reset\"\n");
   // When linted
-  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt, {}});
   // Then the clean slate is an error at its line, the clean-up step a warning
   ASSERT_EQ(report.errors.size(), 1U);
   EXPECT_NE(report.errors[0].to_string().find("v.yaml:1: vector a/clean-slate: setup: "
@@ -220,7 +220,7 @@ TEST_F(LintTree, MustLevelLiteralTimeBoundNeedsItsClause) {
             "- id: a/should\n" + head + "  level: should\n" +
             "  steps:\n    - expect_frame: \"701#05\"\n      within: 1ms\n");
   // When linted
-  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt, {}});
   // Then each bare bound of a/bare is an error at its step's line, and so is the clause that
   // cites nothing; the cited, $timing and should-level bounds pass
   std::vector<std::string> texts;
@@ -253,7 +253,7 @@ TEST_F(LintTree, TimingClauseCitesAListedManualWithinItsLines) {
                       "  steps:\n    - expect_frame: \"701#05\"\n      within: 5ms\n"
                       "      clause: \"other.txt §1 L1-2; the manual's bound\"\n");
   // When linted
-  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt});
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt, {}});
   // Then both clauses are errors naming the problem
   ASSERT_EQ(report.errors.size(), 2U);
   EXPECT_NE(report.errors[0].message.find("line 9 is past the end of m.txt"), std::string::npos)
