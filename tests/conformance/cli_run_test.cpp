@@ -77,11 +77,10 @@ TEST_F(CliRun, EmbeddedRunAllowsFactoryRestoreAndReportsTheChoice) {
   const auto plain = (dir_ / "plain.json").string();
   const auto opted = (dir_ / "opted.json").string();
   // When run without and with --allow-factory-restore
-  const auto run_plain = run_command(
-      {DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(), "--json", plain});
+  const std::string tree = "DRIVECHECK_VECTORS=" + (dir_ / "vectors").string();
+  const auto run_plain = run_command({"env", tree, DRIVECHECK_EXE, "run", "--json", plain});
   const auto run_opted =
-      run_command({DRIVECHECK_EXE, "run", "--vectors", (dir_ / "vectors").string(),
-                   "--allow-factory-restore", "--json", opted});
+      run_command({"env", tree, DRIVECHECK_EXE, "run", "--allow-factory-restore", "--json", opted});
   // Then both pass (the simulated bus allows it), and the reports record the choice
   EXPECT_EQ(run_plain.exit_code, 0) << run_plain.out << run_plain.err;
   EXPECT_EQ(run_opted.exit_code, 0) << run_opted.out << run_opted.err;
