@@ -88,7 +88,7 @@ class Engine::Impl {
         pdo_(profile_, options_.node),
         capabilities_(options_.eds),
         context_{bus_, profile_,     options_, dissector_, interrupted, stalled, progress,
-                 pdo_, std::nullopt, false,    {},         {},          {}} {
+                 pdo_, std::nullopt, false,    {},         {},          {},      std::nullopt} {
     bus_.set_frame_handler({});
     bus_.set_loopback(true);
     if (options_.harness_node == options_.node)
@@ -265,6 +265,8 @@ class Engine::Impl {
         static_cast<std::uint8_t>(consumer), static_cast<std::uint8_t>(consumer >> 8),
         static_cast<std::uint8_t>(consumer >> 16), static_cast<std::uint8_t>(consumer >> 24)};
     const auto outcome = run.sdo_download({0x1016, 1}, bytes);
+    if (outcome.ok)
+      context_.harness_consumer = std::vector<std::uint8_t>(bytes.begin(), bytes.end());
     result.checks.push_back(
         Check{0,
               "envelope",

@@ -7,6 +7,7 @@
 #include <span>
 
 #include "conformance/vector_run.hpp"
+#include "protocol/cia301/data_type.hpp"
 #include "protocol/cia301/error_control.hpp"
 #include "protocol/cia301/nmt_master.hpp"
 #include "protocol/cia402/controlword.hpp"
@@ -189,6 +190,27 @@ StepStatus VectorRun::commission() {
   return StepStatus::ok;
 }
 
+StepStatus VectorRun::consume_harness_heartbeat() {
+  const std::vector<std::uint8_t>& entry = *context_.harness_consumer;
+  const SdoOutcome now_value = sdo_upload({0x1016, 1});
+  if (now_value.ok && now_value.data == entry) return StepStatus::ok;
+  const SdoOutcome outcome = sdo_download({0x1016, 1}, entry);
+  const auto value = static_cast<std::uint32_t>(cia301::load_unsigned(entry));
+  if (!outcome.ok) {
+    return harness_error(
+        "setup", fmt::format("1016h sub 1 := {:08X}h (consume the harness heartbeat, so that a "
+                             "dead harness stops the drive) was refused after the reset: {}; no "
+                             "motion without it",
+                             value, outcome.describe()));
+  }
+  check("setup",
+        fmt::format("1016h sub 1 := {:08X}h (consume the harness heartbeat again after "
+                    "the reset)",
+                    value),
+        outcome.describe(), true);
+  return StepStatus::ok;
+}
+
 StepStatus VectorRun::setup() {
   cia301::NmtMaster master;
   const auto command = [&](cia301::NmtCommand cmd) -> StepStatus {
@@ -234,6 +256,13 @@ StepStatus VectorRun::setup() {
   // state (SDO is served in Pre-operational) and the CiA 402 state.
   if (vector_.setup != Setup::none) {
     if (auto s = commission(); s != StepStatus::ok) return s;
+  }
+  // The dead-harness guarantee (DESIGN.md "Safety on real drives"): the DUT consumes the
+  // harness heartbeat whenever a motion vector runs. Any reset (this vector's, or an earlier
+  // vector's) put 1016h back to its stored value, so it is written again before the drive may
+  // move; a motion vector without it is not run.
+  if (vector_.motion && context_.harness_consumer) {
+    if (auto s = consume_harness_heartbeat(); s != StepStatus::ok) return s;
   }
   // Isolation (isolation.hpp): leaks of earlier vectors, then the snapshot, while the DUT is
   // in the state its reset left (SDO served), before the NMT state of the vector.

@@ -159,6 +159,40 @@ void lint_isolation(const Vector& vector, LintReport& report) {
   }
 }
 
+// DESIGN.md "Safety on real drives": while a motion vector runs, the DUT consumes the harness
+// heartbeat (1016h sub 1, written in the setup), so that a dead harness stops the drive. A
+// reset inside the steps puts 1016h back to its stored value while the drive may still be
+// enabled (reset communication leaves the application running), and nothing writes it again
+// before the vector ends: a motion vector resets only in its setup.
+void lint_dead_harness(const Vector& vector, LintReport& report) {
+  if (!vector.motion) return;
+  const auto is_reset = [](std::uint8_t command) {
+    return command == static_cast<std::uint8_t>(cia301::NmtCommand::reset_node) ||
+           command == static_cast<std::uint8_t>(cia301::NmtCommand::reset_communication);
+  };
+  for (const auto* steps : {&vector.steps, &vector.finally_steps}) {
+    for (const Step& step : *steps) {
+      bool reset = false;
+      if (const auto* nmt = std::get_if<NmtStep>(&step.action)) {
+        reset = is_reset(static_cast<std::uint8_t>(nmt->command));
+      } else if (const auto* send = std::get_if<SendStep>(&step.action)) {
+        const FrameSpec& frame = send->frame;
+        reset = !frame.cob.extended && !frame.cob.plus_node && frame.cob.base == 0 &&
+                !frame.bytes.empty() && frame.bytes[0] && is_reset(*frame.bytes[0]);
+      }
+      if (reset) {
+        report.errors.push_back(
+            {vector.file, static_cast<int>(step.line),
+             fmt::format("vector {}: a motion vector must not reset the DUT in its steps: the "
+                         "reset drops the harness heartbeat consumer (1016h) that stops the "
+                         "drive when the harness dies (DESIGN.md \"Safety on real drives\"); "
+                         "reset in the setup, or leave motion out of this vector",
+                         vector.id)});
+      }
+    }
+  }
+}
+
 // Each user directory's manual list (DIR/manuals.yaml, optional): loaded, its manuals read
 // beside it with their sha256 checked, a file name the shipped list or an earlier user list
 // has refused; the manuals are added to `manuals` for the citations.
@@ -528,6 +562,7 @@ LintReport lint_vector_tree(const LintOptions& options) {
       }
     }
     lint_isolation(vector, report);
+    lint_dead_harness(vector, report);
   }
 
   // Drive profiles: the tree's, then each user directory's.

@@ -62,6 +62,10 @@ struct EngineContext {
   // (Engine::run moves them into RunResult::harness_notes).
   std::map<ObjectRef, Leak> leaks;
   std::vector<std::string> notes;
+  // Real bus with motion: the 1016h sub 1 entry that makes the DUT consume the harness
+  // heartbeat (Engine::prepare_motion). A reset puts 1016h back to its stored value, so every
+  // motion vector's setup writes it again before the drive may move (VectorRun::setup).
+  std::optional<std::vector<std::uint8_t>> harness_consumer;
 };
 
 // not_applicable: a value the vector takes from the device does not exist on it
@@ -148,6 +152,7 @@ class VectorRun {
   StepStatus setup();
   // The profile's commissioning writes, when they apply to this vector (part of setup()).
   StepStatus commission();
+  StepStatus consume_harness_heartbeat();  // 1016h sub 1 := context_.harness_consumer
   void teardown();
 
   // ---- isolation (setup.cpp) ----

@@ -838,6 +838,38 @@ TEST_F(EngineDriveTest, RealBusRunRestoresHeartbeatConsumerAndStopsItsHeartbeat)
     EXPECT_NE(frame.frame.id, 0x77FU) << "harness heartbeat";
 }
 
+TEST_F(EngineDriveTest, MotionVectorsConsumeTheHarnessHeartbeatAfterEveryReset) {
+  // Given a real-bus run with motion allowed: a motion vector whose setup resets the node, a
+  // vector without motion that resets it, and a motion vector without a reset of its own (a
+  // reset puts 1016h back to its stored value, 0)
+  const std::string read_consumer =
+      "    - sdo_read: {index: 0x1016, sub: 1}\n      expect: {value: 0x007F012C}\n";
+  auto first = make_vector(read_consumer);
+  first.id = "t/first";
+  first.motion = true;
+  first.setup = Setup::reset_node;
+  auto between = make_vector("    - wait: 10ms\n");
+  between.id = "t/between";
+  between.setup = Setup::reset_node;
+  auto last = make_vector(read_consumer);
+  last.id = "t/last";
+  last.motion = true;
+  EngineOptions options;
+  options.real_bus = true;
+  options.allow_motion = true;
+  Engine engine(*harness_, profile_, options);
+  // When the run goes through them
+  const auto result = engine.run({first, between, last});
+  // Then both motion vectors find the DUT consuming the harness heartbeat (node 127, 300 ms)
+  ASSERT_EQ(result.vectors.size(), 3U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::pass) << failure(result.vectors[0]);
+  EXPECT_EQ(result.vectors[2].verdict, Verdict::pass) << failure(result.vectors[2]);
+  bool again = false;
+  for (const auto& check : result.vectors[2].checks)
+    again |= check.expected.find("consume the harness heartbeat again") != std::string::npos;
+  EXPECT_TRUE(again);
+}
+
 TEST_F(EngineTest, NoDutAtAllIsLostAtOnce) {
   // Given nothing on the bus but the harness
   Engine engine(*harness_, profile_, {});

@@ -191,6 +191,29 @@ TEST_F(LintTree, RestoreDefaultsOnlyForRestoreOrDefaultsAndCleanUpInFinally) {
   EXPECT_NE(report.warnings[0].message.find("move it to finally:"), std::string::npos);
 }
 
+TEST_F(LintTree, MotionVectorResetsOnlyInItsSetup) {
+  // Given a motion vector with a reset node step, one sending a raw reset communication, a
+  // motion vector without a reset, and a vector without motion that resets
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  const std::string head = "  title: t\n  source: \"CiA 402 §1\"\n";
+  write("v.yaml", "- id: a/nmt\n" + head + "  motion: true\n  steps:\n    - nmt: reset-node\n" +
+                      "- id: a/raw\n" + head + "  motion: true\n  steps:\n" +
+                      "    - send: \"000#8201\"\n" + "- id: a/quiet\n" + head +
+                      "  motion: true\n  steps: [{wait: 1ms}]\n" + "- id: a/still\n" + head +
+                      "  steps:\n    - nmt: reset-node\n");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", std::nullopt, {}});
+  // Then the two motion vectors that reset are errors at their steps' lines, nothing else
+  ASSERT_EQ(report.errors.size(), 2U);
+  EXPECT_NE(report.errors[0].to_string().find("v.yaml:6: vector a/nmt: a motion vector must not "
+                                              "reset the DUT in its steps"),
+            std::string::npos)
+      << report.errors[0].to_string();
+  EXPECT_NE(report.errors[1].to_string().find("vector a/raw: a motion vector must not reset"),
+            std::string::npos)
+      << report.errors[1].to_string();
+}
+
 TEST_F(LintTree, MustLevelLiteralTimeBoundNeedsItsClause) {
   // Given must-level vectors with a literal within:, for:, tolerance: and min:/max: and no
   // clause, one with a clause citing a CiA clause, one citing the manual, one with a clause that
