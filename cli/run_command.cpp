@@ -36,6 +36,7 @@
 #include "conformance/od_checks.hpp"
 #include "conformance/provenance.hpp"
 #include "conformance/sha256.hpp"
+#include "conformance/stall_log.hpp"
 #include "conformance/vector_file.hpp"
 #include "conformance/vector_lint.hpp"
 #include "conformance/vector_order.hpp"
@@ -358,6 +359,18 @@ void run(const RunOptions& options) {
   // The selection is made above (filters, levels, --rerun); the engine runs what it is given.
   engine_options.simulation = drive ? drive->simulation() : nullptr;
   engine_options.eds = eds_od ? &*eds_od : nullptr;
+  // A real bus: a watcher thread notes the harness's own stalls (conformance/stall_log.hpp),
+  // so that a busy host is never charged to the device: a check that fails in a vector during
+  // which the harness stalled is `error: harness late`, and the vector runs again.
+  std::optional<conformance::StallLog> stalls;
+  std::optional<conformance::StallWatcher> stall_watcher;
+  if (!sim) {
+    stalls.emplace(std::chrono::milliseconds(1),
+                   profile->timing_value("harness_slack").value_or(std::chrono::milliseconds(2)));
+    engine_options.stalls = &*stalls;
+    stall_watcher.emplace(
+        *stalls, [port] { return port->now(); }, std::chrono::milliseconds(1));
+  }
   engine_options.on_vector_started = [&](const conformance::Vector& v) {
     console.vector_started(v.id);
   };

@@ -42,7 +42,11 @@
 // Timing is judged from those timestamps (FORMAT.md "Timing"): a window runs from the request's
 // echo, a frame read late counts by its timestamp, and a timing check that fails after the
 // harness itself was late (a `send:` frame or a wait later than $timing.harness_slack) is a
-// harness error ("error: harness late"), not a failure.
+// harness error ("error: harness late"), not a failure. On a real bus the same holds for any
+// check that fails in a vector during which the harness's machine stalled (no thread of the
+// harness ran for longer than $timing.harness_slack: EngineOptions::stalls). Such a vector runs
+// again (EngineOptions::harness_late_attempts); only a verdict reached without the harness
+// being late stands.
 //
 // A DUT that sends nothing at all during `max_silent_vectors` consecutive applicable vectors
 // (or does not answer the identity reads at the start) is lost: the run stops, dut_lost is set
@@ -66,6 +70,7 @@
 
 #include "conformance/result.hpp"
 #include "conformance/simulation_control.hpp"
+#include "conformance/stall_log.hpp"
 #include "conformance/vector.hpp"
 #include "protocol/can/bus.hpp"
 #include "protocol/profile/drive_profile.hpp"
@@ -93,6 +98,12 @@ struct EngineOptions {
   std::uint8_t harness_node = 127;  // heartbeat producer id on a real bus (126 if the DUT is 127)
   can::Duration harness_heartbeat = std::chrono::milliseconds(100);
   SimulationControl* simulation = nullptr;  // not owned; nullptr: no `simulate`
+  // Real bus: the harness's own stalls (stall_log.hpp; not owned; may be null). A check that
+  // fails in a vector during which the harness stalled is `error: harness late`.
+  const StallLog* stalls = nullptr;
+  // A vector whose verdict is `error: harness late` runs again, up to this many attempts in
+  // all; the report lists what the earlier attempts saw.
+  int harness_late_attempts = 3;
   // The DUT's object dictionary as its EDS describes it (not owned; may be null): data sizes for
   // sdo_write without `size:`, object names for the dissector.
   const cia301::ObjectDictionary* eds = nullptr;

@@ -156,6 +156,9 @@ can::TimePoint VectorRun::request_time() {
 
 StepStatus VectorRun::fail_timed(std::string action, std::string expected, std::string actual,
                                  Observation observed) {
+  if (harness_late_.empty()) {
+    if (auto why = stall_in_vector()) note_harness_late(std::move(*why));
+  }
   if (harness_late_.empty())
     return fail(std::move(action), std::move(expected), std::move(actual), std::move(observed));
   message_ = fmt::format(
@@ -224,8 +227,28 @@ std::string VectorRun::recent_frames(std::size_t from_index, std::size_t max) co
                      fmt::join(texts, ", "), "");
 }
 
+std::optional<std::string> VectorRun::stall_in_vector() const {
+  if (context_.options.stalls == nullptr) return std::nullopt;
+  const auto stall = context_.options.stalls->longest_between(result_.started, now());
+  if (!stall) return std::nullopt;
+  return fmt::format(
+      "no thread of the harness ran for {} ({} after the vector started): its machine stalled, "
+      "so its requests and the frames' timestamps may be late",
+      format_ms(stall->length()),
+      format_ms(std::max(stall->from, result_.started) - result_.started));
+}
+
 StepStatus VectorRun::fail(std::string action, std::string expected, std::string actual,
                            Observation observed) {
+  // The harness stalled in this vector: nothing that depends on when it asked or when a frame
+  // came can be judged (stall_log.hpp); the engine runs the vector again.
+  if (harness_late_.empty()) {
+    if (auto why = stall_in_vector()) {
+      note_harness_late(std::move(*why));
+      return fail_timed(std::move(action), std::move(expected), std::move(actual),
+                        std::move(observed));
+    }
+  }
   if (vector_timed_out() && actual.find("vector timeout") == std::string::npos)
     actual += fmt::format(" (vector timeout {} reached)",
                           profile::format_duration(resolve(vector_.timeout)));

@@ -127,6 +127,9 @@ class VectorRun {
   // wait that ended that much late.
   const std::string& harness_late() const { return harness_late_; }
   void note_harness_late(std::string why);
+  // The longest stall of the harness's machine since this vector started (EngineOptions::
+  // stalls), described; nullopt when it did not stall (or nothing watches).
+  std::optional<std::string> stall_in_vector() const;
   // The loopback echo of one of the harness's frames (its wire time) came in.
   void on_echo(can::TimePoint at);
 

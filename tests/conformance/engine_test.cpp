@@ -870,6 +870,54 @@ TEST_F(EngineDriveTest, MotionVectorsConsumeTheHarnessHeartbeatAfterEveryReset) 
   EXPECT_TRUE(again);
 }
 
+TEST_F(EngineDriveTest, FailureWhileTheHarnessStalledIsNoVerdictAndRunsAgain) {
+  // Given a vector that fails against the drive (1000h is not 0), and a harness whose machine
+  // stalled for the whole run (the stall log of a real bus)
+  const auto wrong = make_vector(
+      "    - sdo_read: {index: 0x1000, sub: 0}\n"
+      "      expect: {value: 0}\n");
+  StallLog stalls(1ms, 2ms);
+  stalls.tick(can::TimePoint(-1s));
+  stalls.tick(can::TimePoint(10h));
+  EngineOptions options;
+  options.stalls = &stalls;
+  Engine engine(*harness_, profile_, options);
+  // When the run goes
+  const auto result = engine.run({wrong});
+  // Then the failure is not charged to the drive: error: harness late, after three attempts,
+  // each earlier attempt listed in the evidence and the run's notes
+  ASSERT_EQ(result.vectors.size(), 1U);
+  const auto& vector = result.vectors.front();
+  EXPECT_EQ(vector.verdict, Verdict::error);
+  EXPECT_EQ(vector.message.rfind("error: harness late", 0), 0U) << vector.message;
+  EXPECT_NE(vector.message.find("no thread of the harness ran"), std::string::npos);
+  ASSERT_GE(vector.checks.size(), 2U);
+  EXPECT_EQ(vector.checks[0].expected.rfind("attempt 1 of 3", 0), 0U) << vector.checks[0].expected;
+  EXPECT_EQ(vector.checks[1].expected.rfind("attempt 2 of 3", 0), 0U) << vector.checks[1].expected;
+  ASSERT_FALSE(result.harness_notes.empty());
+  EXPECT_NE(result.harness_notes.front().find("t/x: run 3 times"), std::string::npos)
+      << result.harness_notes.front();
+}
+
+TEST_F(EngineDriveTest, StallBeforeTheVectorChangesNothing) {
+  // Given the same failing vector, and a stall that ended before the run
+  const auto wrong = make_vector(
+      "    - sdo_read: {index: 0x1000, sub: 0}\n"
+      "      expect: {value: 0}\n");
+  StallLog stalls(1ms, 2ms);
+  stalls.tick(can::TimePoint(-2s));
+  stalls.tick(can::TimePoint(-1s));
+  EngineOptions options;
+  options.stalls = &stalls;
+  Engine engine(*harness_, profile_, options);
+  // When the run goes; Then the failure is the drive's, judged once
+  const auto result = engine.run({wrong});
+  ASSERT_EQ(result.vectors.size(), 1U);
+  EXPECT_EQ(result.vectors.front().verdict, Verdict::fail) << result.vectors.front().message;
+  for (const auto& check : result.vectors.front().checks)
+    EXPECT_EQ(check.expected.find("attempt"), std::string::npos);
+}
+
 TEST_F(EngineTest, NoDutAtAllIsLostAtOnce) {
   // Given nothing on the bus but the harness
   Engine engine(*harness_, profile_, {});
