@@ -1,0 +1,606 @@
+// The master subset against emulated slaves (EscSlave + CoeSlave over a small dictionary) on
+// the simulated segment: bring-up to OP, SDO through mailbox polling, cyclic LRW, and the
+// error cases (refused transition, slave missing, SII stuck busy or malformed, lost frames,
+// wrong working counter, SM watchdog expiry).
+#include "protocol/ethercat/master.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <memory>
+#include <vector>
+
+#include "coe_test_dictionary.hpp"
+#include "protocol/ethercat/coe_sdo_server.hpp"
+#include "protocol/ethercat/esc_slave.hpp"
+#include "protocol/ethercat/sim_segment.hpp"
+
+namespace drivecheck::ethercat {
+namespace {
+
+using namespace std::chrono_literals;
+using Bytes = std::vector<std::uint8_t>;
+
+constexpr std::uint16_t kSm0 = 0x1000;
+constexpr std::uint16_t kSm1 = 0x1080;
+constexpr std::uint16_t kOutputs = 0x1100;
+constexpr std::uint16_t kInputs = 0x1180;
+
+// A drive-like SII: mailboxes 1000h/1080h (128 octets), SM2 outputs at 1100h with the RxPDO
+// 1600h (6040h, 16 bit), SM3 inputs at 1180h with the TxPDO 1A00h (6041h, 16 bit).
+SiiImage drive_sii_image(std::uint16_t alias) {
+  SiiImage image;
+  image.header.station_alias = alias;
+  image.header.vendor_id = 0x1D;
+  image.header.standard_receive = {kSm0, 128};
+  image.header.standard_send = {kSm1, 128};
+  image.header.mailbox_protocols = kSiiMailboxCoe;
+  image.sync_managers = {
+      {kSm0, 128, 0x26, 0, 1, SiiSyncManagerType::mailbox_out},
+      {kSm1, 128, 0x22, 0, 1, SiiSyncManagerType::mailbox_in},
+      {kOutputs, 2, 0x64, 0, 1, SiiSyncManagerType::outputs},
+      {kInputs, 2, 0x20, 0, 1, SiiSyncManagerType::inputs},
+  };
+  image.rx_pdos = {{0x1600, 2, 0, 0, 0, {{0x6040, 0, 0, 6, 16, 0}}}};
+  image.tx_pdos = {{0x1A00, 3, 0, 0, 0, {{0x6041, 0, 0, 6, 16, 0}}}};
+  return image;
+}
+
+Bytes drive_sii(std::uint16_t alias = 0) {
+  return *build_sii(drive_sii_image(alias));
+}
+
+struct SlaveOptions {
+  std::uint16_t alias = 0;
+  Bytes sii;  // empty: drive_sii(alias)
+  Duration sii_busy_time = 20us;
+  std::function<AlStatusCode(const AlTransition&)> check;
+};
+
+// An emulated drive: the ESC and its state machine, with the CoE front end wired the way
+// protocol/ethercat/README.md describes (SM0 written -> CoeSlave, SM1 free -> next reply,
+// SM1 repeat request -> last reply again and the acknowledge toggled).
+class TestSlave final : public SegmentDevice {
+ public:
+  explicit TestSlave(SlaveOptions options = {}) : options_(std::move(options)) { power_on(); }
+
+  void on_frame(std::span<std::uint8_t> frame, TimePoint arrival,
+                std::optional<TimePoint> return_arrival) override {
+    slave_->on_frame(frame, arrival, return_arrival);
+  }
+
+  // A power cycle: registers, station address, state machine, mailbox all back to power-on.
+  void power_on() {
+    od_ = test::make_test_dictionary();
+    coe_ = std::make_unique<CoeSlave>(od_, MailboxSlaveConfig{.write_size = 128, .read_size = 128},
+                                      CoeSdoServerOptions{.read_size = 128});
+    EscSlaveConfig config;
+    config.esc.sii = options_.sii.empty() ? drive_sii(options_.alias) : options_.sii;
+    config.esc.sii_busy_time = options_.sii_busy_time;
+    config.check = options_.check;
+    config.on_state_change = [this](AlState, AlState to) {
+      if (to == AlState::init) coe_->reset();
+    };
+    config.on_events = [this](EscSlave& slave, const EscEvents& events) { handle(slave, events); };
+    slave_ = std::make_unique<EscSlave>(std::move(config));
+  }
+
+  void post_emergency(std::uint16_t code) {
+    cia301::Emcy emcy;
+    emcy.error_code = code;
+    emcy.error_register = 0x01;
+    ASSERT_TRUE(coe_->post_emergency(emcy));
+    flush(*slave_);
+  }
+  void set_inputs(Bytes bytes) {
+    for (std::size_t i = 0; i < bytes.size(); ++i) {
+      ASSERT_TRUE(slave_->esc().pdi_write8(static_cast<std::uint16_t>(kInputs + i), bytes[i]));
+    }
+  }
+  Bytes outputs() {
+    return {slave_->esc().pdi_read8(kOutputs), slave_->esc().pdi_read8(kOutputs + 1)};
+  }
+  EscSlave& esc_slave() { return *slave_; }
+  cia301::ObjectDictionary& od() { return od_; }
+
+ private:
+  void flush(EscSlave& slave) {
+    if (slave.esc().mailbox_full(1)) return;
+    if (auto reply = coe_->take_reply()) slave.esc().pdi_put_mailbox(1, *reply);
+  }
+  void handle(EscSlave& slave, const EscEvents& events) {
+    if ((events.sm_written & 0x01) != 0) {
+      if (auto request = slave.esc().pdi_take_mailbox(0)) coe_->on_write_mailbox(*request);
+    }
+    if ((events.sm_repeat & 0x02) != 0) {
+      const bool repeat = (slave.esc().sync_manager(1).activate & sm::kActivateRepeat) != 0;
+      if (!slave.esc().mailbox_full(1)) {
+        if (auto last = coe_->repeat_last()) slave.esc().pdi_put_mailbox(1, *last);
+      }
+      const std::uint16_t pdi = reg::sync_manager(1) + 7;
+      const std::uint8_t value = slave.esc().pdi_read8(pdi);
+      slave.esc().pdi_write8(pdi, static_cast<std::uint8_t>(repeat ? (value | sm::kPdiRepeatAck)
+                                                                   : (value & ~sm::kPdiRepeatAck)));
+    }
+    flush(slave);
+  }
+
+  SlaveOptions options_;
+  cia301::ObjectDictionary od_;
+  std::unique_ptr<CoeSlave> coe_;
+  std::unique_ptr<EscSlave> slave_;
+};
+
+// Whether the frame holds a datagram with `command` at register/offset `ado`.
+bool has_datagram(std::span<const std::uint8_t> bytes, Command command, std::uint16_t ado) {
+  auto frame = decode_frame(bytes);
+  if (!frame) return false;
+  for (const Datagram& d : frame->datagrams) {
+    if (d.command == command && d.ado() == ado) return true;
+  }
+  return false;
+}
+
+class MasterRig {
+ public:
+  explicit MasterRig(std::size_t count, SlaveOptions options = {}) {
+    for (std::size_t i = 0; i < count; ++i) {
+      SlaveOptions o = options;
+      if (o.alias == 0) o.alias = static_cast<std::uint16_t>(0x0100 + i);
+      slaves.push_back(std::make_unique<TestSlave>(o));
+      segment.attach(*slaves.back());
+    }
+  }
+  Master make_master(std::optional<std::size_t> expected = std::nullopt) {
+    MasterConfig config;
+    config.scan.expected_slaves = expected;
+    return Master(segment, config);
+  }
+
+  SimSegment segment;
+  std::vector<std::unique_ptr<TestSlave>> slaves;
+};
+
+TEST(MasterBringUp, OneSlaveReachesOpAndExchangesProcessData) {
+  // Given one emulated drive on the segment
+  MasterRig rig(1);
+  Master master = rig.make_master(1);
+  // When the master brings it up to OP and runs a cycle with outputs 000Fh and inputs 0237h
+  const auto up = master.bring_up(AlState::op);
+  ASSERT_TRUE(up) << up.error().message();
+  rig.slaves[0]->set_inputs({0x37, 0x02});
+  master.outputs(0)[0] = 0x0F;
+  const auto cycle = master.cycle();
+  // Then the slave is in OP at station 1001h, and the cycle moved both directions with WKC 3
+  ASSERT_TRUE(cycle) << cycle.error().message();
+  EXPECT_EQ(cycle->wkc, 3);
+  EXPECT_EQ(cycle->expected_wkc, 3);
+  EXPECT_EQ(rig.slaves[0]->esc_slave().al_status().state, AlState::op);
+  EXPECT_EQ(master.slaves()[0].info.station, 0x1001);
+  EXPECT_EQ(master.slaves()[0].info.alias, 0x0100);
+  EXPECT_EQ(master.slaves()[0].sii.image.header.vendor_id, 0x1Du);
+  EXPECT_EQ(rig.slaves[0]->outputs(), (Bytes{0x0F, 0x00}));
+  EXPECT_EQ(Bytes(master.inputs(0).begin(), master.inputs(0).end()), (Bytes{0x37, 0x02}));
+}
+
+TEST(MasterBringUp, ThreeSlavesGetAddressesAliasesAndTheSumOfWorkingCounters) {
+  // Given three drives with aliases 0100h..0102h
+  MasterRig rig(3);
+  Master master = rig.make_master(3);
+  // When the master brings them up to OP and cycles
+  const auto up = master.bring_up(AlState::op);
+  ASSERT_TRUE(up) << up.error().message();
+  const auto cycle = master.cycle();
+  // Then each has its own station address and alias, each is in OP, and the LRW counts 3 x 3
+  ASSERT_TRUE(cycle) << cycle.error().message();
+  EXPECT_EQ(cycle->wkc, 9);
+  EXPECT_EQ(cycle->al_wkc, 3);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(master.slaves()[i].info.station, 0x1001 + i);
+    EXPECT_EQ(master.slaves()[i].info.alias, 0x0100 + i);
+    EXPECT_EQ(rig.slaves[i]->esc_slave().al_status().state, AlState::op);
+  }
+  // And each slave's outputs land in its own SM2
+  master.outputs(1)[0] = 0xAB;
+  master.outputs(2)[1] = 0xCD;
+  ASSERT_TRUE(master.cycle());
+  EXPECT_EQ(rig.slaves[0]->outputs(), (Bytes{0x00, 0x00}));
+  EXPECT_EQ(rig.slaves[1]->outputs(), (Bytes{0xAB, 0x00}));
+  EXPECT_EQ(rig.slaves[2]->outputs(), (Bytes{0x00, 0xCD}));
+}
+
+TEST(MasterBringUp, GoesBackDownAndUpAgain) {
+  // Given a slave in OP
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::op));
+  // When the master requests PREOP, then OP again
+  ASSERT_TRUE(master.request_state(AlState::preop));
+  EXPECT_EQ(rig.slaves[0]->esc_slave().al_status().state, AlState::preop);
+  const auto again = master.request_state(AlState::op);
+  // Then the slave is in OP again and cycles
+  ASSERT_TRUE(again) << again.error().message();
+  EXPECT_EQ(rig.slaves[0]->esc_slave().al_status().state, AlState::op);
+  EXPECT_TRUE(master.cycle());
+}
+
+TEST(MasterSdo, ExpeditedAndSegmentedTransfersThroughMailboxPolling) {
+  // Given a slave in PREOP
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  // When the master reads 1018h:01, writes 6040h and reads it back, reads the 40-octet 1008h
+  // and writes and reads 300 octets of the domain 2000h (segments: the mailbox is 128)
+  const auto vendor = master.sdo_upload(0, {0x1018, 1});
+  const Bytes control{0x0F, 0x00};
+  const auto written = master.sdo_download(0, {0x6040, 0}, control);
+  const auto control_back = master.sdo_upload(0, {0x6040, 0});
+  const auto name = master.sdo_upload(0, {0x1008, 0});
+  Bytes blob(300);
+  for (std::size_t i = 0; i < blob.size(); ++i)
+    blob[i] = static_cast<std::uint8_t>(i * 3);
+  const auto blob_written = master.sdo_download(0, {0x2000, 0}, blob);
+  const auto blob_back = master.sdo_upload(0, {0x2000, 0});
+  // Then every transfer succeeds with the values of the dictionary
+  ASSERT_TRUE(vendor) << vendor.error().message();
+  EXPECT_EQ(*vendor, (Bytes{0x1D, 0, 0, 0}));
+  ASSERT_TRUE(written) << written.error().message();
+  ASSERT_TRUE(control_back);
+  EXPECT_EQ(*control_back, control);
+  ASSERT_TRUE(name) << name.error().message();
+  EXPECT_EQ(*name, Bytes(40, 'N'));
+  ASSERT_TRUE(blob_written) << blob_written.error().message();
+  ASSERT_TRUE(blob_back) << blob_back.error().message();
+  EXPECT_EQ(*blob_back, blob);
+}
+
+TEST(MasterSdo, SdoOnTheSecondSlaveWhileCycling) {
+  // Given two slaves in OP
+  MasterRig rig(2);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::op));
+  // When the master writes 6040h on slave 1 between cycles
+  ASSERT_TRUE(master.cycle());
+  const auto written = master.sdo_download(1, {0x6040, 0}, Bytes{0x06, 0x00});
+  ASSERT_TRUE(master.cycle());
+  // Then slave 1's dictionary holds it and slave 0's does not
+  ASSERT_TRUE(written) << written.error().message();
+  EXPECT_EQ(*master.sdo_upload(1, {0x6040, 0}), (Bytes{0x06, 0x00}));
+  EXPECT_EQ(*master.sdo_upload(0, {0x6040, 0}), (Bytes{0x00, 0x00}));
+}
+
+TEST(MasterSdo, SlaveAbortIsReportedWithItsCode) {
+  // Given a slave in PREOP
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  // When the master writes the read-only 1018h:01 and reads the absent 5555h
+  const auto written = master.sdo_download(0, {0x1018, 1}, Bytes{1, 0, 0, 0});
+  const auto absent = master.sdo_upload(0, {0x5555, 0});
+  // Then both end with sdo_abort and the slave's codes 06010002h and 06020000h
+  ASSERT_FALSE(written);
+  EXPECT_EQ(written.error().code, MasterErrc::sdo_abort);
+  EXPECT_EQ(written.error().abort_code, 0x06010002u);
+  ASSERT_FALSE(absent);
+  EXPECT_EQ(absent.error().abort_code, 0x06020000u);
+  // And the mailbox still works afterwards
+  EXPECT_TRUE(master.sdo_upload(0, {0x1018, 1}));
+}
+
+TEST(MasterSdo, EmergencyReadWhilePollingIsQueued) {
+  // Given a slave in PREOP that raised an emergency 8611h
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  rig.slaves[0]->post_emergency(0x8611);
+  // When the master reads 1018h:01 (the emergency waits in SM1 before the reply)
+  const auto vendor = master.sdo_upload(0, {0x1018, 1});
+  // Then the upload succeeds and the emergency is queued, once
+  ASSERT_TRUE(vendor) << vendor.error().message();
+  const auto emergencies = master.take_emergencies(0);
+  ASSERT_EQ(emergencies.size(), 1u);
+  EXPECT_EQ(emergencies[0].emcy.error_code, 0x8611);
+  EXPECT_TRUE(master.take_emergencies(0).empty());
+}
+
+TEST(MasterSdo, PollMailboxQueuesAnUnsolicitedEmergency) {
+  // Given a slave in OP that raised an emergency 2310h
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::op));
+  rig.slaves[0]->post_emergency(0x2310);
+  // When the master polls the mailbox
+  ASSERT_TRUE(master.poll_mailbox(0));
+  // Then the emergency is queued
+  const auto emergencies = master.take_emergencies(0);
+  ASSERT_EQ(emergencies.size(), 1u);
+  EXPECT_EQ(emergencies[0].emcy.error_code, 0x2310);
+}
+
+TEST(MasterSdo, LostMailboxReadIsRecoveredByTheRepeatRequest) {
+  // Given a slave in PREOP and a segment that loses the next frame reading SM1 after the slave
+  // processed it (the reply left SM1 and never reached the master)
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  FrameFaultRule rule;
+  rule.match = [](std::span<const std::uint8_t> bytes) {
+    return has_datagram(bytes, Command::fprd, kSm1);
+  };
+  rule.max_count = 1;
+  const FaultId fault = rig.segment.drop(rule, 1);
+  // When the master reads 1018h:01
+  const auto vendor = master.sdo_upload(0, {0x1018, 1});
+  // Then the reply comes through a repeat request
+  EXPECT_EQ(rig.segment.fault_hits(fault), 1u);
+  ASSERT_TRUE(vendor) << vendor.error().message();
+  EXPECT_EQ(*vendor, (Bytes{0x1D, 0, 0, 0}));
+  EXPECT_EQ(master.mailbox(0)->repeat_requests(), 1u);
+}
+
+TEST(MasterSdo, SlaveThatNeverAnswersTimesOut) {
+  // Given a slave in PREOP whose every SM1 read is lost from now on
+  MasterRig rig(1);
+  MasterConfig config;
+  config.mailbox.timeout = 10ms;
+  Master master(rig.segment, config);
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  FrameFaultRule rule;
+  rule.match = [](std::span<const std::uint8_t> bytes) {
+    return has_datagram(bytes, Command::fprd, kSm1);
+  };
+  rig.segment.drop(rule, 0);
+  // When the master reads 1018h:01
+  const auto vendor = master.sdo_upload(0, {0x1018, 1});
+  // Then it ends with mailbox_timeout after its repeat requests, never hanging
+  ASSERT_FALSE(vendor);
+  EXPECT_EQ(vendor.error().code, MasterErrc::mailbox_timeout) << vendor.error().message();
+}
+
+TEST(MasterErrors, RefusedTransitionReportsTheAlStatusCodeByName) {
+  // Given a slave whose application refuses PS with 001Dh (invalid output configuration)
+  SlaveOptions options;
+  options.check = [](const AlTransition& t) {
+    return t.name == "PS" ? AlStatusCode::invalid_output_configuration : AlStatusCode::no_error;
+  };
+  MasterRig rig(1, options);
+  Master master = rig.make_master();
+  // When the master brings it up to OP
+  const auto up = master.bring_up(AlState::op);
+  // Then it fails with al_refused, the code 001Dh and its name, and the error is acknowledged
+  ASSERT_FALSE(up);
+  EXPECT_EQ(up.error().code, MasterErrc::al_refused);
+  EXPECT_EQ(up.error().al_status_code, 0x001D);
+  EXPECT_EQ(up.error().station, 0x1001);
+  EXPECT_NE(up.error().message().find("invalid_output_configuration"), std::string::npos)
+      << up.error().message();
+  const AlStatus& status = rig.slaves[0]->esc_slave().al_status();
+  EXPECT_EQ(status.state, AlState::preop);
+  EXPECT_FALSE(status.error);
+}
+
+TEST(MasterErrors, InvalidStateRequestIsRefusedWithItsCode) {
+  // Given a slave in INIT
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::init));
+  // When the master asks one slave for BOOT (it has no bootstrap)
+  const auto boot = master.request_state(0, AlState::boot);
+  // Then the refusal carries 0013h
+  ASSERT_FALSE(boot);
+  EXPECT_EQ(boot.error().code, MasterErrc::al_refused);
+  EXPECT_EQ(boot.error().al_status_code, 0x0013);
+}
+
+TEST(MasterErrors, MissingSlaveIsReported) {
+  // Given one slave where the configuration expects two
+  MasterRig rig(1);
+  Master master = rig.make_master(2);
+  // When the master scans
+  const auto up = master.bring_up();
+  // Then the scan says a slave is missing
+  ASSERT_FALSE(up);
+  EXPECT_EQ(up.error().code, MasterErrc::slave_count);
+  EXPECT_NE(up.error().detail.find("slave missing"), std::string::npos) << up.error().detail;
+}
+
+TEST(MasterErrors, ExtraSlaveIsReported) {
+  // Given three slaves where the configuration expects two
+  MasterRig rig(3);
+  Master master = rig.make_master(2);
+  // When the master scans
+  const auto up = master.bring_up();
+  // Then the scan says there is one too many
+  ASSERT_FALSE(up);
+  EXPECT_EQ(up.error().code, MasterErrc::slave_count);
+  EXPECT_NE(up.error().detail.find("extra slave"), std::string::npos) << up.error().detail;
+}
+
+TEST(MasterErrors, EmptySegmentIsALinkError) {
+  // Given a segment without slaves (an open port)
+  SimSegment segment;
+  Master master(segment);
+  // When the master scans
+  const auto up = master.bring_up();
+  // Then the link's refusal is reported
+  ASSERT_FALSE(up);
+  EXPECT_EQ(up.error().code, MasterErrc::link_error);
+  EXPECT_EQ(up.error().link, LinkError::link_down);
+}
+
+TEST(MasterErrors, SiiStuckBusyTimesOut) {
+  // Given a slave whose EEPROM interface stays busy for an hour after a command
+  SlaveOptions options;
+  options.sii_busy_time = std::chrono::hours(1);
+  MasterRig rig(1, options);
+  Master master = rig.make_master();
+  // When the master reads its SII
+  const auto start = rig.segment.now();
+  const auto up = master.bring_up();
+  // Then it gives up with sii_timeout after the 100 ms timeout, not an hour
+  ASSERT_FALSE(up);
+  EXPECT_EQ(up.error().code, MasterErrc::sii_timeout) << up.error().message();
+  EXPECT_GE(rig.segment.now() - start, 100ms);
+  EXPECT_LT(rig.segment.now() - start, 200ms);
+}
+
+TEST(MasterErrors, SiiWithoutEndMarkerIsMalformed) {
+  // Given a slave whose SII ends inside its category list (the end marker cut off)
+  Bytes sii = drive_sii();
+  sii.resize(sii.size() - 2);
+  SlaveOptions options;
+  options.sii = sii;
+  MasterRig rig(1, options);
+  Master master = rig.make_master();
+  // When the master reads it
+  const auto up = master.bring_up();
+  // Then it is sii_malformed: the list runs past the EEPROM
+  ASSERT_FALSE(up);
+  EXPECT_EQ(up.error().code, MasterErrc::sii_malformed) << up.error().message();
+}
+
+TEST(MasterErrors, SiiWithBadChecksumIsMalformed) {
+  // Given a slave whose SII checksum (word 7) is wrong
+  Bytes sii = drive_sii();
+  sii[14] ^= 0xFF;
+  SlaveOptions options;
+  options.sii = sii;
+  MasterRig rig(1, options);
+  Master master = rig.make_master();
+  // When the master reads it
+  const auto up = master.bring_up();
+  // Then the parse error is reported as sii_malformed, naming the checksum
+  ASSERT_FALSE(up);
+  EXPECT_EQ(up.error().code, MasterErrc::sii_malformed);
+  EXPECT_NE(up.error().detail.find("checksum"), std::string::npos) << up.error().detail;
+}
+
+TEST(MasterErrors, DroppedFrameIsSentAgain) {
+  // Given a segment that loses the first station address write before any slave sees it
+  MasterRig rig(2);
+  FrameFaultRule rule;
+  rule.match = [](std::span<const std::uint8_t> bytes) {
+    return has_datagram(bytes, Command::apwr, reg::kStationAddress);
+  };
+  rule.max_count = 1;
+  const FaultId fault = rig.segment.drop(rule, 0);
+  Master master = rig.make_master(2);
+  // When the master brings the slaves up
+  const auto up = master.bring_up(AlState::op);
+  // Then the lost frame was sent again and the bring-up succeeded
+  ASSERT_TRUE(up) << up.error().message();
+  EXPECT_EQ(rig.segment.fault_hits(fault), 1u);
+  EXPECT_EQ(master.port().frames_lost(), 1u);
+}
+
+TEST(MasterErrors, FramesLostForGoodGiveNoResponse) {
+  // Given a slave in OP and a segment that loses every frame from now on
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::op));
+  rig.segment.drop(FrameFaultRule{}, 0);
+  // When the master reads the AL status
+  const auto states = master.read_states();
+  // Then it reports no_response after its retries
+  ASSERT_FALSE(states);
+  EXPECT_EQ(states.error().code, MasterErrc::no_response);
+  EXPECT_EQ(master.port().frames_lost(), 4u);
+}
+
+TEST(MasterCycle, WorkingCounterMismatchWhenASlaveIsNotInSafeop) {
+  // Given two slaves in OP, the second of which is power-cycled (INIT, no SM/FMMU setup)
+  MasterRig rig(2);
+  Master master = rig.make_master(2);
+  ASSERT_TRUE(master.bring_up(AlState::op));
+  ASSERT_TRUE(master.cycle());
+  rig.slaves[1]->power_on();
+  // When the master runs the next cycle
+  const auto cycle = master.cycle();
+  // Then it reports process_data_wkc: 3 of the expected 6
+  ASSERT_FALSE(cycle);
+  EXPECT_EQ(cycle.error().code, MasterErrc::process_data_wkc);
+  EXPECT_EQ(master.last_cycle().wkc, 3);
+  EXPECT_EQ(master.last_cycle().expected_wkc, 6);
+  EXPECT_NE(cycle.error().detail.find("LRW working counter 3, expected 6"), std::string::npos)
+      << cycle.error().detail;
+}
+
+TEST(MasterCycle, CyclingKeepsTheWatchdogFed) {
+  // Given a slave in OP (SM watchdog 100 ms)
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::op));
+  // When the master cycles every millisecond for half a second
+  for (int i = 0; i < 500; ++i) {
+    const auto cycle = master.cycle();
+    ASSERT_TRUE(cycle) << i << ": " << cycle.error().message();
+    master.port().wait(1ms);
+  }
+  // Then the slave stays in OP without error
+  EXPECT_EQ(rig.slaves[0]->esc_slave().al_status().state, AlState::op);
+  EXPECT_FALSE(rig.slaves[0]->esc_slave().al_status().error);
+}
+
+TEST(MasterCycle, WatchdogExpiryWhenTheCycleStopsIsReported) {
+  // Given a slave in OP whose cycle stops for 200 ms (SM watchdog 100 ms)
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::op));
+  ASSERT_TRUE(master.cycle());
+  master.port().wait(200ms);
+  // When the master runs the next cycle
+  const auto cycle = master.cycle();
+  // Then it reports al_state_lost with 001Bh (sync manager watchdog) for station 1001h
+  ASSERT_FALSE(cycle);
+  EXPECT_EQ(cycle.error().code, MasterErrc::al_state_lost);
+  EXPECT_EQ(cycle.error().al_status_code, 0x001B);
+  EXPECT_EQ(cycle.error().station, 0x1001);
+  EXPECT_NE(cycle.error().detail.find("sync_manager_watchdog"), std::string::npos)
+      << cycle.error().detail;
+  EXPECT_EQ(rig.slaves[0]->esc_slave().al_status().state, AlState::safeop);
+  // And requesting OP again acknowledges the error and brings it back
+  const auto again = master.request_state(AlState::op);
+  ASSERT_TRUE(again) << again.error().message();
+  EXPECT_TRUE(master.cycle());
+}
+
+TEST(MasterCycle, CycleBeforeSafeopIsNotConfigured) {
+  // Given a slave in PREOP
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  // When the master runs a cycle
+  const auto cycle = master.cycle();
+  // Then it says the process data is not configured yet
+  ASSERT_FALSE(cycle);
+  EXPECT_EQ(cycle.error().code, MasterErrc::not_configured);
+}
+
+TEST(MasterConfigPlan, LayoutFollowsTheSiiAndPdoSizes) {
+  // Given the drive SII with its SyncM length raised to 8 but 16 bits of RxPDO for SM2
+  SiiImage image = drive_sii_image(0);
+  image.sync_managers[2].length = 8;
+  // When the master plans the slave and assigns logical addresses from 10000h
+  auto layout = plan_slave(image, 0x1001);
+  ASSERT_TRUE(layout);
+  std::vector<SlaveLayout> layouts{*layout, *layout};
+  const std::size_t size = assign_logical_addresses(layouts, 0x10000);
+  // Then the mailbox SMs follow the SII words, SM2 has the PDO size, and the FMMUs map
+  // outputs then inputs per slave
+  ASSERT_TRUE(layouts[0].mailbox_out);
+  EXPECT_EQ(layouts[0].mailbox_out->start, kSm0);
+  EXPECT_EQ(layouts[0].mailbox_in->start, kSm1);
+  ASSERT_EQ(layouts[0].process_data.size(), 2u);
+  EXPECT_EQ(layouts[0].process_data[0].length, 2);
+  EXPECT_EQ(layouts[0].process_data[0].control, 0x64);
+  EXPECT_EQ(size, 8u);
+  ASSERT_EQ(layouts[1].fmmus.size(), 2u);
+  EXPECT_EQ(layouts[1].fmmus[0].logical, 0x10004u);
+  EXPECT_EQ(layouts[1].fmmus[0].type, 2);
+  EXPECT_EQ(layouts[1].fmmus[1].logical, 0x10006u);
+  EXPECT_EQ(layouts[1].fmmus[1].physical, kInputs);
+  EXPECT_EQ(layouts[1].expected_wkc(), 3);
+}
+
+}  // namespace
+}  // namespace drivecheck::ethercat
