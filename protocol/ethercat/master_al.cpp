@@ -41,7 +41,11 @@ Expected<AlReading, MasterError> request_al_state(MasterPort& port, std::uint16_
   for (;;) {
     auto now = read_al_status(port, station);
     if (!now) return now;
-    if (now->error()) {
+    // A slave that has not yet handled the request (a real one takes its time) still shows the
+    // error it had before: that is no refusal until the timeout says so.
+    const bool unchanged = before->error() && now->status == before->status &&
+                           now->code == before->code && port.now() < deadline;
+    if (now->error() && !unchanged) {
       if (options.acknowledge) {
         if (auto ack = acknowledge_al_error(port, *now); !ack) return Unexpected(ack.error());
       }

@@ -9,6 +9,8 @@
 //     keeps the SM watchdog fed and gives the slave valid outputs before OP):
 //     - the requested state without error indication: done;
 //     - the error indication set: the transition was refused (or the slave fell back); the
+//       error the slave showed before the request counts only when it is still unchanged at
+//       the timeout (a slave may take a while to handle the acknowledge); the
 //       code in 0134h is read, the error acknowledged (FPWR 0120h = current state | 10h), and
 //       the result is al_refused with the code named from al_status_codes.inc;
 //     - neither before AlOptions::timeout: al_timeout, naming the state the slave is in.
