@@ -252,6 +252,40 @@ TEST(MasterSdo, SlaveThatNeverAnswersTimesOut) {
   EXPECT_EQ(vendor.error().code, MasterErrc::mailbox_timeout) << vendor.error().message();
 }
 
+TEST(MasterSdo, MailboxErrorReplyIsReadWithItsCode) {
+  // Given a slave in PREOP that serves CoE only
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  // When the master sends it a FoE message and reads the reply
+  const Bytes foe{0x01, 0x00, 0x00, 0x00};
+  ASSERT_TRUE(master.mailbox(0)->send(MailboxType::foe, foe));
+  const auto reply = master.mailbox(0)->receive(master.port().now() + 10ms);
+  // Then the reply is a mailbox ERR with 0002h (unsupported protocol)
+  ASSERT_TRUE(reply) << reply.error().message();
+  ASSERT_TRUE(*reply);
+  ASSERT_TRUE((*reply)->error);
+  EXPECT_EQ(*(*reply)->error, 0x0002);
+}
+
+TEST(MasterSdo, GarbageInTheReadMailboxIsAClearError) {
+  // Given a slave in PREOP whose read mailbox holds a header claiming FFFFh octets
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  Bytes garbage(128, 0xA5);
+  garbage[0] = 0xFF;
+  garbage[1] = 0xFF;
+  ASSERT_TRUE(rig.slaves[0]->esc_slave().esc().pdi_put_mailbox(1, garbage));
+  // When the master reads 1018h:01
+  const auto vendor = master.sdo_upload(0, {0x1018, 1});
+  // Then it ends with mailbox_error naming the invalid size, and nothing crashes
+  ASSERT_FALSE(vendor);
+  EXPECT_EQ(vendor.error().code, MasterErrc::mailbox_error);
+  EXPECT_NE(vendor.error().detail.find("no valid mailbox"), std::string::npos)
+      << vendor.error().detail;
+}
+
 TEST(MasterErrors, RefusedTransitionReportsTheAlStatusCodeByName) {
   // Given a slave whose application refuses PS with 001Dh (invalid output configuration)
   SlaveOptions options;
