@@ -7,19 +7,9 @@
 namespace drivecheck::ethercat {
 namespace {
 
+// BOOT is no step on the way up: for the ladder it counts as INIT.
 int rank(AlState state) {
-  switch (state) {
-    case AlState::init:
-    case AlState::boot:
-      return 0;
-    case AlState::preop:
-      return 1;
-    case AlState::safeop:
-      return 2;
-    case AlState::op:
-      return 3;
-  }
-  return 0;
+  return state == AlState::boot ? 0 : al_state_rank(state);
 }
 
 constexpr AlState kLadder[] = {AlState::init, AlState::preop, AlState::safeop, AlState::op};

@@ -175,13 +175,12 @@ Expected<Datagram, MasterError> MasterPort::exchange(Datagram datagram) {
   return std::move(back->front());
 }
 
-Expected<std::vector<std::uint8_t>, MasterError> MasterPort::read(Command command,
-                                                                  std::uint16_t adp,
-                                                                  std::uint16_t ado,
-                                                                  std::size_t size,
-                                                                  std::uint16_t expected_wkc) {
-  auto back =
-      exchange(Datagram::physical(command, 0, adp, ado, std::vector<std::uint8_t>(size, 0)));
+namespace {
+
+Expected<std::vector<std::uint8_t>, MasterError> checked(Expected<Datagram, MasterError> back,
+                                                         Command command, std::uint16_t adp,
+                                                         std::uint16_t ado,
+                                                         std::uint16_t expected_wkc) {
   if (!back) return Unexpected(back.error());
   if (back->working_counter != expected_wkc) {
     return master_error(
@@ -193,18 +192,24 @@ Expected<std::vector<std::uint8_t>, MasterError> MasterPort::read(Command comman
   return std::move(back->data);
 }
 
+}  // namespace
+
+Expected<std::vector<std::uint8_t>, MasterError> MasterPort::read(Command command,
+                                                                  std::uint16_t adp,
+                                                                  std::uint16_t ado,
+                                                                  std::size_t size,
+                                                                  std::uint16_t expected_wkc) {
+  return checked(
+      exchange(Datagram::physical(command, 0, adp, ado, std::vector<std::uint8_t>(size, 0))),
+      command, adp, ado, expected_wkc);
+}
+
 Expected<void, MasterError> MasterPort::write(Command command, std::uint16_t adp, std::uint16_t ado,
                                               std::vector<std::uint8_t> data,
                                               std::uint16_t expected_wkc) {
-  auto back = exchange(Datagram::physical(command, 0, adp, ado, std::move(data)));
-  if (!back) return Unexpected(back.error());
-  if (back->working_counter != expected_wkc) {
-    return master_error(
-        MasterErrc::working_counter,
-        fmt::format("{}: working counter {}, expected {}", describe_access(command, adp, ado),
-                    back->working_counter, expected_wkc),
-        adp);
-  }
+  auto done = checked(exchange(Datagram::physical(command, 0, adp, ado, std::move(data))), command,
+                      adp, ado, expected_wkc);
+  if (!done) return Unexpected(done.error());
   return {};
 }
 
