@@ -63,6 +63,9 @@ struct MasterSlave {
 class Master {
  public:
   explicit Master(Link& link, MasterConfig config = {});
+  // The mailboxes hold the port by reference: a Master stays where it was made.
+  Master(const Master&) = delete;
+  Master& operator=(const Master&) = delete;
 
   // Scan, SII, plan (no state change). Called by bring_up; again: a fresh scan.
   Expected<void, MasterError> scan();

@@ -119,6 +119,40 @@ TEST(MasterBringUp, GoesBackDownAndUpAgain) {
   EXPECT_TRUE(master.cycle());
 }
 
+// An input-only slave without mailbox: SM0 holds one byte of inputs (TxPDO 1A00h, 8 bit).
+Bytes input_only_sii() {
+  SiiImage image;
+  image.sync_managers = {{0x1000, 1, 0x00, 0, 1, SiiSyncManagerType::inputs}};
+  image.tx_pdos = {{0x1A00, 0, 0, 0, 0, {{0x6000, 1, 0, 5, 8, 0}}}};
+  return *build_sii(image);
+}
+
+TEST(MasterBringUp, MixedSegmentWithAnInputOnlySlaveWithoutMailbox) {
+  // Given a drive and an input-only slave without mailbox behind it
+  MasterRig rig(1);
+  SlaveOptions io_options;
+  io_options.sii = input_only_sii();
+  TestSlave io(io_options);
+  rig.segment.attach(io);
+  Master master = rig.make_master(2);
+  // When the master brings both up to OP and cycles with the input byte 5Ah
+  const auto up = master.bring_up(AlState::op);
+  ASSERT_TRUE(up) << up.error().message();
+  ASSERT_TRUE(io.esc_slave().esc().pdi_write8(0x1000, 0x5A));
+  const auto cycle = master.cycle();
+  // Then the LRW counts 3 + 1, the input arrives, and SDO to the slave without mailbox says so
+  ASSERT_TRUE(cycle) << cycle.error().message();
+  EXPECT_EQ(cycle->wkc, 4);
+  EXPECT_EQ(cycle->expected_wkc, 4);
+  EXPECT_TRUE(master.outputs(1).empty());
+  ASSERT_EQ(master.inputs(1).size(), 1u);
+  EXPECT_EQ(master.inputs(1)[0], 0x5A);
+  EXPECT_EQ(io.esc_slave().al_status().state, AlState::op);
+  const auto sdo = master.sdo_upload(1, {0x1018, 1});
+  ASSERT_FALSE(sdo);
+  EXPECT_EQ(sdo.error().code, MasterErrc::not_configured);
+}
+
 TEST(MasterSdo, ExpeditedAndSegmentedTransfersThroughMailboxPolling) {
   // Given a slave in PREOP
   MasterRig rig(1);
