@@ -147,6 +147,26 @@ Expected<void, MasterError> Master::request_state(AlState target) {
   return {};
 }
 
+std::optional<PdoEntryPlace> Master::locate(std::size_t slave, Multiplexer mux) const {
+  if (slave >= slaves_.size()) return std::nullopt;
+  return locate_pdo_entry(slaves_[slave].sii.image, slaves_[slave].layout, mux.index,
+                          mux.sub_index);
+}
+
+std::optional<std::uint64_t> Master::input(std::size_t slave, Multiplexer mux) const {
+  const auto place = locate(slave, mux);
+  if (!place) return std::nullopt;
+  return get_bits(place->outputs ? image_.outputs_view(slave) : image_.inputs(slave),
+                  place->bit_offset, place->bit_length);
+}
+
+bool Master::set_output(std::size_t slave, Multiplexer mux, std::uint64_t value) {
+  const auto place = locate(slave, mux);
+  if (!place || !place->outputs) return false;
+  set_bits(image_.outputs(slave), place->bit_offset, place->bit_length, value);
+  return true;
+}
+
 Expected<std::vector<AlReading>, MasterError> Master::read_states() {
   std::vector<AlReading> out;
   for (MasterSlave& slave : slaves_) {

@@ -95,6 +95,13 @@ class Master {
   std::span<std::uint8_t> outputs(std::size_t slave) { return image_.outputs(slave); }
   std::span<const std::uint8_t> inputs(std::size_t slave) const { return image_.inputs(slave); }
 
+  // A mapped object in the process image by the SII's PDO list (locate_pdo_entry): where it
+  // lies, its value among the slave's inputs (or outputs), and setting it among the outputs.
+  // nullopt / false: not mapped (or, for set_output, mapped as an input).
+  std::optional<PdoEntryPlace> locate(std::size_t slave, Multiplexer mux) const;
+  std::optional<std::uint64_t> input(std::size_t slave, Multiplexer mux) const;
+  bool set_output(std::size_t slave, Multiplexer mux, std::uint64_t value);
+
   // AL status and code of every slave now.
   Expected<std::vector<AlReading>, MasterError> read_states();
 

@@ -32,6 +32,54 @@ std::size_t pdo_bits(const std::vector<SiiPdo>& pdos, std::size_t sm, bool& any)
 
 }  // namespace
 
+std::optional<PdoEntryPlace> locate_pdo_entry(const SiiImage& sii, const SlaveLayout& layout,
+                                              std::uint16_t index, std::uint8_t sub_index) {
+  for (const bool outputs : {true, false}) {
+    std::size_t sm_base = 0;  // bits of the earlier SMs of this direction
+    for (const SyncManagerSetup& sm : layout.process_data) {
+      if (sm.outputs != outputs) continue;
+      std::size_t bit = sm_base;
+      for (const SiiPdo& pdo : outputs ? sii.rx_pdos : sii.tx_pdos) {
+        if (pdo.sync_manager != sm.index) continue;
+        for (const SiiPdoEntry& entry : pdo.entries) {
+          if (entry.index == index && entry.subindex == sub_index && entry.bit_length > 0) {
+            if (bit + entry.bit_length > sm_base + sm.length * std::size_t{8}) return std::nullopt;
+            return PdoEntryPlace{outputs, bit, entry.bit_length};
+          }
+          bit += entry.bit_length;
+        }
+      }
+      sm_base += sm.length * std::size_t{8};
+    }
+  }
+  return std::nullopt;
+}
+
+std::uint64_t get_bits(std::span<const std::uint8_t> bytes, std::size_t bit_offset,
+                       unsigned bit_length) {
+  std::uint64_t value = 0;
+  for (unsigned i = 0; i < bit_length && i < 64; ++i) {
+    const std::size_t bit = bit_offset + i;
+    if (bit / 8 >= bytes.size()) break;
+    if ((bytes[bit / 8] >> (bit % 8)) & 1u) value |= std::uint64_t{1} << i;
+  }
+  return value;
+}
+
+void set_bits(std::span<std::uint8_t> bytes, std::size_t bit_offset, unsigned bit_length,
+              std::uint64_t value) {
+  for (unsigned i = 0; i < bit_length && i < 64; ++i) {
+    const std::size_t bit = bit_offset + i;
+    if (bit / 8 >= bytes.size()) break;
+    const auto mask = static_cast<std::uint8_t>(1u << (bit % 8));
+    if ((value >> i) & 1u) {
+      bytes[bit / 8] |= mask;
+    } else {
+      bytes[bit / 8] &= static_cast<std::uint8_t>(~mask);
+    }
+  }
+}
+
 std::vector<std::uint8_t> sync_manager_bytes(const SyncManagerSetup& sm, bool enable) {
   return {static_cast<std::uint8_t>(sm.start),
           static_cast<std::uint8_t>(sm.start >> 8),

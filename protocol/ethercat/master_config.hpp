@@ -25,6 +25,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "protocol/ethercat/master_link.hpp"
@@ -74,6 +75,26 @@ std::size_t assign_logical_addresses(std::vector<SlaveLayout>& slaves, std::uint
 Expected<void, MasterError> write_mailbox_setup(MasterPort& port, const SlaveLayout& layout);
 // Writes the process data SMs and the FMMUs.
 Expected<void, MasterError> write_process_data_setup(MasterPort& port, const SlaveLayout& layout);
+
+// Where a mapped object lies in a slave's process data, by the SII's PDO list: the slave's
+// outputs (RxPDOs) or inputs (TxPDOs) are its process data SMs of that direction in SM order,
+// each the PDOs the SII assigns to it in SII order, each its entries in order (bit-packed).
+// This is the SII's default mapping; a PDO configuration changed by CoE (1C12h/1C13h,
+// 1600h+/1A00h+) is not reflected. nullopt: no PDO entry maps the object, or the SM's length
+// did not come from PDOs.
+struct PdoEntryPlace {
+  bool outputs = false;        // in the slave's outputs (RxPDO) or inputs (TxPDO)
+  std::size_t bit_offset = 0;  // from the first bit of the slave's outputs / inputs
+  std::uint8_t bit_length = 0;
+};
+std::optional<PdoEntryPlace> locate_pdo_entry(const SiiImage& sii, const SlaveLayout& layout,
+                                              std::uint16_t index, std::uint8_t sub_index);
+// Reads / writes up to 64 bits little-endian at a bit offset (bits past the span read 0 and are
+// not written).
+std::uint64_t get_bits(std::span<const std::uint8_t> bytes, std::size_t bit_offset,
+                       unsigned bit_length);
+void set_bits(std::span<std::uint8_t> bytes, std::size_t bit_offset, unsigned bit_length,
+              std::uint64_t value);
 
 // The 8 register bytes of a SyncManager / 16 of an FMMU.
 std::vector<std::uint8_t> sync_manager_bytes(const SyncManagerSetup& sm, bool enable);

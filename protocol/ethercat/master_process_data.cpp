@@ -21,6 +21,11 @@ std::span<std::uint8_t> ProcessImage::outputs(std::size_t slave) {
   return std::span(image_).subspan(ranges_[slave].output_offset, ranges_[slave].output_size);
 }
 
+std::span<const std::uint8_t> ProcessImage::outputs_view(std::size_t slave) const {
+  if (slave >= ranges_.size()) return {};
+  return std::span(image_).subspan(ranges_[slave].output_offset, ranges_[slave].output_size);
+}
+
 std::span<const std::uint8_t> ProcessImage::inputs(std::size_t slave) const {
   if (slave >= ranges_.size()) return {};
   return std::span(image_).subspan(ranges_[slave].input_offset, ranges_[slave].input_size);

@@ -36,6 +36,7 @@ class ProcessImage {
 
   std::span<std::uint8_t> outputs(std::size_t slave);
   std::span<const std::uint8_t> inputs(std::size_t slave) const;
+  std::span<const std::uint8_t> outputs_view(std::size_t slave) const;
   std::uint16_t expected_wkc() const { return expected_wkc_; }
   std::uint32_t logical_base() const { return base_; }
   std::size_t size() const { return image_.size(); }

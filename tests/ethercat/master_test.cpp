@@ -78,6 +78,41 @@ TEST(MasterBringUp, OneSlaveReachesOpAndExchangesProcessData) {
   EXPECT_EQ(Bytes(master.inputs(0).begin(), master.inputs(0).end()), (Bytes{0x37, 0x02}));
 }
 
+TEST(MasterBringUp, MappedObjectsAreFoundByTheSiiPdoList) {
+  // Given a drive in OP whose SII maps 6040h in its RxPDO and 6041h in its TxPDO
+  MasterRig rig(1);
+  Master master = rig.make_master(1);
+  ASSERT_TRUE(master.bring_up(AlState::op));
+  rig.slaves[0]->set_inputs({0x37, 0x02});
+  // When the master sets the controlword 000Fh by its object and cycles
+  ASSERT_TRUE(master.set_output(0, {0x6040, 0}, 0x000F));
+  ASSERT_TRUE(master.cycle());
+  // Then the slave has the controlword, the statusword reads 0237h, and unmapped objects or
+  // inputs as outputs are refused
+  EXPECT_EQ(rig.slaves[0]->outputs(), (Bytes{0x0F, 0x00}));
+  EXPECT_EQ(master.input(0, {0x6041, 0}), 0x0237u);
+  EXPECT_EQ(master.input(0, {0x6040, 0}), 0x000Fu);
+  EXPECT_FALSE(master.set_output(0, {0x6041, 0}, 1));
+  EXPECT_FALSE(master.locate(0, {0x6064, 0}));
+  const auto place = master.locate(0, {0x6041, 0});
+  ASSERT_TRUE(place);
+  EXPECT_FALSE(place->outputs);
+  EXPECT_EQ(place->bit_offset, 0u);
+  EXPECT_EQ(place->bit_length, 16);
+}
+
+TEST(MasterConfigPlan, BitsAreReadAndWrittenAtAnyOffset) {
+  // Given three zero bytes
+  Bytes bytes(3, 0);
+  // When 11 bits of 5A5h are written at bit 5 and read back
+  set_bits(bytes, 5, 11, 0x5A5);
+  // Then they read back unchanged and no other bit is set
+  EXPECT_EQ(get_bits(bytes, 5, 11), 0x5A5u);
+  EXPECT_EQ(get_bits(bytes, 0, 5), 0u);
+  EXPECT_EQ(get_bits(bytes, 16, 8), 0u);
+  EXPECT_EQ(bytes, (Bytes{0xA0, 0xB4, 0x00}));
+}
+
 TEST(MasterBringUp, ThreeSlavesGetAddressesAliasesAndTheSumOfWorkingCounters) {
   // Given three drives with aliases 0100h..0102h
   MasterRig rig(3);
@@ -147,6 +182,7 @@ TEST(MasterBringUp, MixedSegmentWithAnInputOnlySlaveWithoutMailbox) {
   EXPECT_TRUE(master.outputs(1).empty());
   ASSERT_EQ(master.inputs(1).size(), 1u);
   EXPECT_EQ(master.inputs(1)[0], 0x5A);
+  EXPECT_EQ(master.input(1, {0x6000, 1}), 0x5Au);
   EXPECT_EQ(io.esc_slave().al_status().state, AlState::op);
   const auto sdo = master.sdo_upload(1, {0x1018, 1});
   ASSERT_FALSE(sdo);
