@@ -11,7 +11,7 @@
 // (mailbox_timeout). A lost frame is sent again (same counter: the slave does not execute a
 // repeated request twice).
 //
-// Receiving: one frame with FPRD of SM1's status byte (0805h + 8, bit 3 full) and FPRD of the
+// Receiving: one frame with FPRD of SM1's status byte (080Dh, bit 3 full) and FPRD of the
 // whole SM1 buffer; the buffer's working counter 1 means a message was read (the ESC answers an
 // empty mailbox with working counter 0). That frame is never resent blindly (reading empties
 // SM1): when it is lost, the master toggles the repeat request and waits for the slave's
