@@ -303,6 +303,30 @@ TEST(MasterSdo, LostMailboxReadIsRecoveredByTheRepeatRequest) {
   EXPECT_EQ(master.mailbox(0)->repeat_requests(), 1u);
 }
 
+TEST(MasterSdo, LostAnswerToAMailboxWriteIsSentAgainWithTheSameCounter) {
+  // Given a slave in PREOP and a segment that loses the answer to the next SM0 write after the
+  // slave took the request
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  FrameFaultRule rule;
+  rule.match = [](std::span<const std::uint8_t> bytes) {
+    return has_datagram(bytes, Command::fpwr, kSm0);
+  };
+  rule.max_count = 1;
+  const FaultId fault = rig.segment.drop(rule, 1);
+  // When the master reads 1018h:01
+  const auto vendor = master.sdo_upload(0, {0x1018, 1});
+  // Then the write is sent again (the slave sees a repeat and does not answer twice) and the
+  // upload succeeds with one reply
+  EXPECT_EQ(rig.segment.fault_hits(fault), 1u);
+  ASSERT_TRUE(vendor) << vendor.error().message();
+  EXPECT_EQ(*vendor, (Bytes{0x1D, 0, 0, 0}));
+  const auto more = master.mailbox(0)->poll();
+  ASSERT_TRUE(more);
+  EXPECT_FALSE(*more) << "a second reply to the repeated request";
+}
+
 TEST(MasterSdo, SlaveThatNeverAnswersTimesOut) {
   // Given a slave in PREOP whose every SM1 read is lost from now on
   MasterRig rig(1);
@@ -444,6 +468,19 @@ TEST(MasterErrors, SiiStuckBusyTimesOut) {
   EXPECT_EQ(up.error().code, MasterErrc::sii_timeout) << up.error().message();
   EXPECT_GE(rig.segment.now() - start, 100ms);
   EXPECT_LT(rig.segment.now() - start, 200ms);
+}
+
+TEST(MasterErrors, SiiHeldByThePdiIsAnSiiError) {
+  // Given a slave whose application holds the EEPROM (0501h bit 0)
+  MasterRig rig(1);
+  ASSERT_TRUE(rig.slaves[0]->esc_slave().esc().pdi_write8(reg::kSiiPdiAccess, 0x01));
+  Master master = rig.make_master();
+  // When the master reads its SII
+  const auto up = master.bring_up();
+  // Then it says the PDI holds the EEPROM
+  ASSERT_FALSE(up);
+  EXPECT_EQ(up.error().code, MasterErrc::sii_error);
+  EXPECT_NE(up.error().detail.find("PDI holds"), std::string::npos) << up.error().detail;
 }
 
 TEST(MasterErrors, SiiWithoutEndMarkerIsMalformed) {
