@@ -125,7 +125,8 @@ Expected<std::vector<Datagram>, MasterError> MasterPort::exchange(std::vector<Da
 Expected<std::vector<Datagram>, MasterError> MasterPort::exchange(std::vector<Datagram> datagrams,
                                                                   ExchangeOptions options) {
   if (datagrams.empty()) return std::vector<Datagram>{};
-  const std::string first = fmt::format("{}", datagrams.front());
+  // Described only when something goes wrong (formatting costs more than the exchange).
+  const auto first = [&datagrams] { return fmt::format("{}", datagrams.front()); };
   for (unsigned attempt = 0; attempt <= options.retries; ++attempt) {
     const std::uint8_t tag = ++tag_;
     for (Datagram& d : datagrams)
@@ -137,13 +138,13 @@ Expected<std::vector<Datagram>, MasterError> MasterPort::exchange(std::vector<Da
     if (!bytes) {
       return master_error(MasterErrc::frame_too_long,
                           fmt::format("{} datagrams starting with {} do not fit one frame: {}",
-                                      datagrams.size(), first, bytes.error().message()));
+                                      datagrams.size(), first(), bytes.error().message()));
     }
     if (const std::error_code error = link_.send(*bytes)) {
       MasterError e;
       e.code = MasterErrc::link_error;
       e.link = error;
-      e.detail = fmt::format("sending {}: {}", first, error.message());
+      e.detail = fmt::format("sending {}: {}", first(), error.message());
       return Unexpected(std::move(e));
     }
     ++frames_sent_;
@@ -162,7 +163,7 @@ Expected<std::vector<Datagram>, MasterError> MasterPort::exchange(std::vector<Da
   return master_error(
       MasterErrc::no_response,
       fmt::format(
-          "no answer to the frame with {} within {} µs, {} attempt(s)", first,
+          "no answer to the frame with {} within {} µs, {} attempt(s)", first(),
           std::chrono::duration_cast<std::chrono::microseconds>(config_.response_timeout).count(),
           options.retries + 1));
 }
