@@ -39,8 +39,17 @@ constexpr bool transitions_unique() {
 }
 static_assert(transitions_unique(), "kAlTransitions lists each pair of distinct states once");
 
-// Order of the states for "above" and "below": INIT < PREOP = BOOT < SAFEOP < OP.
-int rank(AlState state) {
+class AlStatusCategory final : public std::error_category {
+ public:
+  const char* name() const noexcept override { return "al-status"; }
+  std::string message(int value) const override {
+    return describe_al_status_code(static_cast<std::uint16_t>(value));
+  }
+};
+
+}  // namespace
+
+int al_state_rank(AlState state) {
   switch (state) {
     case AlState::init:
       return 0;
@@ -54,16 +63,6 @@ int rank(AlState state) {
   }
   return 0;
 }
-
-class AlStatusCategory final : public std::error_category {
- public:
-  const char* name() const noexcept override { return "al-status"; }
-  std::string message(int value) const override {
-    return describe_al_status_code(static_cast<std::uint16_t>(value));
-  }
-};
-
-}  // namespace
 
 std::string al_state_name(std::uint8_t value) {
   switch (value) {
@@ -156,7 +155,7 @@ const AlStatus& AlStateMachine::request(std::uint16_t al_control) {
   }
   if (*requested == status_.state) return status_;
   // An unacknowledged error holds the device below: only lower states are reachable.
-  if (status_.error && rank(*requested) > rank(status_.state)) return status_;
+  if (status_.error && al_state_rank(*requested) > al_state_rank(status_.state)) return status_;
   const AlTransition* transition = find_al_transition(status_.state, *requested);
   if (transition == nullptr) {
     status_.error = true;
@@ -183,7 +182,7 @@ const AlStatus& AlStateMachine::request(std::uint16_t al_control) {
 const AlStatus& AlStateMachine::local_error(AlState to, AlStatusCode code) {
   status_.error = true;
   status_.code = code;
-  if (rank(to) < rank(status_.state)) enter(to);
+  if (al_state_rank(to) < al_state_rank(status_.state)) enter(to);
   return status_;
 }
 

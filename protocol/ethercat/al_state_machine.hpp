@@ -47,6 +47,8 @@ std::string al_state_name(std::uint8_t value);
 inline std::string al_state_name(AlState state) {
   return al_state_name(static_cast<std::uint8_t>(state));
 }
+// Order of the states for "above" and "below": INIT 0 < PREOP = BOOT 1 < SAFEOP 2 < OP 3.
+int al_state_rank(AlState state);
 // The state for a 4-bit value, nullopt for the values that name no state.
 std::optional<AlState> al_state_from(std::uint8_t value);
 
