@@ -8,7 +8,9 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <iterator>
 #include <memory>
+#include <random>
 #include <vector>
 
 #include "protocol/cia301/sdo_abort.hpp"
@@ -234,6 +236,12 @@ class Master {
   int replies_ignored_ = 0;
 };
 
+// Disables every SyncManager (activate 0), so that they can be configured again.
+void write_zeros_to_sync_managers(Master& master) {
+  for (unsigned n = 0; n < 8; ++n)
+    master.write(ecat::reg::sync_manager(n) + 6, {0});
+}
+
 EthercatDriveOptions deviant(Deviation deviation) {
   EthercatDriveOptions options;
   options.deviations.add(deviation);
@@ -425,6 +433,79 @@ TEST(EthercatDriveCoe, DriveEmcyArrivesAsCoeEmergency) {
                          << reply->message.data.size() << " octets";
   EXPECT_EQ(emergency->emcy.error_code, 0x5000);
   EXPECT_NE(emergency->emcy.error_register & 0x01, 0);
+}
+
+TEST(EthercatDriveProcessData, CspFollowsTargetsSmSynchronous) {
+  // Given the drive in PREOP set to SM-synchronous (1C32h:01 = 1) and csp (6060h = 8)
+  // When it is enabled in OP and 607Ah rises by 100 every 1 ms cycle for 200 cycles
+  // Then statusword bit 12 (drive follows the command value) is set and 6064h in the inputs
+  //      follows the targets (within 5 % of the last one: the simulated axis lags)
+  Master master;
+  master.to_preop();
+  ASSERT_FALSE(master.download(0x1C32, 1, u16(1)).abort);
+  ASSERT_FALSE(master.download(0x6060, 0, {8}).abort);
+  ASSERT_EQ(master.to_safeop(6, 6), std::make_pair(std::uint16_t{0x0004}, std::uint16_t{0}));
+  master.cycle(master.outputs(0));
+  ASSERT_EQ(master.request(0x0008), std::make_pair(std::uint16_t{0x0008}, std::uint16_t{0}));
+  ASSERT_EQ(master.run_until_status(0x0006, 0x006F, 0x0021) & 0x006F, 0x0021);
+  ASSERT_EQ(master.run_until_status(0x000F, 0x006F, 0x0027) & 0x006F, 0x0027);
+  std::int32_t target = 0;
+  Bytes inputs;
+  for (int i = 0; i < 200; ++i) {
+    target += 100;
+    Bytes out = u16(0x000F);
+    for (int b = 0; b < 4; ++b)
+      out.push_back(static_cast<std::uint8_t>(target >> (8 * b)));
+    master.segment().run_for(1ms);
+    inputs = master.cycle(out).first;
+  }
+  master.segment().run_for(5ms);
+  inputs = master.cycle(master.outputs(0x000F)).first;  // (607Ah 0 now: read before it acts)
+  EXPECT_NE(le16(inputs) & 0x1000, 0) << "statusword bit 12";
+  const auto position = static_cast<std::int32_t>(le32(Bytes(inputs.begin() + 2, inputs.end())));
+  EXPECT_NEAR(position, target, 1000);  // the simulated axis lags a few cycles
+}
+
+TEST(EthercatDriveRobustness, RandomDatagramsNeverBreakIt) {
+  // Given the drive in PREOP
+  // When 3000 random APWR/APRD/LRW datagrams hit random registers, SyncManagers, the mailbox
+  //      and AL control (seeded)
+  // Then nothing crashes, and afterwards a fresh bring-up (INIT, mailboxes, PREOP) works
+  Master master;
+  master.to_preop();
+  std::mt19937 random(20261127);
+  const std::uint16_t hot[] = {ecat::reg::kAlControl,
+                               ecat::reg::kSyncManager,
+                               ecat::reg::sync_manager(2),
+                               ecat::reg::fmmu(0),
+                               kMailboxOutStart,
+                               kMailboxInStart,
+                               kOutputsStart,
+                               ecat::reg::kWatchdogTimeProcessData};
+  for (int i = 0; i < 3000; ++i) {
+    const std::uint16_t base = hot[random() % std::size(hot)];
+    const auto address = static_cast<std::uint16_t>(base + random() % 16);
+    Bytes data(1 + random() % 130);
+    for (auto& b : data)
+      b = static_cast<std::uint8_t>(random());
+    switch (random() % 3) {
+      case 0:
+        master.write(address, data);
+        break;
+      case 1:
+        master.read(address, data.size());
+        break;
+      default:
+        master.exchange(ecat::Datagram::logical(ecat::Command::lrw, 0, kLogical, data));
+        break;
+    }
+    if (i % 50 == 0) master.segment().run_for(1ms);
+  }
+  master.segment().run_for(200ms);
+  master.request(0x0011);  // INIT, acknowledging any error
+  write_zeros_to_sync_managers(master);
+  master.to_preop();
+  EXPECT_FALSE(master.upload(0x1000, 0).abort);
 }
 
 // ---- Named deviations -----------------------------------------------------------------------
