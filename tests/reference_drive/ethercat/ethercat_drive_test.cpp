@@ -466,6 +466,42 @@ TEST(EthercatDriveProcessData, CspFollowsTargetsSmSynchronous) {
   EXPECT_NEAR(position, target, 1000);  // the simulated axis lags a few cycles
 }
 
+TEST(EthercatDriveProcessData, SmSynchronousModeLatchesAtTheSm2Event) {
+  // Given the drive enabled in csp, 1600h = {6040h} only (607Ah written by SDO), once with
+  //      1C32h:01 = 1 (SM-synchronous) and once with 0 (free run)
+  // When 607Ah := 5000 is written by SDO and 30 ms pass without process data (watchdog 100 ms)
+  // Then SM-synchronous: 6062h (position demand) stays 0 until the next SM2 write (the SM2
+  //      event is the cyclic modes' SYNC), then moves; free run: it moves at once
+  for (const bool synchronous : {true, false}) {
+    SCOPED_TRACE(synchronous ? "SM-synchronous" : "free run");
+    Master master;
+    master.to_preop();
+    ASSERT_FALSE(master.download(0x1C32, 1, u16(synchronous ? 1 : 0)).abort);
+    ASSERT_FALSE(master.download(0x6060, 0, {8}).abort);
+    ASSERT_FALSE(master.download(0x1600, 0, {0}).abort);
+    ASSERT_FALSE(master.download(0x1600, 1, {0x10, 0x00, 0x40, 0x60}).abort);  // 6040h:00, 16
+    ASSERT_FALSE(master.download(0x1600, 0, {1}).abort);
+    ASSERT_EQ(master.to_safeop(2, 6), std::make_pair(std::uint16_t{0x0004}, std::uint16_t{0}));
+    master.cycle(master.outputs(0));
+    ASSERT_EQ(master.request(0x0008), std::make_pair(std::uint16_t{0x0008}, std::uint16_t{0}));
+    ASSERT_EQ(master.run_until_status(0x0006, 0x006F, 0x0021) & 0x006F, 0x0021);
+    ASSERT_EQ(master.run_until_status(0x000F, 0x006F, 0x0027) & 0x006F, 0x0027);
+    ASSERT_FALSE(master.download(0x607A, 0, {0x88, 0x13, 0, 0}).abort);  // 5000
+    master.segment().run_for(30ms);
+    const auto before = static_cast<std::int32_t>(le32(master.upload(0x6062, 0).value));
+    if (synchronous) {
+      EXPECT_EQ(before, 0) << "no SM2 event, no SYNC: the command waits";
+    } else {
+      EXPECT_GT(before, 0) << "free run: taken in the drive's cycle";
+    }
+    for (int i = 0; i < 5; ++i) {
+      master.segment().run_for(1ms);
+      master.cycle(master.outputs(0x000F));
+    }
+    EXPECT_GT(static_cast<std::int32_t>(le32(master.upload(0x6062, 0).value)), 0);
+  }
+}
+
 TEST(EthercatDriveRobustness, RandomDatagramsNeverBreakIt) {
   // Given the drive in PREOP
   // When 3000 random APWR/APRD/LRW datagrams hit random registers, SyncManagers, the mailbox
