@@ -3,6 +3,13 @@
 //
 //   drivecheck drive --bus socketcan:IF --node N [--store FILE] [--profile NAME|FILE]
 //                    [--deviation NAME...]
+//   drivecheck drive --bus ethercat:IF --node N ...   (the same drive as an EtherCAT slave)
+//
+// With ethercat:IF the drive sits behind an emulated EtherCAT slave controller
+// (reference_drive/ethercat/ethercat_drive.hpp) on a raw Ethernet interface (AF_PACKET: a NIC
+// or a veth end; needs root or CAP_NET_RAW): every EtherCAT frame arriving there is processed
+// and sent back, as the last slave of a line does. --node has no meaning there (the master
+// gives station addresses); `ethercat:sim` is refused (a simulated segment has no outside).
 //
 // The drive (reference_drive/servo_drive.hpp: the CiA 301 device with the CiA 402 application)
 // powers on (boot-up message), then serves SDO, NMT, heartbeat/guarding, EMCY, SYNC, PDOs and
@@ -24,6 +31,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "cli/commands.hpp"
@@ -31,9 +39,12 @@
 #include "cli/options.hpp"
 #include "cli/signal_scope.hpp"
 #include "cli/vector_dirs.hpp"
+#include "protocol/can/candump_log.hpp"
 #include "protocol/can/socketcan_bus.hpp"
+#include "protocol/ethercat/raw_link.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/deviations.hpp"
+#include "reference_drive/ethercat/ethercat_drive.hpp"
 #include "reference_drive/parameter_file.hpp"
 #include "reference_drive/servo_drive.hpp"
 
@@ -52,17 +63,80 @@ struct DriveOptions {
 
 // The bus the signal handlers stop; set only while the loop runs.
 std::atomic<can::Bus*> g_running_bus{nullptr};
+std::atomic<ethercat::Link*> g_running_link{nullptr};
 volatile sig_atomic_t g_signal = 0;
 
 extern "C" void stop_on_signal(int signal_number) {
   g_signal = signal_number;
   if (can::Bus* bus = g_running_bus.load()) bus->stop();
+  if (ethercat::Link* link = g_running_link.load()) link->stop();
+}
+
+constexpr std::string_view kEthercatPrefix = "ethercat:";
+
+// The interface of `ethercat:IF`, or nullopt for any other bus.
+std::optional<std::string_view> ethercat_interface(std::string_view bus) {
+  if (bus.substr(0, kEthercatPrefix.size()) != kEthercatPrefix) return std::nullopt;
+  return bus.substr(kEthercatPrefix.size());
+}
+
+// The reference drive as an EtherCAT slave on a raw interface, until a signal stops it.
+void serve_ethercat(const DriveOptions& options, std::string_view interface,
+                    const profile::DriveProfile* personality,
+                    const reference_drive::DeviationSet& deviations,
+                    cia301::ParameterStorage* storage) {
+  if (interface == "sim") {
+    usage_error("drive",
+                "--bus ethercat:sim has no meaning for drive (the simulated segment has "
+                "no outside): serve an interface with ethercat:IF");
+  }
+  auto link = ethercat::RawLink::open(interface);
+  if (!link) usage_error("drive", ethercat::describe_open_error(interface, link.error()));
+  reference_drive::ethercat::EthercatDriveOptions config;
+  config.profile = personality;
+  config.deviations = deviations;
+  config.storage = storage;
+  auto drive = reference_drive::ethercat::EthercatDrive::create(**link, std::move(config));
+  if (!drive) {
+    fmt::print(stderr, "drivecheck drive: {}\n", drive.error());
+    exit_with(kExitUsage);
+    return;
+  }
+  for (const std::string& line : (*drive)->servo().not_applied()) {
+    fmt::print(stderr, "drivecheck drive: personality {}: not shown: {}\n", personality->name,
+               line);
+  }
+  fmt::print(stderr, "drivecheck drive: EtherCAT slave on {}{}{}{}; Ctrl-C stops\n", options.bus,
+             personality ? ", personality " + personality->name : std::string(),
+             deviations.empty() ? std::string() : ", deviations " + deviations.names(),
+             options.store.empty() ? "" : ", parameters in " + options.store);
+  {
+    SignalScope signals(stop_on_signal);
+    g_signal = 0;
+    g_running_link.store(link->get());
+    (*drive)->serve(**link);
+    (*drive)->power_on();
+    (*link)->run_until(ethercat::kForever);
+    g_running_link.store(nullptr);
+  }
+  const auto& stats = (*link)->stats();
+  if (g_signal != 0) {
+    fmt::print(stderr, "drivecheck drive: stopped by signal {} ({} frames received, {} sent)\n",
+               static_cast<int>(g_signal), stats.frames_received, stats.frames_sent);
+    return;
+  }
+  const std::error_code error = (*link)->last_error();
+  fmt::print(stderr, "drivecheck drive: the link loop ended: {}\n",
+             error ? error.message() : std::string("no reason given"));
+  exit_with(kExitDutLost);
 }
 
 void run_drive(const DriveOptions& options) {
+  const auto ethercat = ethercat_interface(options.bus);
   const auto spec = parse_bus_spec(options.bus);
-  if (!spec || spec->kind != BusSpec::Kind::socketcan) {
-    usage_error("drive", "--bus must be socketcan:IF: the reference drive serves a real bus");
+  if (!ethercat && (!spec || spec->kind != BusSpec::Kind::socketcan)) {
+    usage_error("drive",
+                "--bus must be socketcan:IF or ethercat:IF: the reference drive serves a real bus");
   }
 
   // Bad names are bad input: report them before touching the bus.
@@ -88,6 +162,12 @@ void run_drive(const DriveOptions& options) {
       exit_with(kExitUsage);
       return;
     }
+  }
+
+  if (ethercat) {
+    serve_ethercat(options, *ethercat, personality ? &*personality : nullptr, *deviations,
+                   storage.get());
+    return;
   }
 
   auto bus = can::SocketCanBus::open(spec->interface);
@@ -139,10 +219,22 @@ void add_drive_command(CLI::App& app) {
   auto options = std::make_shared<DriveOptions>();
   CLI::App* cmd = app.add_subcommand(
       "drive", "Run the reference drive (CiA 301 + CiA 402 device) on a real CAN interface");
-  cmd->add_option("--bus", options->bus, "The CAN interface to serve")
+  cmd->add_option("--bus", options->bus,
+                  "The CAN interface to serve, or the Ethernet interface for the drive as an "
+                  "EtherCAT slave")
       ->required()
-      ->check(bus_validator())
-      ->type_name("socketcan:IF");
+      ->check(CLI::Validator(
+          [](std::string& value) -> std::string {
+            const auto ethercat = ethercat_interface(value);
+            if (!ethercat) return bus_validator()(value);
+            if (ethercat->empty() || ethercat->size() > can::kMaxInterfaceNameLength) {
+              return fmt::format("interface name '{}' must have 1..{} characters", *ethercat,
+                                 can::kMaxInterfaceNameLength);
+            }
+            return std::string();
+          },
+          "socketcan:IF|ethercat:IF"))
+      ->type_name("socketcan:IF|ethercat:IF");
   cmd->add_option("--node", options->node, "Node id of the drive")
       ->required()
       ->check(CLI::Range(kMinNodeId, kMaxNodeId));

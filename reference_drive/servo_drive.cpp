@@ -413,6 +413,7 @@ Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& 
       return {};
     };
   }
+  if (options.adjust_config) options.adjust_config(config);
   auto drive = ReferenceDrive::create(*port, std::move(config));
   if (!drive) return Unexpected(drive.error());
   servo->drive_ = std::move(*drive);

@@ -30,6 +30,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -56,6 +57,10 @@ struct ServoDriveOptions {
   cia301::ParameterStorage* storage = nullptr;
   // 1018h:04; 0: the node-ID (so that drives on one bus differ).
   std::uint32_t serial_number = 0;
+  // Called with the planned DriveConfig just before ReferenceDrive::create (empty: none): a
+  // front end for another transport adjusts it (reference_drive/ethercat: default PDO
+  // mappings of CoE, no CAN-only limits).
+  std::function<void(DriveConfig&)> adjust_config;
 };
 
 class PersonalityPort;

@@ -55,6 +55,7 @@ AlStatusCode EscSlave::builtin_check(const AlTransition& transition) const {
       break;
     }
     case AlRequirement::process_data: {
+      if (!config_.check_process_data) break;
       for (std::size_t n = 0; n < sii_->sync_managers.size() && n < 16; ++n) {
         const SiiSyncManager& wanted = sii_->sync_managers[n];
         const bool outputs = wanted.type == SiiSyncManagerType::outputs;
@@ -83,7 +84,7 @@ void EscSlave::publish() {
 }
 
 void EscSlave::handle(const EscEvents& events) {
-  if (events.watchdog_expired) {
+  if (events.watchdog_expired && config_.sm_watchdog_drops_op) {
     state_machine_.sm_watchdog_expired();
     publish();
   }

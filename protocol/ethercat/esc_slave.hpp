@@ -41,6 +41,12 @@ class EscSlave;
 struct EscSlaveConfig {
   EscConfig esc;  // esc.sii: the SII image (build_sii); the checks read it
   bool bootstrap = false;
+  // false: the built-in process data check (PS) is left out and `check` does it (a slave whose
+  // PDO assignment is configurable: SM2/SM3 lengths follow 1C12h/1C13h, not the SII).
+  bool check_process_data = true;
+  // false is a fault for named deviations ("SM watchdog ignored"): an expired process data
+  // watchdog leaves the state alone (no OP -> SAFEOP, no 001Bh).
+  bool sm_watchdog_drops_op = true;
   std::function<AlStatusCode(const AlTransition&)> check;
   std::function<void(AlState from, AlState to)> on_state_change;
   std::function<void(EscSlave&, const EscEvents&)> on_events;
