@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "protocol/ethercat/coe_sdo_client.hpp"
+#include "protocol/ethercat/esc.hpp"
 #include "protocol/ethercat/frame.hpp"
 #include "protocol/ethercat/mailbox.hpp"
 #include "protocol/ethercat/sim_segment.hpp"
@@ -21,17 +22,6 @@ namespace ecat = drivecheck::ethercat;
 using namespace std::chrono_literals;
 using Bytes = std::vector<std::uint8_t>;
 
-Bytes sm_block(std::uint16_t start, std::uint16_t length, std::uint8_t control) {
-  return {static_cast<std::uint8_t>(start),
-          static_cast<std::uint8_t>(start >> 8),
-          static_cast<std::uint8_t>(length),
-          static_cast<std::uint8_t>(length >> 8),
-          control,
-          0,
-          1,
-          0};
-}
-
 struct Rig {
   ecat::SimSegment segment;
   std::unique_ptr<EthercatDrive> drive;
@@ -40,8 +30,8 @@ struct Rig {
     drive = std::move(*EthercatDrive::create(segment));
     segment.attach(*drive);
     drive->power_on();
-    Bytes sms = sm_block(kMailboxOutStart, kMailboxSize, kSm0Control);
-    const Bytes sm1 = sm_block(kMailboxInStart, kMailboxSize, kSm1Control);
+    Bytes sms = ecat::sync_manager_block(kMailboxOutStart, kMailboxSize, kSm0Control);
+    const Bytes sm1 = ecat::sync_manager_block(kMailboxInStart, kMailboxSize, kSm1Control);
     sms.insert(sms.end(), sm1.begin(), sm1.end());
     send(ecat::Datagram::physical(ecat::Command::apwr, 0, 0, ecat::reg::kSyncManager, sms));
     send(ecat::Datagram::physical(ecat::Command::apwr, 0, 0, ecat::reg::kAlControl, {2, 0}));
@@ -97,8 +87,8 @@ void csp_1khz(benchmark::State& state) {
   };
   download(0x1C32, 1, {1, 0});
   download(0x6060, 0, {8});
-  Bytes sms = sm_block(kOutputsStart, 6, kSm2Control);
-  const Bytes sm3 = sm_block(kInputsStart, 6, kSm3Control);
+  Bytes sms = ecat::sync_manager_block(kOutputsStart, 6, kSm2Control);
+  const Bytes sm3 = ecat::sync_manager_block(kInputsStart, 6, kSm3Control);
   sms.insert(sms.end(), sm3.begin(), sm3.end());
   rig.send(ecat::Datagram::physical(ecat::Command::apwr, 0, 0, ecat::reg::sync_manager(2), sms));
   rig.send(ecat::Datagram::physical(ecat::Command::apwr, 0, 0, ecat::reg::kFmmu,

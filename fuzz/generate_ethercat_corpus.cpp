@@ -46,37 +46,6 @@ Bytes u16(std::uint16_t v) {
   return {static_cast<std::uint8_t>(v), static_cast<std::uint8_t>(v >> 8)};
 }
 
-Bytes sm_block(std::uint16_t start, std::uint16_t length, std::uint8_t control) {
-  return {static_cast<std::uint8_t>(start),
-          static_cast<std::uint8_t>(start >> 8),
-          static_cast<std::uint8_t>(length),
-          static_cast<std::uint8_t>(length >> 8),
-          control,
-          0,
-          1,
-          0};
-}
-
-Bytes fmmu_block(std::uint32_t logical, std::uint16_t length, std::uint16_t physical,
-                 std::uint8_t type) {
-  return {static_cast<std::uint8_t>(logical),
-          static_cast<std::uint8_t>(logical >> 8),
-          static_cast<std::uint8_t>(logical >> 16),
-          static_cast<std::uint8_t>(logical >> 24),
-          static_cast<std::uint8_t>(length),
-          static_cast<std::uint8_t>(length >> 8),
-          0,
-          7,
-          static_cast<std::uint8_t>(physical),
-          static_cast<std::uint8_t>(physical >> 8),
-          0,
-          type,
-          1,
-          0,
-          0,
-          0};
-}
-
 Bytes concat(std::initializer_list<Bytes> parts) {
   Bytes out;
   for (const Bytes& p : parts)
@@ -122,10 +91,12 @@ int main(int argc, char** argv) {
     seeds.emplace_back(fmt::format("command-{}", row.mnemonic), input_of({frame_of({d})}));
   }
   // A slave's configuration as a master does it, then process data and mailbox traffic.
-  const Bytes sms = concat({sm_block(0x1000, 128, 0x26), sm_block(0x1080, 128, 0x22),
-                            sm_block(0x1100, 2, 0x64), sm_block(0x1180, 2, 0x20)});
-  const Bytes fmmus =
-      concat({fmmu_block(0x10000, 2, 0x1100, 2), fmmu_block(0x10002, 2, 0x1180, 1)});
+  const Bytes sms = concat({drivecheck::ethercat::sync_manager_block(0x1000, 128, 0x26),
+                            drivecheck::ethercat::sync_manager_block(0x1080, 128, 0x22),
+                            drivecheck::ethercat::sync_manager_block(0x1100, 2, 0x64),
+                            drivecheck::ethercat::sync_manager_block(0x1180, 2, 0x20)});
+  const Bytes fmmus = concat({drivecheck::ethercat::fmmu_block(0x10000, 2, 0x1100, 2),
+                              drivecheck::ethercat::fmmu_block(0x10002, 2, 0x1180, 1)});
   Bytes mailbox(128, 0);
   mailbox[0] = 10;  // mailbox header length 10 (a CoE SDO upload request follows)
   mailbox[5] = 0x03;

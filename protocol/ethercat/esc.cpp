@@ -787,4 +787,55 @@ std::uint16_t Esc::al_control() const {
   return get16(reg::kAlControl);
 }
 
+std::vector<std::uint8_t> register_block(const SyncManagerRegisters& sm) {
+  return {static_cast<std::uint8_t>(sm.start),
+          static_cast<std::uint8_t>(sm.start >> 8),
+          static_cast<std::uint8_t>(sm.length),
+          static_cast<std::uint8_t>(sm.length >> 8),
+          sm.control,
+          sm.status,
+          sm.activate,
+          sm.pdi_control};
+}
+
+std::vector<std::uint8_t> register_block(const FmmuRegisters& fmmu) {
+  return {static_cast<std::uint8_t>(fmmu.logical_start),
+          static_cast<std::uint8_t>(fmmu.logical_start >> 8),
+          static_cast<std::uint8_t>(fmmu.logical_start >> 16),
+          static_cast<std::uint8_t>(fmmu.logical_start >> 24),
+          static_cast<std::uint8_t>(fmmu.length),
+          static_cast<std::uint8_t>(fmmu.length >> 8),
+          fmmu.logical_start_bit,
+          fmmu.logical_stop_bit,
+          static_cast<std::uint8_t>(fmmu.physical_start),
+          static_cast<std::uint8_t>(fmmu.physical_start >> 8),
+          fmmu.physical_start_bit,
+          fmmu.type,
+          static_cast<std::uint8_t>(fmmu.active ? 1 : 0),
+          0,
+          0,
+          0};
+}
+
+std::vector<std::uint8_t> sync_manager_block(std::uint16_t start, std::uint16_t length,
+                                             std::uint8_t control, bool enable) {
+  SyncManagerRegisters sm;
+  sm.start = start;
+  sm.length = length;
+  sm.control = control;
+  sm.activate = enable ? sm::kActivateEnable : 0;
+  return register_block(sm);
+}
+
+std::vector<std::uint8_t> fmmu_block(std::uint32_t logical, std::uint16_t length,
+                                     std::uint16_t physical, std::uint8_t type) {
+  FmmuRegisters fmmu;
+  fmmu.logical_start = logical;
+  fmmu.length = length;
+  fmmu.physical_start = physical;
+  fmmu.type = type;
+  fmmu.active = true;
+  return register_block(fmmu);
+}
+
 }  // namespace drivecheck::ethercat

@@ -216,6 +216,17 @@ struct FmmuRegisters {
   bool active = false;
 };
 
+// The register blocks as a master writes them (SyncManager n at 0800h + 8n: start, length,
+// control, status, activate, PDI control; FMMU n at 0600h + 16n: logical start, length, start
+// and stop bit, physical start and bit, type, activate, 3 reserved), little-endian.
+std::vector<std::uint8_t> register_block(const SyncManagerRegisters& sm);
+std::vector<std::uint8_t> register_block(const FmmuRegisters& fmmu);
+// Shorthands: an enabled SyncManager; an active whole-byte FMMU (type 1 read, 2 write).
+std::vector<std::uint8_t> sync_manager_block(std::uint16_t start, std::uint16_t length,
+                                             std::uint8_t control, bool enable = true);
+std::vector<std::uint8_t> fmmu_block(std::uint32_t logical, std::uint16_t length,
+                                     std::uint16_t physical, std::uint8_t type);
+
 class Esc {
  public:
   explicit Esc(EscConfig config = {});

@@ -81,29 +81,11 @@ void set_bits(std::span<std::uint8_t> bytes, std::size_t bit_offset, unsigned bi
 }
 
 std::vector<std::uint8_t> sync_manager_bytes(const SyncManagerSetup& sm, bool enable) {
-  return {static_cast<std::uint8_t>(sm.start),
-          static_cast<std::uint8_t>(sm.start >> 8),
-          static_cast<std::uint8_t>(sm.length),
-          static_cast<std::uint8_t>(sm.length >> 8),
-          sm.control,
-          0,
-          static_cast<std::uint8_t>(enable ? sm::kActivateEnable : 0),
-          0};
+  return sync_manager_block(sm.start, sm.length, sm.control, enable);
 }
 
 std::vector<std::uint8_t> fmmu_bytes(const FmmuSetup& fmmu) {
-  std::vector<std::uint8_t> out = le32(fmmu.logical);
-  const auto length = le16(fmmu.length);
-  const auto physical = le16(fmmu.physical);
-  out.insert(out.end(), length.begin(), length.end());
-  out.push_back(0);  // logical start bit
-  out.push_back(7);  // logical stop bit
-  out.insert(out.end(), physical.begin(), physical.end());
-  out.push_back(0);  // physical start bit
-  out.push_back(fmmu.type);
-  out.push_back(1);  // activate
-  out.insert(out.end(), 3, 0);
-  return out;
+  return fmmu_block(fmmu.logical, fmmu.length, fmmu.physical, fmmu.type);
 }
 
 Expected<SlaveLayout, MasterError> plan_slave(const SiiImage& sii, std::uint16_t station) {

@@ -18,17 +18,6 @@ Bytes u16(std::uint16_t v) {
   return {static_cast<std::uint8_t>(v), static_cast<std::uint8_t>(v >> 8)};
 }
 
-Bytes sm_block(std::uint16_t start, std::uint16_t length, std::uint8_t control) {
-  return {static_cast<std::uint8_t>(start),
-          static_cast<std::uint8_t>(start >> 8),
-          static_cast<std::uint8_t>(length),
-          static_cast<std::uint8_t>(length >> 8),
-          control,
-          0,
-          1,
-          0};
-}
-
 // The drive-like SII of sii_test: mailboxes 1000h/1080h (128), SM2 outputs 1100h/2, SM3
 // inputs 1180h/2.
 std::vector<std::uint8_t> drive_sii() {
@@ -79,14 +68,14 @@ class Rig {
     return al_status();
   }
   void configure_mailbox() {
-    Bytes sms = sm_block(0x1000, 128, 0x26);
-    const Bytes sm1 = sm_block(0x1080, 128, 0x22);
+    Bytes sms = sync_manager_block(0x1000, 128, 0x26);
+    const Bytes sm1 = sync_manager_block(0x1080, 128, 0x22);
     sms.insert(sms.end(), sm1.begin(), sm1.end());
     write(reg::kSyncManager, sms);
   }
   void configure_process_data(std::uint16_t outputs_length = 2) {
-    Bytes sms = sm_block(0x1100, outputs_length, 0x64);
-    const Bytes sm3 = sm_block(0x1180, 2, 0x20);
+    Bytes sms = sync_manager_block(0x1100, outputs_length, 0x64);
+    const Bytes sm3 = sync_manager_block(0x1180, 2, 0x20);
     sms.insert(sms.end(), sm3.begin(), sm3.end());
     write(reg::sync_manager(2), sms);
   }

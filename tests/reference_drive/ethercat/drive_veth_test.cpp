@@ -3,7 +3,6 @@
 // with raw datagrams and CoE SDO. Every wait is bounded; the drive process is stopped by its
 // pid (SIGTERM: exit 0 expected) and the namespace removed, also on failure. When the namespace
 // or the pair cannot be created the test is skipped with the reason, never passed.
-// (The namespace fixture follows tests/ethercat/raw_link_test.cpp.)
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -29,6 +28,7 @@
 #include "protocol/ethercat/mailbox.hpp"
 #include "protocol/ethercat/raw_link.hpp"
 #include "reference_drive/ethercat/sii_image.hpp"
+#include "tests/ethercat/veth_pair.hpp"
 
 namespace drivecheck::reference_drive::ethercat {
 namespace {
@@ -37,58 +37,12 @@ namespace ecat = drivecheck::ethercat;
 using namespace std::chrono_literals;
 using Bytes = std::vector<std::uint8_t>;
 
-int run(const std::string& command) {
-  return std::system((command + " >/dev/null 2>&1").c_str());
-}
-
-bool running(const std::string& interface) {
-  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return false;
-  ifreq request{};
-  std::strncpy(request.ifr_name, interface.c_str(), IFNAMSIZ - 1);
-  const bool up = ::ioctl(fd, SIOCGIFFLAGS, &request) == 0 && (request.ifr_flags & IFF_RUNNING);
-  ::close(fd);
-  return up;
-}
-
-class DriveOnVeth : public ::testing::Test {
+// The namespace with its veth pair (a <-> b) is tests/ethercat/veth_pair.hpp's.
+class DriveOnVeth : public drivecheck::ethercat::test::VethPair {
  protected:
-  void SetUp() override {
-    const int pid = static_cast<int>(::getpid());
-    ns_ = fmt::format("dcdrv{}", pid);
-    a_ = fmt::format("dcda{}", pid % 100000);
-    b_ = fmt::format("dcdb{}", pid % 100000);
-    if (run("ip netns add " + ns_) != 0) {
-      GTEST_SKIP() << "cannot create a network namespace (ip netns add " << ns_
-                   << " failed: not root, or no netns support)";
-    }
-    created_ = true;
-    if (run(fmt::format("ip -n {} link add {} type veth peer name {}", ns_, a_, b_)) != 0 ||
-        run(fmt::format("ip -n {} link set {} up", ns_, a_)) != 0 ||
-        run(fmt::format("ip -n {} link set {} up", ns_, b_)) != 0) {
-      GTEST_SKIP() << "cannot create a veth pair in namespace " << ns_ << " (no veth support?)";
-    }
-    original_ = ::open("/proc/self/ns/net", O_RDONLY | O_CLOEXEC);
-    const int target = ::open(("/var/run/netns/" + ns_).c_str(), O_RDONLY | O_CLOEXEC);
-    ASSERT_GE(original_, 0);
-    ASSERT_GE(target, 0);
-    ASSERT_EQ(::setns(target, CLONE_NEWNET), 0) << std::strerror(errno);
-    ::close(target);
-    entered_ = true;
-    const auto give_up = std::chrono::steady_clock::now() + 3s;
-    while (!(running(a_) && running(b_)) && std::chrono::steady_clock::now() < give_up) {
-      std::this_thread::sleep_for(5ms);
-    }
-    ASSERT_TRUE(running(a_) && running(b_)) << "veth pair did not come up within 3 s";
-  }
-
   void TearDown() override {
     stop_drive();
-    if (entered_) {
-      EXPECT_EQ(::setns(original_, CLONE_NEWNET), 0);
-    }
-    if (original_ >= 0) ::close(original_);
-    if (created_) run("ip netns del " + ns_);
+    VethPair::TearDown();
   }
 
   // Starts `drivecheck drive --bus ethercat:<b> --node 1` (in this namespace: fork inherits it).
@@ -120,10 +74,6 @@ class DriveOnVeth : public ::testing::Test {
     return std::nullopt;
   }
 
-  std::string ns_, a_, b_;
-  int original_ = -1;
-  bool created_ = false;
-  bool entered_ = false;
   pid_t drive_pid_ = -1;
 };
 
@@ -138,17 +88,6 @@ std::optional<ecat::Datagram> exchange(ecat::Link& link, ecat::Datagram datagram
   auto decoded = ecat::decode_frame(back->bytes);
   if (!decoded || decoded->datagrams.empty()) return std::nullopt;
   return decoded->datagrams.front();
-}
-
-Bytes sm_block(std::uint16_t start, std::uint16_t length, std::uint8_t control) {
-  return {static_cast<std::uint8_t>(start),
-          static_cast<std::uint8_t>(start >> 8),
-          static_cast<std::uint8_t>(length),
-          static_cast<std::uint8_t>(length >> 8),
-          control,
-          0,
-          1,
-          0};
 }
 
 TEST_F(DriveOnVeth, PreopAndSdoUploadOfDeviceType) {
@@ -168,8 +107,8 @@ TEST_F(DriveOnVeth, PreopAndSdoUploadOfDeviceType) {
   EXPECT_EQ(status->working_counter, 1);
   EXPECT_EQ(status->data.at(0), 0x01) << "INIT";
 
-  Bytes sms = sm_block(kMailboxOutStart, kMailboxSize, kSm0Control);
-  const Bytes sm1 = sm_block(kMailboxInStart, kMailboxSize, kSm1Control);
+  Bytes sms = ecat::sync_manager_block(kMailboxOutStart, kMailboxSize, kSm0Control);
+  const Bytes sm1 = ecat::sync_manager_block(kMailboxInStart, kMailboxSize, kSm1Control);
   sms.insert(sms.end(), sm1.begin(), sm1.end());
   ASSERT_TRUE(exchange(
       **link, ecat::Datagram::physical(ecat::Command::apwr, 0, 0, ecat::reg::kSyncManager, sms)));

@@ -17,6 +17,7 @@
 #include "protocol/cia402/state_machine.hpp"
 #include "protocol/ethercat/coe.hpp"
 #include "protocol/ethercat/coe_sdo_client.hpp"
+#include "protocol/ethercat/esc.hpp"
 #include "protocol/ethercat/frame.hpp"
 #include "protocol/ethercat/mailbox.hpp"
 #include "protocol/ethercat/sii.hpp"
@@ -37,36 +38,6 @@ Bytes u16(std::uint16_t v) {
 }
 std::uint16_t le16(const Bytes& b, std::size_t at = 0) {
   return static_cast<std::uint16_t>(b.at(at) | (b.at(at + 1) << 8));
-}
-Bytes sm_block(std::uint16_t start, std::uint16_t length, std::uint8_t control) {
-  return {static_cast<std::uint8_t>(start),
-          static_cast<std::uint8_t>(start >> 8),
-          static_cast<std::uint8_t>(length),
-          static_cast<std::uint8_t>(length >> 8),
-          control,
-          0,
-          1,
-          0};
-}
-// FMMU n: logical address, length, physical start, type (1 read, 2 write), active.
-Bytes fmmu_block(std::uint32_t logical, std::uint16_t length, std::uint16_t physical,
-                 std::uint8_t type) {
-  return {static_cast<std::uint8_t>(logical),
-          static_cast<std::uint8_t>(logical >> 8),
-          static_cast<std::uint8_t>(logical >> 16),
-          static_cast<std::uint8_t>(logical >> 24),
-          static_cast<std::uint8_t>(length),
-          static_cast<std::uint8_t>(length >> 8),
-          0,
-          7,
-          static_cast<std::uint8_t>(physical),
-          static_cast<std::uint8_t>(physical >> 8),
-          0,
-          type,
-          1,
-          0,
-          0,
-          0};
 }
 
 struct SdoResult {
@@ -113,8 +84,8 @@ class Master {
 
   // INIT -> PREOP with the SII's mailboxes.
   void to_preop() {
-    Bytes sms = sm_block(kMailboxOutStart, kMailboxSize, kSm0Control);
-    const Bytes sm1 = sm_block(kMailboxInStart, kMailboxSize, kSm1Control);
+    Bytes sms = ecat::sync_manager_block(kMailboxOutStart, kMailboxSize, kSm0Control);
+    const Bytes sm1 = ecat::sync_manager_block(kMailboxInStart, kMailboxSize, kSm1Control);
     sms.insert(sms.end(), sm1.begin(), sm1.end());
     ASSERT_EQ(write(ecat::reg::kSyncManager, sms), 1);
     ASSERT_EQ(request(0x0002), std::make_pair(std::uint16_t{0x0002}, std::uint16_t{0}));
@@ -128,12 +99,12 @@ class Master {
     in_ = in;
     write(ecat::reg::sync_manager(2) + 6, {0});
     write(ecat::reg::sync_manager(3) + 6, {0});
-    Bytes sms = sm_block(kOutputsStart, out, kSm2Control);
-    const Bytes sm3 = sm_block(kInputsStart, in, kSm3Control);
+    Bytes sms = ecat::sync_manager_block(kOutputsStart, out, kSm2Control);
+    const Bytes sm3 = ecat::sync_manager_block(kInputsStart, in, kSm3Control);
     sms.insert(sms.end(), sm3.begin(), sm3.end());
     write(ecat::reg::sync_manager(2), sms);
-    Bytes fmmus = fmmu_block(kLogical, out, kOutputsStart, 2);
-    const Bytes f1 = fmmu_block(kLogical + out, in, kInputsStart, 1);
+    Bytes fmmus = ecat::fmmu_block(kLogical, out, kOutputsStart, 2);
+    const Bytes f1 = ecat::fmmu_block(kLogical + out, in, kInputsStart, 1);
     fmmus.insert(fmmus.end(), f1.begin(), f1.end());
     write(ecat::reg::fmmu(0), fmmus);
     return request(control);
