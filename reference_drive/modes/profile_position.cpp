@@ -198,7 +198,9 @@ void ProfilePositionMode::update_target_reached(ModeContext& ctx, const ModeCycl
   const bool demand_there = !running_ || trajectory_.done();
   const double window = ctx.factors.distance_to_internal(
       static_cast<double>(ctx.read_unsigned(cia402::kPositionWindow)));
-  const bool inside = demand_there && std::abs(ctx.axis.position() - last_target_) <= window;
+  // Deviation pp-target-reached-on-demand: the demand's arrival is taken for the axis's.
+  const bool inside = demand_there && (ctx.has(Deviation::pp_target_reached_on_demand) ||
+                                       std::abs(ctx.axis.position() - last_target_) <= window);
   if (!inside) {
     in_window_since_.reset();
     reached_ = false;
