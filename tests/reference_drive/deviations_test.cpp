@@ -908,8 +908,8 @@ TEST(DeviationFsa, Transition16OnlyWithQuickStop6) {
       rig.command(0x0002);  // quick stop
       ASSERT_EQ(rig.pds.state(), State::quick_stop_active);
       rig.command(0x000F);  // enable operation
-      EXPECT_EQ(rig.pds.state(), !deviating || option == 6 ? State::operation_enabled
-                                                           : State::quick_stop_active)
+      EXPECT_EQ(rig.pds.state(),
+                !deviating || option == 6 ? State::operation_enabled : State::quick_stop_active)
           << "605Ah = " << option;
     }
   }
@@ -936,7 +936,7 @@ TEST(DeviationFsa, FaultResetInStopStates) {
     PdsRig reaction(deviations);
     ASSERT_TRUE(reaction.pds.set_option_code(OptionCode::fault_reaction, 1));
     reaction.to_operation_enabled();
-    reaction.ticks(200);  // up to speed
+    reaction.ticks(200);                   // up to speed
     reaction.pds.on_communication_loss();  // 6007h = 1: fault
     reaction.tick();
     ASSERT_EQ(reaction.pds.state(), State::fault_reaction_active);
