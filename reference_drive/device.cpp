@@ -148,7 +148,9 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
     }
   };
   handlers.on_life_guarding = [this](const cia301::LifeGuardingEvent& event) {
-    if (event.kind == cia301::LifeGuardingEventKind::expired && config_.application != nullptr) {
+    // Deviation abort-connection-guarding-ignored: only the heartbeat loss reaches 6007h.
+    if (event.kind == cia301::LifeGuardingEventKind::expired && config_.application != nullptr &&
+        !has(Deviation::abort_connection_guarding_ignored)) {
       config_.application->on_communication_loss(*this);
     }
   };

@@ -210,9 +210,20 @@ bool PowerDriveSystem::try_command(can::TimePoint now) {
     controlword = static_cast<std::uint16_t>(controlword | cia402::controlword::kFaultReset);
     previous = 0;
   }
-  auto row = cia402::commanded_transition(state_, controlword, previous,
-                                          cia402::quick_stop_stays_active(active_quick_stop_) ||
-                                              has(Deviation::transition_16_when_forbidden));
+  // Deviation fault-reset-in-stop-states: a fault reset edge ends a quick stop or a fault
+  // reaction in SWITCH ON DISABLED (recorded as 15, the transition it impersonates).
+  if (!forced_ && reset_edge_ && has(Deviation::fault_reset_in_stop_states) &&
+      (state_ == State::quick_stop_active || state_ == State::fault_reaction_active)) {
+    execute(row_of(15, Trigger::command), now);
+    return true;
+  }
+  // Deviation transition-16-only-with-quick-stop-6: 5, 7 and 8 keep QUICK STOP ACTIVE.
+  const bool transition_16_allowed = has(Deviation::transition_16_only_with_quick_stop_6)
+                                         ? active_quick_stop_ == 6
+                                         : cia402::quick_stop_stays_active(active_quick_stop_);
+  auto row = cia402::commanded_transition(
+      state_, controlword, previous,
+      transition_16_allowed || has(Deviation::transition_16_when_forbidden));
   // Deviation enable-operation-from-switch-on-disabled: 000Fh there runs 2 (then 3, 4).
   if (!row && state_ == State::switch_on_disabled &&
       has(Deviation::enable_operation_from_switch_on_disabled) &&
@@ -468,6 +479,13 @@ std::uint16_t PowerDriveSystem::statusword() const {
   if (voltage_applied(state_)) word |= sw::kVoltageEnabled;
   if (state_ == State::switched_on && has(Deviation::statusword_bit5_wrong_switched_on)) {
     word = static_cast<decltype(word)>(word & ~sw::kQuickStop);
+  }
+  // Bit 10 (target reached) in QUICK STOP ACTIVE with 605Ah 5..8 once the stop is finished and
+  // the axis stands (CiA 402-2 statusword bit 10; IEC 61800-7-201 "Statusword"): whatever the
+  // mode, whose own bits are 0 outside OPERATION ENABLED.
+  if (state_ == State::quick_stop_active && cia402::quick_stop_stays_active(active_quick_stop_) &&
+      axis_.is_stopped() && !has(Deviation::quick_stop_target_reached_missing)) {
+    word |= sw::kTargetReached;
   }
   if (warning()) word |= sw::kWarning;
   if (config_.remote) word |= sw::kRemote;

@@ -75,7 +75,9 @@
 //   SWITCH ON, SWITCHED ON, OPERATION ENABLED, 0 in QUICK STOP ACTIVE and the "x" states);
 //   bit 4 voltage enabled = 1 in SWITCHED ON, OPERATION ENABLED, QUICK STOP ACTIVE, FAULT
 //   REACTION ACTIVE (high voltage applied to the power stage); bit 7 warning; bit 9 remote;
-//   bits 10-13 from the mode logic (ModeStatus); bits 8, 14, 15 (manufacturer) 0 unless a
+//   bits 10-13 from the mode logic (ModeStatus), and bit 10 in QUICK STOP ACTIVE with 605Ah
+//   5..8 once the axis stands (CiA 402-2 statusword bit 10: the quick stop is finished and
+//   the drive is halted); bits 8, 14, 15 (manufacturer) 0 unless a
 //   personality sets them (set_manufacturer_bits, e.g. Festo's sample bit 15).
 //     NOT READY 0200h  SOD 0240h  RTSO 0221h  SO 0233h  OE 0237h  QSA 0217h  FRA 021Fh
 //     FAULT 0208h
@@ -271,9 +273,11 @@ struct PowerDriveConfig {
   // Named deviations (deviations.inc). The PDS applies those of cia402/fsa, cia402/option-codes
   // and cia402/modes: transition-16-when-forbidden, statusword-bit5-wrong-switched-on,
   // fault-reset-on-level, quick-stop-ignored, enable-operation-from-switch-on-disabled,
-  // abort-connection-ignored, option-code-invalid-accepted (PowerDriveObjects' validators),
-  // halt-ignored, mode-display-not-following, unsupported-mode-accepted (validator),
-  // supported-modes-wrong (add_power_drive_objects). Empty: the conformant PDS.
+  // transition-16-only-with-quick-stop-6, fault-reset-in-stop-states,
+  // quick-stop-target-reached-missing (bit 10 in QUICK STOP ACTIVE), abort-connection-ignored,
+  // option-code-invalid-accepted (PowerDriveObjects' validators), halt-ignored,
+  // mode-display-not-following, unsupported-mode-accepted (validator), supported-modes-wrong
+  // (add_power_drive_objects). Empty: the conformant PDS.
   DeviationSet deviations;
 };
 

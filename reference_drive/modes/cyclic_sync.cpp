@@ -42,15 +42,21 @@ void CyclicSyncMode::latch(ModeContext& ctx, can::TimePoint at) {
     }
     case CyclicKind::velocity: {
       const double limit = ctx.axis.max_speed();
-      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetVelocity)) +
-                            static_cast<double>(ctx.read_signed(cia402::kVelocityOffset));
+      // Deviation csv-velocity-offset-ignored: 60B1h stored, not added.
+      const double offset = ctx.has(Deviation::csv_velocity_offset_ignored)
+                                ? 0.0
+                                : static_cast<double>(ctx.read_signed(cia402::kVelocityOffset));
+      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetVelocity)) + offset;
       command_ = std::clamp(f.velocity_to_internal(target), -limit, limit);
       break;
     }
     case CyclicKind::torque: {
       const double limit = ctx.axis.torque_limit();
-      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetTorque)) +
-                            static_cast<double>(ctx.read_signed(cia402::kTorqueOffset));
+      // Deviation cst-torque-offset-ignored: 60B2h stored, not added.
+      const double offset = ctx.has(Deviation::cst_torque_offset_ignored)
+                                ? 0.0
+                                : static_cast<double>(ctx.read_signed(cia402::kTorqueOffset));
+      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetTorque)) + offset;
       command_ = std::clamp(target, -limit, limit);
       break;
     }

@@ -12,7 +12,8 @@
 // Statusword (OPERATION ENABLED): bit 12 drive follows the command value (1 while the drive
 // function follows set-points, 0 with halt or a stop ramp); bit 13 following error (csp: the
 // application's 6065h/6066h check); bit 10 0 (reserved).
-// Deviation: csp-follows-bit-never-set (csp only).
+// Deviations: csp/csv/cst-follows-bit-never-set, csv-velocity-offset-ignored,
+// cst-torque-offset-ignored.
 #pragma once
 
 #include <cstdint>

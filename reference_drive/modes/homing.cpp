@@ -74,7 +74,16 @@ HomingMode::HomingMode(HomingConfig config) : config_(std::move(config)) {
   dref_ = config_.kollmorgen_dref;
 }
 
+namespace {
+// CiA 402-2 (6098h): 15, 16, 31, 32 and 36 are reserved; the deviation still refuses 15.
+bool reserved_but_15(std::int8_t method) {
+  return method == 16 || method == 31 || method == 32 || method == 36;
+}
+}  // namespace
+
 Expected<void, cia301::SdoAbort> HomingMode::check_method(std::int8_t method) const {
+  // Deviation homing-reserved-methods-accepted: confirmed, never applied (set_method).
+  if (config_.deviations.reserved_methods_accepted && reserved_but_15(method)) return {};
   const auto& supported = config_.supported_methods;
   if (std::find(supported.begin(), supported.end(), method) == supported.end() ||
       find_homing_method(method, config_.vendor) == nullptr) {
@@ -86,6 +95,7 @@ Expected<void, cia301::SdoAbort> HomingMode::check_method(std::int8_t method) co
 
 Expected<void, cia301::SdoAbort> HomingMode::set_method(std::int8_t method) {
   if (auto ok = check_method(method); !ok) return ok;
+  if (find_homing_method(method, config_.vendor) == nullptr) return {};  // the deviation's
   params_.method = method;
   if (config_.vendor == HomingVendor::kollmorgen) {
     if (const auto dref = kollmorgen_dref_of(method)) dref_ = *dref;
@@ -623,6 +633,7 @@ void HomingOperationMode::apply_deviations(const ModeContext& ctx) {
     deviations.halt_not_reported |= set.has(Deviation::homing_halt_not_reported);
     deviations.no_error_bit |= set.has(Deviation::homing_error_bit_never_set);
     deviations.offset_ignored |= set.has(Deviation::homing_offset_ignored);
+    deviations.reserved_methods_accepted |= set.has(Deviation::homing_reserved_methods_accepted);
   }
   mode_.set_deviations(deviations);
 }

@@ -173,7 +173,8 @@ const HomingMethod* find_homing_method(std::int8_t number, HomingVendor vendor);
 std::vector<std::int8_t> homing_methods_of(HomingVendor vendor);
 
 // Behaviour the deviation set (deviations.inc, family cia402/homing) or a personality switches
-// on; all false: CiA 402. HomingOperationMode adds (ORs) the first four from ctx.deviations.
+// on; all false: CiA 402. HomingOperationMode adds (ORs) all but halt_sets_error from
+// ctx.deviations.
 struct HomingDeviations {
   // homing-wrong-edge: a window method ends at the other edge of the home switch; the other
   // methods approach the edge / search the index pulse on the wrong side.
@@ -187,6 +188,9 @@ struct HomingDeviations {
   bool offset_ignored = false;
   // Festo: halt sets bit 13 (homing error) instead of "interrupted" (L5584-5589).
   bool halt_sets_error = false;
+  // homing-reserved-methods-accepted: 6098h writes of 16, 31, 32, 36 are confirmed, the
+  // method in force stays.
+  bool reserved_methods_accepted = false;
 };
 
 struct HomingConfig {

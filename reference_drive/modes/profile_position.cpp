@@ -76,7 +76,10 @@ ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& c
   ctx.position_limited = was_limited || sp.clamped;
   double velocity = static_cast<double>(ctx.read_unsigned(cia402::kProfileVelocity));
   const double max_velocity = static_cast<double>(ctx.read_unsigned(cia402::kMaxProfileVelocity));
-  if (max_velocity > 0.0) velocity = std::min(velocity, max_velocity);
+  // Deviation pp-max-profile-velocity-ignored: 6081h above 607Fh is run as written.
+  if (max_velocity > 0.0 && !ctx.has(Deviation::pp_max_profile_velocity_ignored)) {
+    velocity = std::min(velocity, max_velocity);
+  }
   sp.limits.velocity = std::min(f.speed_to_internal(velocity), ctx.axis.max_speed());
   sp.limits.acceleration = f.acceleration_to_internal(
       static_cast<double>(ctx.read_unsigned(cia402::kProfileAcceleration)));
@@ -195,7 +198,9 @@ void ProfilePositionMode::update_target_reached(ModeContext& ctx, const ModeCycl
   const bool demand_there = !running_ || trajectory_.done();
   const double window = ctx.factors.distance_to_internal(
       static_cast<double>(ctx.read_unsigned(cia402::kPositionWindow)));
-  const bool inside = demand_there && std::abs(ctx.axis.position() - last_target_) <= window;
+  // Deviation pp-target-reached-on-demand: the demand's arrival is taken for the axis's.
+  const bool inside = demand_there && (ctx.has(Deviation::pp_target_reached_on_demand) ||
+                                       std::abs(ctx.axis.position() - last_target_) <= window);
   if (!inside) {
     in_window_since_.reset();
     reached_ = false;

@@ -27,7 +27,9 @@
 //   13 following error  |60F4h| > 6065h for 6066h (the application's check)
 // Targets are clamped to the software position limits 607Dh (bit 11 while clamped).
 // Deviations: pp-set-point-ack-never-cleared, pp-target-reached-before-window-time,
-// pp-change-immediately-ignored, pp-relative-as-absolute, pp-halt-target-reached-missing.
+// pp-change-immediately-ignored, pp-relative-as-absolute, pp-halt-target-reached-missing,
+// pp-max-profile-velocity-ignored. (quick-stop-target-reached-missing is the PDS's: bit 10 in
+// QUICK STOP ACTIVE, power_drive_system.cpp.)
 #pragma once
 
 #include <cstdint>

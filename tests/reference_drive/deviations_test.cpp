@@ -897,6 +897,79 @@ TEST(DeviationFsa, EnableOperationFromSwitchOnDisabled) {
   EXPECT_EQ(bad.pds.state(), State::operation_enabled);
 }
 
+TEST(DeviationFsa, Transition16OnlyWithQuickStop6) {
+  // Given QUICK STOP ACTIVE with 605Ah = 5, 6, 7 or 8 (stay in QUICK STOP ACTIVE)
+  // When enable operation (000Fh) comes
+  // Then the standard takes transition 16 with each, the deviant only with 6
+  for (const bool deviating : {false, true}) {
+    for (const std::int16_t option : {5, 6, 7, 8}) {
+      PdsRig rig(deviating ? DeviationSet{Deviation::transition_16_only_with_quick_stop_6}
+                           : DeviationSet{});
+      ASSERT_TRUE(rig.pds.set_option_code(OptionCode::quick_stop, option));
+      rig.to_operation_enabled();
+      rig.command(0x0002);  // quick stop
+      ASSERT_EQ(rig.pds.state(), State::quick_stop_active);
+      rig.command(0x000F);  // enable operation
+      EXPECT_EQ(rig.pds.state(),
+                !deviating || option == 6 ? State::operation_enabled : State::quick_stop_active)
+          << "605Ah = " << option;
+    }
+  }
+}
+
+TEST(DeviationFsa, FaultResetInStopStates) {
+  // Given QUICK STOP ACTIVE (605Ah = 6), and FAULT REACTION ACTIVE (605Eh = 1, slow ramp)
+  // When a fault reset edge comes (0082h there, 0080h here)
+  // Then the standard keeps the state (the reaction ends in FAULT), the deviant goes to SWITCH
+  //      ON DISABLED
+  for (const bool deviating : {false, true}) {
+    const DeviationSet deviations =
+        deviating ? DeviationSet{Deviation::fault_reset_in_stop_states} : DeviationSet{};
+    PdsRig quick_stop(deviations);
+    ASSERT_TRUE(quick_stop.pds.set_option_code(OptionCode::quick_stop, 6));
+    quick_stop.to_operation_enabled();
+    quick_stop.command(0x0002);
+    ASSERT_EQ(quick_stop.pds.state(), State::quick_stop_active);
+    quick_stop.command(0x0082);
+    quick_stop.ticks(2);
+    EXPECT_EQ(quick_stop.pds.state(),
+              deviating ? State::switch_on_disabled : State::quick_stop_active);
+
+    PdsRig reaction(deviations);
+    ASSERT_TRUE(reaction.pds.set_option_code(OptionCode::fault_reaction, 1));
+    reaction.to_operation_enabled();
+    reaction.ticks(200);                   // up to speed
+    reaction.pds.on_communication_loss();  // 6007h = 1: fault
+    reaction.tick();
+    ASSERT_EQ(reaction.pds.state(), State::fault_reaction_active);
+    reaction.command(0x0080);
+    EXPECT_EQ(reaction.pds.state(),
+              deviating ? State::switch_on_disabled : State::fault_reaction_active);
+    reaction.ticks(500);
+    EXPECT_EQ(reaction.pds.state(), deviating ? State::switch_on_disabled : State::fault);
+  }
+}
+
+TEST(DeviationFsa, QuickStopTargetReachedMissing) {
+  // Given a quick stop with 605Ah = 6 from 1000 units/s
+  // When the axis has stopped in QUICK STOP ACTIVE
+  // Then the standard shows bit 10 (0417h with voltage enabled), the deviant not; while the
+  //      axis decelerates neither does
+  for (const bool deviating : {false, true}) {
+    PdsRig rig(deviating ? DeviationSet{Deviation::quick_stop_target_reached_missing}
+                         : DeviationSet{});
+    ASSERT_TRUE(rig.pds.set_option_code(OptionCode::quick_stop, 6));
+    rig.to_operation_enabled();
+    rig.ticks(200);
+    rig.command(0x0002);
+    ASSERT_EQ(rig.pds.state(), State::quick_stop_active);
+    EXPECT_EQ(rig.pds.statusword() & 0x0400, 0) << "still decelerating";
+    rig.ticks(100);
+    ASSERT_TRUE(rig.axis.is_stopped());
+    EXPECT_EQ(rig.pds.statusword() & 0x0400, deviating ? 0 : 0x0400);
+  }
+}
+
 TEST(DeviationOptionCodes, AbortConnectionIgnored) {
   // Given OPERATION ENABLED with 6007h = 1 (fault)
   // When the communication is lost
