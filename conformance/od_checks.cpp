@@ -155,10 +155,15 @@ void add_eds_entry_checks(const OdObject& object, std::vector<Vector>& vectors) 
     const auto shown = info.size != 0 && info.size <= 8
                            ? fmt::format("{:X}h", cia301::load_unsigned(expected))
                            : fmt::format("\"{}\"", std::string(expected.begin(), expected.end()));
-    auto vector = make(object, "default",
-                       fmt::format("{} ({}) MUST read its EDS value {} after a reset", name,
-                                   cia301::to_string(object.access), shown),
-                       Step{read, {}, 0, {}});
+    // A string or domain (1008h device name, 1009h/100Ah versions) may name another firmware of
+    // the family the EDS describes: should level.
+    const bool variable = info.size == 0;
+    auto vector =
+        make(object, "default",
+             fmt::format("{} ({}) {} read its EDS value {} after a reset", name,
+                         cia301::to_string(object.access), variable ? "SHOULD" : "MUST", shown),
+             Step{read, {}, 0, {}});
+    if (variable) vector.level = Level::should;
     vector.sources.push_back(cited(
         "CiA 306 DefaultValue ($NODEID resolved; a DCF's ParameterValue where given); CTT 4.2, "
         "4.8"));

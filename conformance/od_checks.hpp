@@ -14,7 +14,9 @@
 //                           supported", fixed by the structure, CiA 301 §7.4.3). The expected
 //                           value is the EDS's, $NODEID resolved for --node; a DCF's
 //                           ParameterValue where it gives one (a commissioned drive's stored
-//                           value). ro entries other than sub 00h are process values (6041h,
+//                           value); strings and domains (1008h, 1009h, 100Ah: they may name
+//                           another firmware of the family the EDS describes) at should
+//                           level. ro entries other than sub 00h are process values (6041h,
 //                           1001h, the serial number 1018h sub 4): their DefaultValue is no reset
 //                           value, they get no default check. A device that holds stored
 //                           parameters differs from the EDS defaults: judge it with its DCF.
