@@ -544,6 +544,14 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
         return std::nullopt;
       }
     }
+    // 1027h sub 0 (an object the EDS lacks): answered 00h. Expedited upload response with
+    // size: scs 2, e = 1, s = 1, n = 3 (4Fh), 1 data byte.
+    if (d.has(Deviation::od_object_not_in_eds) && ccs_of(frame.data[0]) == kCcsUploadInitiate &&
+        index_of(frame) == 0x1027 && frame.data[3] == 0) {
+      (void)send(
+          can::Frame::standard(response_id, {0x4F, 0x27, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00}));
+      return std::nullopt;
+    }
     // 6082h sub 0 := the value it holds (expedited download, bytes 4.. the value): refused.
     if (d.has(Deviation::od_write_back_refused) && is_expedited_download(frame, 0x6082) &&
         frame.data[3] == 0) {
