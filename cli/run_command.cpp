@@ -210,6 +210,8 @@ void run(const RunOptions& options) {
   std::optional<cia301::ObjectDictionary> eds_od;
   std::string eds_sha256;
   std::vector<std::string> eds_findings;
+  std::vector<cia306::Diagnostic> eds_diagnostics;  // for the eds/lint results
+  std::optional<conformance::EdsIdentity> eds_identity;
   if (!options.eds.empty()) {
     auto eds = cia306::read_eds_file(options.eds);
     if (!eds) bad_input(eds.error().to_string());
@@ -239,6 +241,10 @@ void run(const RunOptions& options) {
       bad_input(fmt::format("drivecheck run: {} does not give an object dictionary", options.eds));
     }
     eds_od.emplace(std::move(*od));
+    eds_diagnostics = std::move(findings);
+    const auto& device_info = eds->eds.device_info;
+    eds_identity = conformance::EdsIdentity{device_info.vendor_number, device_info.product_number,
+                                            device_info.revision_number};
     eds_sha256 = conformance::sha256_file(options.eds).value_or("");
   }
 
@@ -304,8 +310,8 @@ void run(const RunOptions& options) {
   fmt::print("drivecheck run: profile {} ({})\n", profile->name, profile_choice);
 
   // EDS-driven object dictionary checks (family eds/od) from the EDS and the profile's objects.
-  auto od_vectors =
-      conformance::generate_od_vectors(eds_od ? &*eds_od : nullptr, options.eds, *profile);
+  auto od_vectors = conformance::generate_od_vectors(eds_od ? &*eds_od : nullptr, options.eds,
+                                                     *profile, eds_identity);
   for (auto& vector : od_vectors)
     vectors.vectors.push_back(std::move(vector));
   // The selection first, then its order: a shuffle depends on the seed and the selection only.
@@ -323,7 +329,21 @@ void run(const RunOptions& options) {
       (options.levels.empty() ||
        std::find(options.levels.begin(), options.levels.end(), "must") != options.levels.end()) &&
       (!rerun_ids || rerun_ids->contains(probe_id));
-  if (vectors.vectors.empty() && !run_probe) {
+  // The EDS itself (CTT 1.0): one result per lint rule, judged from the file (no bus).
+  std::vector<conformance::VectorResult> lint_results;
+  if (eds_od) {
+    lint_results =
+        conformance::eds_lint_results(eds_diagnostics, options.eds, *profile, options.strict);
+    std::erase_if(lint_results, [&](const conformance::VectorResult& result) {
+      if (!selected_by_filters(options.filters, result.id)) return true;
+      if (!options.levels.empty() &&
+          std::find(options.levels.begin(), options.levels.end(),
+                    conformance::to_string(result.level)) == options.levels.end())
+        return true;
+      return rerun_ids && !rerun_ids->contains(result.id);
+    });
+  }
+  if (vectors.vectors.empty() && !run_probe && lint_results.empty()) {
     // An empty selection is no pass: say which part of the selection left nothing.
     std::vector<std::string> parts;
     for (const auto& filter : options.filters)
@@ -343,7 +363,7 @@ void run(const RunOptions& options) {
   if (order->kind != conformance::VectorOrder::Kind::file)
     fmt::print("drivecheck run: vectors in {} order (repeat with --order {})\n",
                conformance::to_string(*order), conformance::to_string(*order));
-  const std::size_t total = vectors.vectors.size();
+  const std::size_t total = vectors.vectors.size() + lint_results.size();
   const auto color_mode = options.color == "always"  ? reports::ColorMode::always
                           : options.color == "never" ? reports::ColorMode::never
                                                      : reports::ColorMode::automatic;
@@ -435,6 +455,13 @@ void run(const RunOptions& options) {
     }
     result = engine.run(vectors.vectors, std::move(info));
     result.info.filter = selection_text;
+    if (!result.interrupted) {
+      for (auto& lint_result : lint_results) {
+        console.vector_started(lint_result.id);
+        console.vector_finished(lint_result);
+        result.vectors.push_back(std::move(lint_result));
+      }
+    }
     if (run_probe && !result.interrupted && !result.dut_lost) {
       console.vector_started(probe_id);
       result.vectors.push_back(engine.probe_undocumented_objects(

@@ -1,12 +1,16 @@
 #include "conformance/od_checks.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <map>
 #include <optional>
 #include <utility>
 
+#include "conformance/verdict.hpp"
 #include "protocol/cia301/object_dictionary.hpp"
+#include "protocol/cia306/eds_lint.hpp"
 
 namespace drivecheck::conformance {
 namespace {
@@ -20,6 +24,9 @@ struct OdObject {
   std::optional<std::int64_t> min;
   std::optional<std::int64_t> max;
   std::string source;
+  // EDS entries only: the entry (its definition and the value the EDS gives) and its object.
+  const cia301::Entry* eds_entry = nullptr;
+  cia301::ObjectCode code = cia301::ObjectCode::var;
 };
 
 std::optional<std::int64_t> integer_of(const cia301::Value& value) {
@@ -69,11 +76,229 @@ Vector make(const OdObject& object, std::string check, std::string title, Step s
   return vector;
 }
 
+Source cited(std::string text) {
+  return Source{std::move(text), "", "", 0, 0, 0};
+}
+
+// CiA 306 ObjFlags (the EDS key of an object or sub-object).
+constexpr std::uint32_t kRefuseWriteOnDownload = 0x1;
+constexpr std::uint32_t kRefuseReadOnScan = 0x2;
+
+// Why an entry's value is not written back (empty: it is). A write of these has an effect
+// beyond storing the value read, or the value read is not one a write takes.
+std::string write_back_exclusion(const OdObject& object) {
+  if (object.eds_entry != nullptr &&
+      (object.eds_entry->definition().obj_flags & kRefuseWriteOnDownload) != 0)
+    return "ObjFlags bit 0 (refuse write on download, CiA 306): the EDS says a configuration "
+           "tool must not write it";
+  if ((object.index == 0x1010 || object.index == 0x1011) && object.sub > 0)
+    return "CiA 301 §7.5.2.13, §7.5.2.14: a read gives the storage capability, a write must carry "
+           "the signature \"save\"/\"load\" (writing the value read back is no write-back)";
+  if (object.index == 0x1003)
+    return "CiA 301 §7.5.2.4: only 0 may be written to 1003h sub 0, and it clears the error "
+           "history";
+  if (object.index == 0x1F51)
+    return "CiA 302-3 (1F51h program control): a write is a command to the program (start, stop, "
+           "reset, clear)";
+  if (object.index == 0x6040)
+    return "CiA 402-2 §6040h controlword: a write is a command to the state machine, not a "
+           "parameter";
+  return {};
+}
+
+// Where CiA 301 lets the device refuse a write in the present state whatever the value (so a
+// refusal of the value it already holds meets the standard too): the set and why.
+std::optional<AbortExpect> write_back_refusal(const OdObject& object) {
+  const auto in = [&](std::uint16_t first, std::uint16_t last) {
+    return object.index >= first && object.index <= last;
+  };
+  std::optional<AbortExpect> set;
+  if ((in(0x1400, 0x15FF) || in(0x1800, 0x19FF)) && object.sub == 1)
+    set = AbortExpect::named("cob-id-while-valid");  // §7.5.2.35, §7.5.2.37
+  else if (in(0x1800, 0x19FF) && object.sub == 3)
+    set = AbortExpect::named("parameter-while-valid");  // inhibit time, §7.5.2.37
+  else if (in(0x1600, 0x17FF) || in(0x1A00, 0x1BFF))
+    set = AbortExpect::named("mapping-while-valid");  // §7.5.2.36, §7.5.2.38
+  else if (object.index == 0x1005 || object.index == 0x1012 || object.index == 0x1014)
+    set = AbortExpect::named("cob-id-while-valid");  // §7.5.2.6, §7.5.2.15, §7.5.2.17
+  else if (object.index == 0x1019)
+    set = AbortExpect::named("sync-counter-while-producing");  // §7.5.2.22
+  return set;
+}
+
+bool is_array_or_record(cia301::ObjectCode code) {
+  return code == cia301::ObjectCode::array || code == cia301::ObjectCode::record;
+}
+
+// Whether an EDS entry's DefaultValue is the value the entry holds after a reset (see the
+// header): const, writable, or the "highest sub-index supported" of an ARRAY/RECORD.
+bool default_is_reset_value(const OdObject& object) {
+  const auto access = object.access;
+  if (access == cia301::AccessType::constant || cia301::is_writable(access)) return true;
+  return object.sub == 0 && is_array_or_record(object.code);
+}
+
+void add_eds_entry_checks(const OdObject& object, std::vector<Vector>& vectors) {
+  const auto& entry = *object.eds_entry;
+  const auto& definition = entry.definition();
+  const auto& info = cia301::info(object.type);
+  const auto name = fmt::format("{:04X}h sub {}", object.index, object.sub);
+  const bool dynamic = object.index == 0x1003;
+
+  // default (CTT 4.2, 4.8): the value after a reset node.
+  if (!definition.default_value.empty() && default_is_reset_value(object) && !dynamic &&
+      cia301::is_readable(object.access)) {
+    const auto expected = std::vector<std::uint8_t>(entry.bytes().begin(), entry.bytes().end());
+    SdoReadStep read{object.index, object.sub, Transfer::automatic, {}, false, {}};
+    read.expect.kind = SdoExpect::Kind::data;
+    read.expect.data = expected;
+    const auto shown = info.size != 0 && info.size <= 8
+                           ? fmt::format("{:X}h", cia301::load_unsigned(expected))
+                           : fmt::format("\"{}\"", std::string(expected.begin(), expected.end()));
+    // A string or domain (1008h device name, 1009h/100Ah versions) may name another firmware of
+    // the family the EDS describes: should level.
+    const bool variable = info.size == 0;
+    auto vector =
+        make(object, "default",
+             fmt::format("{} ({}) {} read its EDS value {} after a reset", name,
+                         cia301::to_string(object.access), variable ? "SHOULD" : "MUST", shown),
+             Step{read, {}, 0, {}});
+    if (variable) vector.level = Level::should;
+    vector.sources.push_back(cited(
+        "CiA 306 DefaultValue ($NODEID resolved; a DCF's ParameterValue where given); CTT 4.2, "
+        "4.8"));
+    if ((definition.obj_flags & kRefuseReadOnScan) != 0) {
+      vector.not_applicable =
+          "ObjFlags bit 1 (refuse read on scan, CiA 306): the EDS says a configuration tool "
+          "must not read it, so its value is no configuration to compare";
+    }
+    vectors.push_back(std::move(vector));
+  }
+
+  // write-back (CTT 4.9): rw entries of a fixed size.
+  if (cia301::is_readable(object.access) && cia301::is_writable(object.access) && info.size >= 1 &&
+      info.size <= 8) {
+    SdoReadStep first{object.index, object.sub, Transfer::automatic, {}, false, "value"};
+    first.expect.kind = SdoExpect::Kind::size;
+    first.expect.size = info.size;
+    SdoWriteStep write;
+    write.index = object.index;
+    write.sub = object.sub;
+    write.value = ValueSpec{0, "value"};
+    write.size = info.size;
+    write.expect.kind = SdoExpect::Kind::ok;
+    write.expect.or_abort = write_back_refusal(object);
+    SdoReadStep again{object.index, object.sub, Transfer::automatic, {}, false, {}};
+    again.expect.kind = SdoExpect::Kind::value;
+    again.expect.value = ValueSpec{0, "value"};
+    auto vector =
+        make(object, "write-back",
+             fmt::format("Writing {} ({}) its own value MUST succeed{} and leave it "
+                         "unchanged",
+                         name, cia301::to_string(object.access),
+                         write.expect.or_abort ? " (or be refused as CiA 301 allows)" : ""),
+             Step{first, {}, 0, {}});
+    vector.steps.push_back(Step{write, {}, 0, {}});
+    vector.steps.push_back(Step{again, {}, 0, {}});
+    vector.sources.push_back(
+        cited(write.expect.or_abort ? fmt::format("CTT 4.9; {}", write.expect.or_abort->citation)
+                                    : std::string("CTT 4.9; CiA 301 §7.4.5 (rw: read and write)")));
+    vector.not_applicable = write_back_exclusion(object);
+    vectors.push_back(std::move(vector));
+  }
+}
+
+// Sub-index FFh of an object (CTT 4.5): optional; when present, object code in bits 0-7 and
+// the data type in bits 8-23 (CiA 301 §7.4.3).
+void add_sub_ff_check(const cia301::Object& object, const std::string& eds_file,
+                      std::vector<Vector>& vectors) {
+  if (object.entries().empty() || object.find(0xFF) != nullptr) return;
+  std::optional<cia301::DataType> type;
+  if (object.code() == cia301::ObjectCode::var) {
+    type = object.entries().front().type();
+  } else if (object.code() == cia301::ObjectCode::array && object.entries().size() > 1) {
+    type = object.entries()[1].type();
+  }
+  const auto code = static_cast<std::uint32_t>(object.code());
+  SdoReadStep read{object.index(), 0xFF, Transfer::automatic, {}, false, {}};
+  read.expect.kind = SdoExpect::Kind::value;
+  read.expect.value.literal =
+      type ? static_cast<std::int64_t>((static_cast<std::uint32_t>(*type) << 8) | code) : code;
+  read.expect.mask = type ? 0x00FFFFFF : 0xFF;
+  read.expect.or_abort = AbortExpect::named("sub-index-does-not-exist");
+  OdObject where;
+  where.index = object.index();
+  where.sub = 0xFF;
+  where.source = fmt::format("EDS {} [{:04X}] ObjectType", eds_file, object.index());
+  auto vector = make(
+      where, "object-type",
+      fmt::format("{:04X}h sub FFh, where present, MUST give object code {:X}h ({}){}",
+                  object.index(), code, cia301::to_string(object.code()),
+                  type ? fmt::format(" and data type {:04X}h ({})",
+                                     static_cast<std::uint16_t>(*type), cia301::info(*type).name)
+                       : std::string(" (the record's data type is not judged)")),
+      Step{read, {}, 0, {}});
+  vector.sources.push_back(
+      cited("CiA 301 §7.4.3 (sub-index FFh: object code bits 0-7, data type bits 8-23; optional); "
+            "CTT 4.5"));
+  vectors.push_back(std::move(vector));
+}
+
+void add_identity_checks(const EdsIdentity& identity, const std::string& eds_file,
+                         std::vector<Vector>& vectors) {
+  struct Item {
+    std::uint8_t sub;
+    const char* check;
+    const char* key;
+    std::optional<std::uint32_t> value;
+    std::optional<std::uint64_t> mask;
+    Level level;
+  };
+  const Item items[] = {
+      {1, "vendor-id", "VendorNumber", identity.vendor_id, std::nullopt, Level::must},
+      {2, "product-code", "ProductNumber", identity.product_code, std::nullopt, Level::must},
+      {3, "revision-major", "RevisionNumber", identity.revision_number, 0xFFFF0000, Level::must},
+      {3, "revision-number", "RevisionNumber", identity.revision_number, std::nullopt,
+       Level::should},
+  };
+  for (const auto& item : items) {
+    if (!item.value) continue;
+    SdoReadStep read{0x1018, item.sub, Transfer::automatic, {}, false, {}};
+    read.expect.kind = SdoExpect::Kind::value;
+    read.expect.value.literal = *item.value;
+    read.expect.mask = item.mask;
+    Vector vector;
+    vector.id = fmt::format("eds/identity/{}", item.check);
+    vector.title =
+        item.mask
+            ? fmt::format(
+                  "1018h sub {} MUST hold the major revision {:04X}h (bits 16-31) of "
+                  "[DeviceInfo] {} {:X}h",
+                  item.sub, *item.value >> 16, item.key, *item.value)
+            : fmt::format("1018h sub {} {} hold [DeviceInfo] {} {:X}h", item.sub,
+                          item.level == Level::must ? "MUST" : "SHOULD", item.key, *item.value);
+    vector.sources.push_back(cited(fmt::format("EDS {} [DeviceInfo] {}", eds_file, item.key)));
+    vector.sources.push_back(cited(
+        item.sub == 3
+            ? "CiA 301 §7.5.2.21 (1018h sub 3: major revision bits 16-31 = CANopen behaviour, "
+              "minor revision bits 0-15 = versions of the same behaviour); CiA 306 RevisionNumber"
+            : "CiA 301 §7.5.2.21; CiA 306 [DeviceInfo] (the numbers 1018h holds)"));
+    vector.level = item.level;
+    vector.setup = Setup::reset_node;
+    vector.nmt = cia301::NmtState::pre_operational;
+    vector.timeout = DurationSpec{std::chrono::seconds(5), {}};
+    vector.file = "(generated)";
+    vector.steps.push_back(Step{read, {}, 0, {}});
+    vectors.push_back(std::move(vector));
+  }
+}
+
 }  // namespace
 
 std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
                                         const std::string& eds_file,
-                                        const profile::DriveProfile& profile) {
+                                        const profile::DriveProfile& profile,
+                                        const std::optional<EdsIdentity>& identity) {
   std::map<std::pair<std::uint16_t, std::uint8_t>, OdObject> objects;
   if (eds != nullptr) {
     for (const auto& object : eds->objects()) {
@@ -86,9 +311,9 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
             std::nullopt,
             integer_of(entry.definition().low_limit),
             integer_of(entry.definition().high_limit),
-            fmt::format("EDS {} [{:04X}sub{:X}]", eds_file, object.index(), entry.sub_index())};
-        if (entry.access() == cia301::AccessType::constant)
-          od.default_value = integer_of(entry.definition().default_value);
+            fmt::format("EDS {} [{:04X}sub{:X}]", eds_file, object.index(), entry.sub_index()),
+            &entry,
+            object.code()};
         objects[{od.index, od.sub}] = od;
       }
     }
@@ -110,7 +335,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
     const auto& info = cia301::info(object.type);
     const auto range = type_range(object.type);
     const auto name = fmt::format("{:04X}h sub {}", object.index, object.sub);
-    // 1003h sub 1..254 exist only while errors are recorded (else 08000024h, CiA 301 §7.5.2.5).
+    // 1003h sub 1..254 exist only while errors are recorded (else 08000024h, CiA 301 §7.5.2.4).
     const bool dynamic = object.index == 0x1003 && object.sub > 0;
     if (cia301::is_readable(object.access) && !dynamic) {
       SdoReadStep read{object.index, object.sub, Transfer::automatic, {}, false, {}};
@@ -146,6 +371,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
                                          read.expect.abort.describe()),
                              Step{read, {}, 0, {}}));
     }
+    if (object.eds_entry != nullptr) add_eds_entry_checks(object, vectors);
     if (!cia301::is_writable(object.access) && info.size != 0 && info.size <= 8) {
       SdoWriteStep write;
       write.index = object.index;
@@ -188,7 +414,75 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
         limit_vector(*object.max + 1, "above-max", "max + 1");
     }
   }
+  if (eds != nullptr) {
+    for (const auto& object : eds->objects())
+      add_sub_ff_check(object, eds_file, vectors);
+    if (identity) add_identity_checks(*identity, eds_file, vectors);
+  }
   return vectors;
+}
+
+std::vector<VectorResult> eds_lint_results(const std::vector<cia306::Diagnostic>& findings,
+                                           const std::string& eds_file,
+                                           const profile::DriveProfile& profile, bool strict) {
+  std::vector<const cia306::LintRule*> rules;
+  for (const auto& rule : cia306::lint_rules())
+    rules.push_back(&rule);
+  rules.push_back(&cia306::reader_rule());
+  const auto is_lint_rule = [](const std::string& id) {
+    const auto all = cia306::lint_rules();
+    return std::any_of(all.begin(), all.end(),
+                       [&](const cia306::LintRule& rule) { return rule.id == id; });
+  };
+  std::vector<VectorResult> results;
+  for (const auto* rule : rules) {
+    const bool reader = rule == &cia306::reader_rule();
+    Vector vector;
+    vector.id = fmt::format("eds/lint/{}", rule->id);
+    vector.title = fmt::format(
+        "The EDS {}: {}",
+        rule->severity == cia306::Severity::error ? "MUST be such that" : "SHOULD be such that",
+        rule->what);
+    vector.level = rule->severity == cia306::Severity::error ? Level::must : Level::should;
+    vector.sources = {cited(fmt::format("EDS {}", eds_file)), cited(std::string(rule->clause)),
+                      cited("CTT 1.0 (EDS checker)")};
+    vector.file = "(generated)";
+    VectorResult result;
+    result.id = vector.id;
+    result.family = vector.family();
+    result.title = vector.title;
+    for (const auto& source : vector.sources)
+      result.sources.push_back(source.text);
+    result.level = vector.level;
+    result.file = vector.file;
+    std::vector<std::string> found;
+    for (const auto& finding : findings) {
+      const bool ours = reader ? !is_lint_rule(finding.id) : finding.id == rule->id;
+      if (!ours) continue;
+      found.push_back(finding.to_string());
+      result.checks.push_back(Check{0,
+                                    "eds lint",
+                                    fmt::format("no [{}] finding", rule->id),
+                                    finding.to_string(),
+                                    false,
+                                    {},
+                                    {}});
+    }
+    const auto expected = fmt::format("no [{}] finding ({})", rule->id, rule->what);
+    if (found.empty()) {
+      result.checks.push_back(Check{0, "eds lint", expected, "none", true, {}, {}});
+      decide_verdict(result, vector, profile, Outcome::pass, {}, strict);
+    } else {
+      decide_verdict(result, vector, profile, Outcome::fail,
+                     fmt::format("{}: eds lint: Expected {}; Actual {} finding(s)\n  Expected: "
+                                 "{}\n  Actual:   {}",
+                                 eds_file, expected, found.size(), expected,
+                                 fmt::join(found, "\n            ")),
+                     strict);
+    }
+    results.push_back(std::move(result));
+  }
+  return results;
 }
 
 }  // namespace drivecheck::conformance

@@ -105,6 +105,10 @@ struct SdoExpect {
   std::size_t size = 0;
   std::vector<std::uint8_t> data;
   AbortExpect abort;  // Kind::abort
+  // Generated checks only (conformance/od_checks.hpp; no YAML form): with Kind::ok or
+  // Kind::value, an abort in this set also meets the expectation, where CiA lets the device
+  // refuse (an optional sub-index such as FFh absent, a parameter not writable while valid).
+  std::optional<AbortExpect> or_abort;
   friend bool operator==(const SdoExpect&, const SdoExpect&) = default;
 };
 
@@ -306,6 +310,9 @@ struct Vector {
   std::string note;
   std::string file;  // as given to the loader
   std::size_t line = 0;
+  // Generated vectors only (conformance/od_checks.hpp; no YAML form): not applicable by a cited
+  // rule, this the reason (e.g. an entry whose write has side effects is not written back).
+  std::string not_applicable;
 
   // First two id components: "cia301/sdo".
   std::string family() const;

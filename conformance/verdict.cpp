@@ -40,6 +40,7 @@ std::vector<profile::ObjectNeed> object_needs(const Vector& vector) {
 
 std::string not_applicable_reason(const Vector& vector, const profile::DriveProfile& profile,
                                   const ApplicabilityContext& context) {
+  if (!vector.not_applicable.empty()) return vector.not_applicable;
   if (!vector.profiles.empty() && std::find(vector.profiles.begin(), vector.profiles.end(),
                                             profile.name) == vector.profiles.end()) {
     return fmt::format("only for profile {} (selected: {})", fmt::join(vector.profiles, ", "),

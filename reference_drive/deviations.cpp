@@ -82,6 +82,7 @@ constexpr unsigned ccs_of(std::uint8_t byte0) {
   return byte0 >> 5;
 }
 constexpr unsigned kCcsDownloadInitiate = 1;
+constexpr unsigned kCcsUploadInitiate = 2;
 constexpr unsigned kCcsUploadSegment = 3;
 constexpr unsigned kCcsInvalid = 7;
 
@@ -95,6 +96,7 @@ constexpr std::uint32_t kAbortLengthHigh = 0x06070012;
 constexpr std::uint32_t kAbortLengthLow = 0x06070013;
 constexpr std::uint32_t kAbortNoSubIndex = 0x06090011;
 constexpr std::uint32_t kAbortInvalidValue = 0x06090030;
+constexpr std::uint32_t kAbortCannotStore = 0x08000020;
 
 // Heartbeat / NMT state bytes.
 constexpr std::uint8_t kStateStopped = 0x04;
@@ -378,6 +380,9 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       if (index == 0x1000 && frame.data[3] == 0 && d.has(Deviation::device_type_wrong)) {
         store_u32(out, 4, 0);
       }
+      if (index == 0x1018 && frame.data[3] == 2 && d.has(Deviation::identity_product_code_wrong)) {
+        store_u32(out, 4, 0);
+      }
       if (index == 0x1001 && frame.data[3] == 0 && d.has(Deviation::error_register_not_set)) {
         out.data[4] = 0;
       }
@@ -526,6 +531,37 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
         frame.data[3] == 0 && mapping_bits(frame) == 64) {
       (void)send(abort_frame(response_id, frame, kAbortPdoLength));
       return std::nullopt;
+    }
+    // Sub-index FFh of an ARRAY/RECORD: answered 00000007h (object code VAR, no data type).
+    // Expedited upload response: scs 2, e = 1, s = 1, n = 0 (43h), 4 data bytes.
+    if (d.has(Deviation::od_sub_ff_wrong) && ccs_of(frame.data[0]) == kCcsUploadInitiate &&
+        frame.data[3] == 0xFF) {
+      const cia301::Object* object = od_->find(index_of(frame));
+      if (object != nullptr && (object->code() == cia301::ObjectCode::array ||
+                                object->code() == cia301::ObjectCode::record)) {
+        (void)send(can::Frame::standard(
+            response_id, {0x43, frame.data[1], frame.data[2], 0xFF, 0x07, 0x00, 0x00, 0x00}));
+        return std::nullopt;
+      }
+    }
+    // 1027h sub 0 (an object the EDS lacks): answered 00h. Expedited upload response with
+    // size: scs 2, e = 1, s = 1, n = 3 (4Fh), 1 data byte.
+    if (d.has(Deviation::od_object_not_in_eds) && ccs_of(frame.data[0]) == kCcsUploadInitiate &&
+        index_of(frame) == 0x1027 && frame.data[3] == 0) {
+      (void)send(
+          can::Frame::standard(response_id, {0x4F, 0x27, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00}));
+      return std::nullopt;
+    }
+    // 6082h sub 0 := the value it holds (expedited download, bytes 4.. the value): refused.
+    if (d.has(Deviation::od_write_back_refused) && is_expedited_download(frame, 0x6082) &&
+        frame.data[3] == 0) {
+      if (const cia301::Entry* entry = od_->find(0x6082, 0)) {
+        const auto held = entry->bytes();
+        if (std::equal(held.begin(), held.end(), frame.data.begin() + 4)) {
+          (void)send(abort_frame(response_id, frame, kAbortCannotStore));
+          return std::nullopt;
+        }
+      }
     }
     // 1003h sub 00h := 0 (the only value CiA 301 allows): confirmed, history kept.
     if (is_expedited_download(frame, 0x1003) && frame.data[3] == 0 && frame.data[4] == 0 &&

@@ -369,6 +369,14 @@ void ReferenceDrive::on_reset(cia301::ResetKind kind) {
   if (kind == cia301::ResetKind::application) {
     apply_stored(cia301::kStoreApplication);
     apply_stored(cia301::kStoreManufacturer);
+    // Deviation: 60F8h (max slippage) boots with its default + 1, not the EDS's value.
+    if (has(Deviation::od_default_after_reset_differs)) {
+      if (cia301::Entry* entry = od_->find(0x60F8, 0)) {
+        auto bytes = entry->default_bytes(node_id());
+        if (!bytes.empty()) ++bytes[0];
+        (void)entry->assign_bytes(bytes);
+      }
+    }
     application_reset_ = true;
   } else {
     reset_sdo_servers();

@@ -9,6 +9,15 @@
 namespace drivecheck::cia306 {
 namespace {
 
+constexpr LintRule kLintRules[] = {
+#define DRIVECHECK_EDS_LINT_RULE(id, severity, clause, what) {id, Severity::severity, clause, what},
+#include "protocol/cia306/eds_lint_rules.inc"
+#undef DRIVECHECK_EDS_LINT_RULE
+};
+constexpr LintRule kReaderRule{
+    "reader", Severity::warning, "CiA 306 (sections, keys and value syntax of an EDS/DCF)",
+    "the file's syntax needs no tolerance (e.g. hex without 0x, TRUE/FALSE, empty values)"};
+
 using cia301::AccessType;
 using cia301::DataType;
 
@@ -500,7 +509,7 @@ class Linter {
                 fmt::format("{} names {:04X}h sub {}, which is wo: a TPDO cannot read it", where,
                             index, target_sub));
         } else if ((rpdo && a == AccessType::rwr) || (!rpdo && a == AccessType::rww)) {
-          warning(line, "pdo-mapping-direction",
+          warning(line, "pdo-mapping-direction-hint",
                   fmt::format("{} names {:04X}h sub {}, which is {} (meant for {})", where, index,
                               target_sub, cia301::to_string(a), rpdo ? "TPDOs" : "RPDOs"));
         }
@@ -620,6 +629,14 @@ class Linter {
 };
 
 }  // namespace
+
+std::span<const LintRule> lint_rules() {
+  return kLintRules;
+}
+
+const LintRule& reader_rule() {
+  return kReaderRule;
+}
 
 std::vector<Diagnostic> lint_eds(const Eds& eds, const std::string& file) {
   return Linter(eds, file).run();

@@ -25,7 +25,8 @@
 //   pdo-mapping-target-missing   E  a mapping entry names no existing object (or is 0)
 //   pdo-mapping-not-mappable     E  ... an object with PDOMapping=0
 //   pdo-mapping-length           E  ... with a length other than the object's size in bits
-//   pdo-mapping-direction        E  RPDO -> ro/const, TPDO -> wo;  W  RPDO -> rwr, TPDO -> rww
+//   pdo-mapping-direction        E  RPDO -> ro/const, TPDO -> wo
+//   pdo-mapping-direction-hint   W  RPDO -> rwr, TPDO -> rww
 //   pdo-mapping-dummy-disabled   E  dummy object mapped but [DummyUsage] does not enable it
 //   pdo-mapping-too-long         E  more than 64 bits mapped
 //   pdo-without-communication    E  1600h+n without 1400h+n, 1A00h+n without 1800h+n, and
@@ -39,13 +40,27 @@
 //   dcf-baudrate                 E  DCF Baudrate not a CiA bit rate or not in DeviceInfo
 #pragma once
 
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "protocol/cia306/eds.hpp"
 #include "protocol/common/expected.hpp"
 
 namespace drivecheck::cia306 {
+
+// One rule of the linter (protocol/cia306/eds_lint_rules.inc, the one table).
+struct LintRule {
+  std::string_view id;
+  Severity severity;
+  std::string_view clause;  // what makes it a finding (CiA 301 clause, CiA 306 section/key)
+  std::string_view what;    // what a clean file has, one line
+};
+// Every rule, in table order.
+std::span<const LintRule> lint_rules();
+// The reader's own warnings (file syntax it tolerates) as one rule: id "reader".
+const LintRule& reader_rule();
 
 // Semantic findings for a model (read from `file`, for the diagnostics' file name).
 std::vector<Diagnostic> lint_eds(const Eds& eds, const std::string& file = "");

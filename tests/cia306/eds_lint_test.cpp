@@ -352,5 +352,53 @@ TEST(EdsLint, DcfCommissioningIsChecked) {
           "is not 1 [dcf-baudrate]"}));
 }
 
+TEST(EdsLintRules, EveryFindingIdIsARuleOfTheTable) {
+  // Given every test file (the clean ones and those made to break the rules)
+  std::vector<std::string> ids;
+  for (const std::string name :
+       {"minimal.eds", "crlf_bom.eds", "lowercase_keys.eds", "compact_subobj.eds",
+        "nodeid_forms.eds", "octal_and_hex.eds", "missing_optional.eds", "device.dcf",
+        "comments_tools.eds", "value_types.eds", "servo_drive.eds", "bad_lint.eds"}) {
+    for (const auto& finding : lint_eds(read_eds(load(name), name).eds, name))
+      ids.push_back(finding.id);
+  }
+  // When the linter's findings are looked up in protocol/cia306/eds_lint_rules.inc
+  // Then each id is a row whose severity is the finding's, and the rows are unique, kebab-case
+  //      and cite a clause
+  ASSERT_FALSE(ids.empty());
+  const auto rules = lint_rules();
+  for (const auto& id : ids) {
+    EXPECT_NE(std::find_if(rules.begin(), rules.end(),
+                           [&](const LintRule& rule) { return rule.id == id; }),
+              rules.end())
+        << id;
+  }
+  std::vector<std::string_view> seen;
+  for (const auto& rule : rules) {
+    EXPECT_EQ(std::find(seen.begin(), seen.end(), rule.id), seen.end()) << rule.id;
+    seen.push_back(rule.id);
+    EXPECT_TRUE(std::all_of(rule.id.begin(), rule.id.end(), [](char c) {
+      return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-';
+    })) << rule.id;
+    EXPECT_TRUE(rule.clause.starts_with("CiA 30")) << rule.id;
+    EXPECT_FALSE(rule.what.empty()) << rule.id;
+  }
+  EXPECT_EQ(reader_rule().id, "reader");
+}
+
+TEST(EdsLintRules, SeverityOfEachFindingIsItsRules) {
+  // Given the findings of the broken file and of the rwr/rww mapping hint
+  auto findings = lint_eds_text(load("bad_lint.eds"), "bad_lint.eds");
+  // When each finding's severity is compared with its rule's
+  // Then they agree (a rule is either an error or a warning, never both)
+  for (const auto& finding : findings) {
+    const auto rules = lint_rules();
+    const auto rule = std::find_if(rules.begin(), rules.end(),
+                                   [&](const LintRule& r) { return r.id == finding.id; });
+    if (rule == rules.end()) continue;  // a reader finding
+    EXPECT_EQ(rule->severity, finding.severity) << finding.to_string();
+  }
+}
+
 }  // namespace
 }  // namespace drivecheck::cia306

@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tests/support/run_command.hpp"
@@ -181,6 +183,49 @@ class CliRunNeeds : public CliRun {
         "  requires: [object.2FFF]\n  steps:\n    - sdo_read: {index: 0x2FFF, sub: 0}\n");
   }
 };
+
+// The JSON object of vector `id` in a report, up to the next vector's id.
+std::string one_vector_json(const std::string& report, const std::string& id) {
+  const auto at = report.find("\"id\": \"" + id + "\"");
+  if (at == std::string::npos) return {};
+  const auto next = report.find("\"id\": \"", at + 1);
+  return report.substr(at, next == std::string::npos ? std::string::npos : next - at);
+}
+
+TEST_F(CliRun, TheEdsItselfAndTheDriveAgainstItAreJudged) {
+  // Given the reference drive's EDS with a wrong NrOfTXPDO (an error of the file) and a
+  //       ProductNumber the drive does not have (a lint warning, and a live mismatch)
+  std::string eds =
+      read_file(std::string(DRIVECHECK_SOURCE_DIR) + "/reference_drive/reference_drive.eds");
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"NrOfTXPDO=4", "NrOfTXPDO=3"},
+                                 {"ProductNumber=0x402", "ProductNumber=0x403"}}) {
+    const auto at = eds.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    eds.replace(at, from.size(), to);
+  }
+  const auto file = dir_ / "mismatch.eds";
+  std::ofstream(file, std::ios::binary) << eds;
+  const auto json = (dir_ / "r.json").string();
+  // When the EDS checks run with it (eds/lint, eds/identity)
+  const auto run = run_command({"env", "DRIVECHECK_VECTORS=" + (dir_ / "vectors").string(),
+                                DRIVECHECK_EXE, "run", "--eds", file.string(), "--filter",
+                                "eds/lint/*", "--filter", "eds/identity/*", "--json", json});
+  // Then the run fails: the file's error and the product code; the warning is a warning, a
+  //      clean rule passes, each with its clause
+  EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
+  const std::string report = read_file(json);
+  const auto count = one_vector_json(report, "eds/lint/pdo-count-mismatch");
+  EXPECT_NE(count.find("\"verdict\": \"fail\""), std::string::npos) << count;
+  EXPECT_NE(count.find("CiA 306 [DeviceInfo] NrOfRXPDO, NrOfTXPDO"), std::string::npos) << count;
+  EXPECT_NE(count.find("mismatch.eds:32"), std::string::npos) << count;
+  EXPECT_NE(one_vector_json(report, "eds/identity/product-code").find("\"verdict\": \"fail\""),
+            std::string::npos);
+  const auto hint = one_vector_json(report, "eds/lint/identity-mismatch");
+  EXPECT_NE(hint.find("\"verdict\": \"fail\""), std::string::npos) << hint;
+  EXPECT_NE(hint.find("\"warning\": true"), std::string::npos) << hint;
+  EXPECT_NE(one_vector_json(report, "eds/lint/limits-inverted").find("\"verdict\": \"pass\""),
+            std::string::npos);
+}
 
 }  // namespace
 

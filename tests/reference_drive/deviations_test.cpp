@@ -79,8 +79,8 @@ std::size_t count_prefix(const Frames& frames, std::string_view prefix) {
 TEST(DeviationTable, NamesAreUniqueKebabCaseAndEveryRowIsDescribed) {
   // Given the table generated from deviations.inc
   // When every row is checked
-  // Then names are unique kebab-case, families are cia301/..., cia402/... or ethercat/...,
-  //      descriptions set,
+  // Then names are unique kebab-case, families are cia301/..., cia402/..., ethercat/... or
+  //      eds/... (the generated EDS checks, run with the drive's own EDS), descriptions set,
   //      at least 45 rows, and at least one fatal deviation
   std::set<std::string_view> names;
   std::size_t fatal = 0;
@@ -90,7 +90,7 @@ TEST(DeviationTable, NamesAreUniqueKebabCaseAndEveryRowIsDescribed) {
       return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-';
     })) << info.name;
     EXPECT_TRUE(info.family.starts_with("cia301/") || info.family.starts_with("cia402/") ||
-                info.family.starts_with("ethercat/"))
+                info.family.starts_with("ethercat/") || info.family.starts_with("eds/"))
         << info.family;
     EXPECT_GT(info.description.size(), 40u) << info.name;
     EXPECT_EQ(info_of(info.deviation).name, info.name);
