@@ -109,7 +109,10 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   pdos_ = std::make_unique<cia301::PdoService>(*od_, bus_, config_.dictionary.pdo.dummy_mapping,
                                                config_.dictionary.pdo.change_mask_index);
   pdos_->set_first_sync_phase(config_.tpdo_first_sync_phase);
-  pdos_->set_rtr_in_any_state(has(Deviation::pdo_rtr_outside_operational));  // deviation
+  pdos_->set_rtr_in_any_state(has(Deviation::pdo_rtr_outside_operational));          // deviation
+  pdos_->set_sync_acyclic_in_stopped(has(Deviation::sync_tpdo_acyclic_in_stopped));  // deviation
+  pdos_->set_sync_acyclic_in_pre_operational(
+      has(Deviation::sync_tpdo_acyclic_in_pre_operational));  // deviation
 
   cia301::SdoServerConfig sdo = cia301::SdoServerConfig::for_node(od_->node_id());
   sdo.timeout = config_.sdo_timeout;
@@ -157,7 +160,8 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   services.heartbeat_consumer_timeouts = !has(Deviation::heartbeat_consumer_timeout_ignored);
   services.emcy_inhibit = !has(Deviation::emcy_inhibit_ignored);
   services.error_behaviour = !has(Deviation::error_behaviour_ignored);
-  services.sync_in_stopped = has(Deviation::pdo_in_stopped);
+  services.sync_in_stopped =
+      has(Deviation::pdo_in_stopped) || has(Deviation::sync_tpdo_acyclic_in_stopped);
   services_ = std::make_unique<cia301::DeviceServices>(bus_, *od_, services, std::move(handlers));
   services_->attach();
   // Own frames come back at their end on the wire: PdoService::on_sent (synchronous window).
