@@ -79,6 +79,8 @@ constexpr std::uint32_t kEmcyBase = 0x080;
 constexpr std::uint8_t kAbort = 0x80;
 constexpr std::uint8_t kDownloadResponse = 0x60;
 constexpr std::uint8_t kBlockDownloadAck = 0xA2;  // scs 5, ss 2
+constexpr std::uint8_t kBlockUploadAck = 0xA2;    // ccs 5, cs 2
+constexpr std::uint8_t kEndBlockUpload = 0xC1;    // scs 6, ss 1 (n in bits 4..2)
 constexpr std::uint8_t kMaxBlockSize = 127;       // seqno 1..127
 constexpr unsigned ccs_of(std::uint8_t byte0) {
   return byte0 >> 5;
@@ -383,6 +385,14 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
         out.data[2] = 0;
         out.data[3] = 0;
       }
+      return out;
+    }
+    // End block upload (scs 6, ss 1) with n = 0 after the client's block acknowledge (ccs 5,
+    // cs 2): n = 7 instead, the off-by-one of n = 7 - size mod 7. (A sub-block segment with c = 1
+    // and seqno 65 has the same byte 0; no vector uploads that many segments.)
+    if ((command & 0xE3) == kEndBlockUpload && ((command >> 2) & 0x07) == 0 &&
+        last_request_ == kBlockUploadAck && d.has(Deviation::sdo_block_upload_n_seven)) {
+      out.data[0] = static_cast<std::uint8_t>(command | (7U << 2));
       return out;
     }
     if (command == kDownloadResponse && d.has(Deviation::sdo_download_response_missing) &&
