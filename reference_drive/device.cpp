@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "protocol/cia301/emcy.hpp"
+#include "protocol/cia301/heartbeat_consumer_objects.hpp"
 #include "protocol/cia301/nmt_slave.hpp"
 #include "protocol/cia301/sdo_server_parameter.hpp"
 
@@ -103,6 +104,15 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   if (has(Deviation::store_misses_sync_objects)) {  // deviation: not part of any store group
     for (const std::uint16_t index : {0x1005, 0x1006, 0x1007, 0x1019}) {
       if (cia301::Entry* entry = od_->find(index, 0)) entry->set_store_group(cia301::kStoreNone);
+    }
+  }
+  // Deviation: the consumer heartbeat times belong to no group, so no reset (nor store) touches
+  // them.
+  if (has(Deviation::nmt_reset_keeps_heartbeat_consumers)) {
+    if (cia301::Object* consumers = od_->find(cia301::kConsumerHeartbeatTimeIndex)) {
+      for (cia301::Entry& entry : consumers->entries()) {
+        if (entry.sub_index() != 0) entry.set_store_group(cia301::kStoreNone);
+      }
     }
   }
 
