@@ -78,6 +78,10 @@ constexpr std::uint32_t kEmcyBase = 0x080;
 // SDO byte 0.
 constexpr std::uint8_t kAbort = 0x80;
 constexpr std::uint8_t kDownloadResponse = 0x60;
+constexpr std::uint8_t kBlockDownloadAck = 0xA2;  // scs 5, ss 2
+constexpr std::uint8_t kBlockUploadAck = 0xA2;    // ccs 5, cs 2
+constexpr std::uint8_t kEndBlockUpload = 0xC1;    // scs 6, ss 1 (n in bits 4..2)
+constexpr std::uint8_t kMaxBlockSize = 127;       // seqno 1..127
 constexpr unsigned ccs_of(std::uint8_t byte0) {
   return byte0 >> 5;
 }
@@ -91,6 +95,7 @@ constexpr std::uint32_t kAbortInvalidCommand = 0x05040001;
 constexpr std::uint32_t kAbortWriteReadOnly = 0x06010002;
 constexpr std::uint32_t kAbortNoObject = 0x06020000;
 constexpr std::uint32_t kAbortPdoLength = 0x06040042;
+constexpr std::uint32_t kAbortParameterIncompatible = 0x06040043;
 constexpr std::uint32_t kAbortLengthMismatch = 0x06070010;
 constexpr std::uint32_t kAbortLengthHigh = 0x06070012;
 constexpr std::uint32_t kAbortLengthLow = 0x06070013;
@@ -337,6 +342,16 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
   if (is_standard_data(frame, kSdoResponseBase + node_id, 8)) {
     if (sdo_hung_) return std::nullopt;
     const std::uint8_t command = frame.data[0];
+    if (d.has(Deviation::sdo_block_sequence_ignored)) {
+      // An abort ends the block download; a block acknowledge (scs 5, ss 2) opens the next
+      // sub-block while the last segment has not come.
+      if (command == kAbort) {
+        block_download_seqno_ = 0;
+        block_download_open_ = false;
+      } else if (command == kBlockDownloadAck && block_download_open_) {
+        block_download_seqno_ = 1;
+      }
+    }
     if (command == kAbort) {
       const std::uint32_t code = load_u32(frame, 4);
       if (code == kAbortNoSubIndex && d.has(Deviation::fatal_sdo_hang_on_missing_sub)) {
@@ -349,6 +364,10 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       }
       const bool length =
           code == kAbortLengthMismatch || code == kAbortLengthHigh || code == kAbortLengthLow;
+      if (code == kAbortParameterIncompatible && index_of(frame) == 0x1016 &&
+          d.has(Deviation::heartbeat_consumer_duplicate_accepted)) {
+        return download_response(frame.id, frame);
+      }
       if (code == kAbortInvalidValue && d.has(Deviation::restricted_cob_id_accepted) &&
           restricted_cob_id_written(frame)) {
         return download_response(frame.id, frame);
@@ -368,6 +387,14 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
         out.data[2] = 0;
         out.data[3] = 0;
       }
+      return out;
+    }
+    // End block upload (scs 6, ss 1) with n = 0 after the client's block acknowledge (ccs 5,
+    // cs 2): n = 7 instead, the off-by-one of n = 7 - size mod 7. (A sub-block segment with c = 1
+    // and seqno 65 has the same byte 0; no vector uploads that many segments.)
+    if ((command & 0xE3) == kEndBlockUpload && ((command >> 2) & 0x07) == 0 &&
+        last_request_ == kBlockUploadAck && d.has(Deviation::sdo_block_upload_n_seven)) {
+      out.data[0] = static_cast<std::uint8_t>(command | (7U << 2));
       return out;
     }
     if (command == kDownloadResponse && d.has(Deviation::sdo_download_response_missing) &&
@@ -516,6 +543,24 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
   // SDO requests.
   if (is_standard_data(frame, kSdoRequestBase + node_id, 8)) {
     if (sdo_hung_) return std::nullopt;
+    // Block download segments numbered in the order they come: a segment with a valid seqno
+    // (1..127) gets the one the server expects next, so a lost segment goes unnoticed.
+    if (d.has(Deviation::sdo_block_sequence_ignored)) {
+      const std::uint8_t seqno = frame.data[0] & 0x7F;
+      const bool last = (frame.data[0] & 0x80) != 0;
+      if (block_download_seqno_ != 0 && seqno != 0) {
+        in.data[0] = static_cast<std::uint8_t>((frame.data[0] & 0x80) | block_download_seqno_);
+        block_download_seqno_ = last || block_download_seqno_ == kMaxBlockSize
+                                    ? 0
+                                    : static_cast<std::uint8_t>(block_download_seqno_ + 1);
+        if (last) block_download_open_ = false;
+        return in;
+      }
+      if (block_download_seqno_ == 0 && (frame.data[0] & 0xE1) == 0xC0) {  // ccs 6, cs 0
+        block_download_seqno_ = 1;
+        block_download_open_ = true;
+      }
+    }
     if (ccs_of(frame.data[0]) == kCcsInvalid && d.has(Deviation::fatal_crash_on_invalid_command)) {
       crashed_ = true;
       babbling_ = false;
@@ -563,6 +608,17 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
         }
       }
     }
+    // An RPDO mapping entry naming a communication object (1000h-1FFFh): confirmed, not mapped.
+    if (d.has(Deviation::rpdo_mapping_not_mappable_accepted) &&
+        ccs_of(frame.data[0]) == kCcsDownloadInitiate && (frame.data[0] & 0x02) != 0 &&
+        index_of(frame) >= 0x1600 && index_of(frame) <= 0x17FF && frame.data[3] >= 1 &&
+        frame.data[3] <= 0x40) {
+      const auto mapped = static_cast<std::uint16_t>(frame.data[6] | (frame.data[7] << 8));
+      if (mapped >= 0x1000 && mapped <= 0x1FFF) {
+        (void)send(download_response(response_id, frame));
+        return std::nullopt;
+      }
+    }
     // 1003h sub 00h := 0 (the only value CiA 301 allows): confirmed, history kept.
     if (is_expedited_download(frame, 0x1003) && frame.data[3] == 0 && frame.data[4] == 0 &&
         d.has(Deviation::emcy_history_not_cleared)) {
@@ -581,12 +637,27 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
       in.data[0] = 0x23;
       std::copy(kSave.begin(), kSave.end(), in.data.begin() + 4);
     }
+    // 1010h/1011h sub 02h and above with any value: as if "save"/"load" had been written (only
+    // sub 01h checks its signature).
+    if (d.has(Deviation::store_group_signature_ignored) && frame.data[3] >= 2 &&
+        (is_expedited_download(frame, 0x1010) || is_expedited_download(frame, 0x1011))) {
+      const bool store = frame.data[1] == 0x10;
+      in.data[0] = 0x23;
+      std::copy(store ? kSave.begin() : kLoad.begin(), store ? kSave.end() : kLoad.end(),
+                in.data.begin() + 4);
+    }
     return in;
   }
 
   if (frame.is_remote()) {
     if (frame.id == kErrorControlBase + node_id && d.has(Deviation::guarding_no_response)) {
       return std::nullopt;
+    }
+    // A guarding request of any node (700h + 1..127) taken as one for this drive.
+    if (d.has(Deviation::guarding_any_node_id) && frame.id > kErrorControlBase &&
+        frame.id <= kErrorControlBase + 0x7F) {
+      in.id = kErrorControlBase + node_id;
+      return in;
     }
     if (d.has(Deviation::pdo_rtr_ignored) && is_tpdo(frame.id, false)) return std::nullopt;
   }

@@ -210,6 +210,10 @@ class DeviationPort final : public can::Bus {
   std::uint8_t last_request_ = 0;                    // byte 0 of the last SDO request
   std::array<std::uint8_t, 8> last_request_data_{};  // all of it (restricted-cob-id-accepted)
   bool in_guarding_request_ = false;  // handling an RTR on 700h+N: 700h+N is its response
+  // sdo-block-sequence-ignored: the seqno the next block download segment gets (0: no
+  // sub-block open), and whether the transfer goes on after this sub-block.
+  std::uint8_t block_download_seqno_ = 0;
+  bool block_download_open_ = false;
   // heartbeat-period-long
   can::TimePoint last_heartbeat_ = can::TimePoint::min();
   std::optional<can::Frame> held_heartbeat_;

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "protocol/cia301/emcy.hpp"
+#include "protocol/cia301/heartbeat_consumer_objects.hpp"
 #include "protocol/cia301/nmt_slave.hpp"
 #include "protocol/cia301/sdo_server_parameter.hpp"
 
@@ -105,11 +106,23 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
       if (cia301::Entry* entry = od_->find(index, 0)) entry->set_store_group(cia301::kStoreNone);
     }
   }
+  // Deviation: the consumer heartbeat times belong to no group, so no reset (nor store) touches
+  // them.
+  if (has(Deviation::nmt_reset_keeps_heartbeat_consumers)) {
+    if (cia301::Object* consumers = od_->find(cia301::kConsumerHeartbeatTimeIndex)) {
+      for (cia301::Entry& entry : consumers->entries()) {
+        if (entry.sub_index() != 0) entry.set_store_group(cia301::kStoreNone);
+      }
+    }
+  }
 
   pdos_ = std::make_unique<cia301::PdoService>(*od_, bus_, config_.dictionary.pdo.dummy_mapping,
                                                config_.dictionary.pdo.change_mask_index);
   pdos_->set_first_sync_phase(config_.tpdo_first_sync_phase);
-  pdos_->set_rtr_in_any_state(has(Deviation::pdo_rtr_outside_operational));  // deviation
+  pdos_->set_rtr_in_any_state(has(Deviation::pdo_rtr_outside_operational));          // deviation
+  pdos_->set_sync_acyclic_in_stopped(has(Deviation::sync_tpdo_acyclic_in_stopped));  // deviation
+  pdos_->set_sync_acyclic_in_pre_operational(
+      has(Deviation::sync_tpdo_acyclic_in_pre_operational));  // deviation
 
   cia301::SdoServerConfig sdo = cia301::SdoServerConfig::for_node(od_->node_id());
   sdo.timeout = config_.sdo_timeout;
@@ -159,7 +172,8 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   services.heartbeat_consumer_timeouts = !has(Deviation::heartbeat_consumer_timeout_ignored);
   services.emcy_inhibit = !has(Deviation::emcy_inhibit_ignored);
   services.error_behaviour = !has(Deviation::error_behaviour_ignored);
-  services.sync_in_stopped = has(Deviation::pdo_in_stopped);
+  services.sync_in_stopped =
+      has(Deviation::pdo_in_stopped) || has(Deviation::sync_tpdo_acyclic_in_stopped);
   services_ = std::make_unique<cia301::DeviceServices>(bus_, *od_, services, std::move(handlers));
   services_->attach();
   // Own frames come back at their end on the wire: PdoService::on_sent (synchronous window).

@@ -481,6 +481,7 @@ void PdoService::reload(can::TimePoint now) {
 
 void PdoService::set_nmt_state(NmtState state, can::TimePoint now) {
   const bool run = nmt_allows(state, NmtService::pdo);
+  state_ = state;
   if (run == running_) return;
   running_ = run;
   last_sync_.reset();
@@ -715,7 +716,15 @@ PdoOutput PdoService::on_sent(const can::Frame& frame, can::TimePoint now) {
 
 PdoOutput PdoService::on_sync(std::optional<std::uint8_t> counter, can::TimePoint now) {
   begin_output();
-  if (!running_) return output();
+  if (!running_) {
+    // Fault injection only (sync-tpdo-acyclic-in-stopped, -in-pre-operational).
+    if (sync_acyclic_in_stopped_ && state_ == NmtState::stopped) {
+      sync_outside_operational(counter, true, now);
+    } else if (sync_acyclic_in_pre_operational_ && state_ == NmtState::pre_operational) {
+      sync_outside_operational(counter, false, now);
+    }
+    return output();
+  }
   last_sync_ = now;
   // What the last window did not send is gone ("discarded"), and so is the wait for its echo.
   if (held_next_ < held_.size()) stats_.sync_tpdos_discarded += held_.size() - held_next_;
@@ -760,6 +769,22 @@ PdoOutput PdoService::on_sync(std::optional<std::uint8_t> counter, can::TimePoin
   }
   if (sync_window() > can::Duration::zero() && !frames_.empty()) in_flight_ = frames_.front();
   return output();
+}
+
+void PdoService::sync_outside_operational(std::optional<std::uint8_t> counter, bool start_values,
+                                          can::TimePoint now) {
+  for (Tpdo& pdo : tpdos_) {
+    if (!pdo.active || pdo.type > 240) continue;
+    const auto payload = pack(pdo);
+    if (pdo.type == 0) {
+      if (pdo.event || !pdo.sent_once || changed(pdo, payload)) transmit(pdo, payload, now, false);
+    } else if (start_values && pdo.sync_start != 0 && counter && !pdo.started &&
+               *counter == pdo.sync_start) {
+      pdo.started = true;
+      pdo.sync_count = 0;
+      transmit(pdo, payload, now, false);
+    }
+  }
 }
 
 PdoOutput PdoService::on_time(can::TimePoint now) {

@@ -230,6 +230,14 @@ class PdoService {
   // Fault injection (the reference drive's pdo-rtr-outside-operational; false in a conformant
   // device): remote frames for a TPDO are answered whatever the NMT state.
   void set_rtr_in_any_state(bool on) { rtr_in_any_state_ = on; }
+  // Fault injection (the reference drive's sync-tpdo-acyclic-in-stopped; false in a conformant
+  // device): in Stopped a SYNC still sends the acyclic synchronous TPDOs (type 0) that are due
+  // and the cyclic ones waiting for their SYNC start value (1800h sub 06h) once it comes.
+  void set_sync_acyclic_in_stopped(bool on) { sync_acyclic_in_stopped_ = on; }
+  // Fault injection (the reference drive's sync-tpdo-acyclic-in-pre-operational; false in a
+  // conformant device): in Pre-operational a SYNC still sends the acyclic synchronous TPDOs
+  // (type 0) that are due.
+  void set_sync_acyclic_in_pre_operational(bool on) { sync_acyclic_in_pre_operational_ = on; }
 
   // A frame from the bus: an RPDO, or an RTR for a TPDO.
   PdoOutput on_frame(const can::Frame& frame, can::TimePoint now);
@@ -338,6 +346,8 @@ class PdoService {
   // Hands out the next held synchronous TPDO, or discards the held ones when the window has
   // closed.
   void release_held(can::TimePoint now);
+  void sync_outside_operational(std::optional<std::uint8_t> counter, bool start_values,
+                                can::TimePoint now);
 
   ObjectDictionary& od_;
   const can::Clock& clock_;
@@ -345,8 +355,11 @@ class PdoService {
   std::uint16_t change_mask_index_ = 0;
   bool changed(const Tpdo& pdo, const std::array<std::uint8_t, 8>& payload) const;
   bool running_ = false;
-  bool rtr_in_any_state_ = false;  // set_rtr_in_any_state
-  bool first_sync_phase_ = false;  // set_first_sync_phase
+  bool rtr_in_any_state_ = false;                 // set_rtr_in_any_state
+  bool sync_acyclic_in_stopped_ = false;          // set_sync_acyclic_in_stopped
+  bool sync_acyclic_in_pre_operational_ = false;  // set_sync_acyclic_in_pre_operational
+  NmtState state_ = NmtState::boot_up;            // set_nmt_state
+  bool first_sync_phase_ = false;                 // set_first_sync_phase
   std::vector<Rpdo> rpdos_;
   std::vector<Tpdo> tpdos_;
   std::vector<std::pair<std::uint16_t, std::uint8_t>> bound_;
