@@ -4,6 +4,8 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <cctype>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <utility>
@@ -138,7 +140,7 @@ bool default_is_reset_value(const OdObject& object) {
   return object.sub == 0 && is_array_or_record(object.code);
 }
 
-void add_eds_entry_checks(const OdObject& object, std::vector<Vector>& vectors) {
+void add_eds_entry_checks(const OdObject& object, bool dcf, std::vector<Vector>& vectors) {
   const auto& entry = *object.eds_entry;
   const auto& definition = entry.definition();
   const auto& info = cia301::info(object.type);
@@ -167,6 +169,15 @@ void add_eds_entry_checks(const OdObject& object, std::vector<Vector>& vectors) 
     vector.sources.push_back(cited(
         "CiA 306 DefaultValue ($NODEID resolved; a DCF's ParameterValue where given); CTT 4.2, "
         "4.8"));
+    // A writable entry holds after a reset what was last stored (1010h), which is the EDS's
+    // DefaultValue only after a factory restore (1011h, CiA 301 §7.5.2.14): the check restores
+    // defaults first, so a commissioned drive is never failed for its own configuration (on a
+    // real bus it is N/A without --allow-factory-restore). A DCF's ParameterValue is the
+    // configuration itself, which a reset gives back.
+    if (cia301::is_writable(object.access) && !dcf) {
+      vector.setup = Setup::restore_defaults;
+      vector.sources.push_back(cited("CiA 301 §7.5.2.14 (1011h restore default parameters)"));
+    }
     if ((definition.obj_flags & kRefuseReadOnScan) != 0) {
       vector.not_applicable =
           "ObjFlags bit 1 (refuse read on scan, CiA 306): the EDS says a configuration tool "
@@ -300,6 +311,11 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
                                         const profile::DriveProfile& profile,
                                         const std::optional<EdsIdentity>& identity) {
   std::map<std::pair<std::uint16_t, std::uint8_t>, OdObject> objects;
+  // A DCF (CiA 306-1 device configuration file) describes one configured device.
+  std::string extension = std::filesystem::path(eds_file).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const bool dcf = extension == ".dcf";
   if (eds != nullptr) {
     for (const auto& object : eds->objects()) {
       for (const auto& entry : object.entries()) {
@@ -371,7 +387,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
                                          read.expect.abort.describe()),
                              Step{read, {}, 0, {}}));
     }
-    if (object.eds_entry != nullptr) add_eds_entry_checks(object, vectors);
+    if (object.eds_entry != nullptr) add_eds_entry_checks(object, dcf, vectors);
     if (!cia301::is_writable(object.access) && info.size != 0 && info.size <= 8) {
       SdoWriteStep write;
       write.index = object.index;

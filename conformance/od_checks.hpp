@@ -18,8 +18,11 @@
 //                           another firmware of the family the EDS describes) at should
 //                           level. ro entries other than sub 00h are process values (6041h,
 //                           1001h, the serial number 1018h sub 4): their DefaultValue is no reset
-//                           value, they get no default check. A device that holds stored
-//                           parameters differs from the EDS defaults: judge it with its DCF.
+//                           value, they get no default check. A writable EDS entry is read
+//                           after a factory restore (setup restore-defaults: 1011h, then reset
+//                           node; on a real bus N/A without --allow-factory-restore), since a
+//                           reset gives the stored configuration, not the EDS default; with a
+//                           DCF (*.dcf) after a reset node, against its ParameterValue.
 // EDS entries only (with --eds):
 //   <idx>-<sub>/write-back  rw/rwr/rww of a fixed size (1..8 bytes): the value read is written
 //                           back and read again unchanged (CTT 4.9). Where CiA 301 lets the
