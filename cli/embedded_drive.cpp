@@ -151,7 +151,12 @@ Expected<std::unique_ptr<EmbeddedEthercat>, std::string> EmbeddedEthercat::creat
   if (auto up = state->master->bring_up(ethercat::AlState::preop); !up)
     return Unexpected(fmt::format("EtherCAT bring-up to PREOP: {}", up.error().message()));
   state->port = std::make_unique<conformance::EthercatPort>(*state->master);
-  state->port->set_power_cycle([drive = state->drive.get()] { drive->power_on(); });
+  // reset-node on the simulated segment: the drive's own NMT reset node (its application and
+  // dictionary as after a reset; ServoDrive::power_on is once only), then the ESC as at power-on.
+  state->port->set_power_cycle([drive = state->drive.get()] {
+    drive->servo().device().command(cia301::NmtCommand::reset_node);
+    drive->power_on();
+  });
   state->clock = std::make_unique<conformance::EthercatClock>(state->segment, *state->port);
   state->simulation = std::make_unique<ServoSimulation>(state->drive->servo(), nullptr);
   state->personality = standard ? std::string() : profile.name;
