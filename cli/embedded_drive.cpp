@@ -5,7 +5,11 @@
 #include <string_view>
 #include <utility>
 
+#include "conformance/ethercat_port.hpp"
+#include "protocol/ethercat/master.hpp"
+#include "protocol/ethercat/sim_segment.hpp"
 #include "reference_drive/deviations.hpp"
+#include "reference_drive/ethercat/ethercat_drive.hpp"
 #include "reference_drive/servo_drive.hpp"
 
 namespace drivecheck::cli {
@@ -13,7 +17,8 @@ namespace drivecheck::cli {
 // The servo drive's simulated inputs, as the engine's `simulate` steps name them.
 class ServoSimulation final : public conformance::SimulationControl {
  public:
-  ServoSimulation(reference_drive::ServoDrive& drive, can::SimPort& port)
+  // `port`: the drive's CAN port (bus_off); nullptr behind EtherCAT (no bus-off).
+  ServoSimulation(reference_drive::ServoDrive& drive, can::SimPort* port)
       : drive_(drive), port_(port) {}
   std::string set_input(std::string_view input, std::int64_t value) override {
     auto done = drive_.simulate(input, value);
@@ -21,14 +26,16 @@ class ServoSimulation final : public conformance::SimulationControl {
   }
   // The port goes bus-off first and recovers first: the drive's controller reports the change
   // (ReferenceDrive::set_bus_off) once the port is in that state, so the recovery EMCY goes out.
-  bool can_bus_off() const override { return true; }
+  bool can_bus_off() const override { return port_ != nullptr; }
   std::string set_bus_off(bool bus_off) override {
-    port_.set_bus_off(bus_off);
+    if (port_ == nullptr) return "no CAN controller on this link";
+    port_->set_bus_off(bus_off);
     drive_.device().set_bus_off(bus_off);
     return {};
   }
   std::string reset_inputs() override {
-    if (port_.bus_off()) set_bus_off(false);  // a bus_off step that did not end
+    if (port_ != nullptr && port_->bus_off())
+      set_bus_off(false);  // a bus_off step that did not end
     // The inputs cia402_application.hpp documents, at their power-on values.
     static constexpr std::pair<std::string_view, std::int64_t> kPowerOn[] = {
         {"hardware-enable", 1},
@@ -63,7 +70,7 @@ class ServoSimulation final : public conformance::SimulationControl {
 
  private:
   reference_drive::ServoDrive& drive_;
-  can::SimPort& port_;
+  can::SimPort* port_;
 };
 
 struct EmbeddedDrive::State {
@@ -94,7 +101,7 @@ Expected<std::unique_ptr<EmbeddedDrive>, std::string> EmbeddedDrive::create(
   auto drive = reference_drive::ServoDrive::create(*state->port, std::move(options));
   if (!drive) return Unexpected(std::move(drive).error());
   state->drive = std::move(*drive);
-  state->simulation = std::make_unique<ServoSimulation>(*state->drive, *state->port);
+  state->simulation = std::make_unique<ServoSimulation>(*state->drive, state->port.get());
   state->personality = standard ? std::string() : profile.name;
   state->drive->power_on();
   return std::unique_ptr<EmbeddedDrive>(new EmbeddedDrive(std::move(state), deviations));
@@ -105,6 +112,70 @@ conformance::SimulationControl* EmbeddedDrive::simulation() {
 }
 
 std::string EmbeddedDrive::personality() const {
+  return state_->personality;
+}
+
+struct EmbeddedEthercat::State {
+  ethercat::SimSegment segment;
+  std::unique_ptr<reference_drive::ethercat::EthercatDrive> drive;
+  std::unique_ptr<ethercat::Master> master;
+  std::unique_ptr<conformance::EthercatPort> port;
+  std::unique_ptr<conformance::EthercatClock> clock;
+  std::unique_ptr<ServoSimulation> simulation;
+  std::string personality;
+};
+
+EmbeddedEthercat::EmbeddedEthercat(std::unique_ptr<State> state,
+                                   std::vector<std::string> deviations)
+    : state_(std::move(state)), deviations_(std::move(deviations)) {}
+
+EmbeddedEthercat::~EmbeddedEthercat() = default;
+
+Expected<std::unique_ptr<EmbeddedEthercat>, std::string> EmbeddedEthercat::create(
+    const profile::DriveProfile& profile, const std::vector<std::string>& deviations) {
+  auto parsed = reference_drive::DeviationSet::parse(deviations);
+  if (!parsed) return Unexpected(std::move(parsed).error());
+  auto state = std::make_unique<State>();
+  const bool standard = profile.name == "cia402-reference";
+  reference_drive::ethercat::EthercatDriveOptions options;
+  options.profile = standard ? nullptr : &profile;
+  options.deviations = std::move(*parsed);
+  auto drive = reference_drive::ethercat::EthercatDrive::create(state->segment, std::move(options));
+  if (!drive) return Unexpected(std::move(drive).error());
+  state->drive = std::move(*drive);
+  state->segment.attach(*state->drive);
+  state->drive->power_on();
+  ethercat::MasterConfig config;
+  config.scan.expected_slaves = 1;
+  state->master = std::make_unique<ethercat::Master>(state->segment, config);
+  if (auto up = state->master->bring_up(ethercat::AlState::preop); !up)
+    return Unexpected(fmt::format("EtherCAT bring-up to PREOP: {}", up.error().message()));
+  state->port = std::make_unique<conformance::EthercatPort>(*state->master);
+  // reset-node on the simulated segment: the drive's own NMT reset node (its application and
+  // dictionary as after a reset; ServoDrive::power_on is once only), then the ESC as at power-on.
+  state->port->set_power_cycle([drive = state->drive.get()] {
+    drive->servo().device().command(cia301::NmtCommand::reset_node);
+    drive->power_on();
+  });
+  state->clock = std::make_unique<conformance::EthercatClock>(state->segment, *state->port);
+  state->simulation = std::make_unique<ServoSimulation>(state->drive->servo(), nullptr);
+  state->personality = standard ? std::string() : profile.name;
+  return std::unique_ptr<EmbeddedEthercat>(new EmbeddedEthercat(std::move(state), deviations));
+}
+
+conformance::DutPort& EmbeddedEthercat::port() {
+  return *state_->port;
+}
+
+can::Bus& EmbeddedEthercat::clock() {
+  return *state_->clock;
+}
+
+conformance::SimulationControl* EmbeddedEthercat::simulation() {
+  return state_->simulation.get();
+}
+
+std::string EmbeddedEthercat::personality() const {
   return state_->personality;
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "conformance/dut_port.hpp"
 #include "conformance/simulation_control.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/common/expected.hpp"
@@ -39,6 +40,30 @@ class EmbeddedDrive {
  private:
   struct State;
   explicit EmbeddedDrive(std::unique_ptr<State> state, std::vector<std::string> deviations);
+  std::unique_ptr<State> state_;
+  std::vector<std::string> deviations_;
+};
+
+// `drivecheck run --bus ethercat:sim`: the same drive as an emulated EtherCAT slave
+// (reference_drive/ethercat) on a simulated segment, an EtherCAT master brought up to PREOP,
+// and the engine's DUT port (CoE SDO) and clock over it (conformance/ethercat_port.hpp).
+class EmbeddedEthercat {
+ public:
+  static Expected<std::unique_ptr<EmbeddedEthercat>, std::string> create(
+      const profile::DriveProfile& profile, const std::vector<std::string>& deviations);
+  ~EmbeddedEthercat();
+  EmbeddedEthercat(const EmbeddedEthercat&) = delete;
+  EmbeddedEthercat& operator=(const EmbeddedEthercat&) = delete;
+
+  conformance::DutPort& port();
+  can::Bus& clock();  // the engine's time: the segment's clock, the process data cycle in it
+  conformance::SimulationControl* simulation();
+  std::string personality() const;
+  const std::vector<std::string>& deviations() const { return deviations_; }
+
+ private:
+  struct State;
+  explicit EmbeddedEthercat(std::unique_ptr<State> state, std::vector<std::string> deviations);
   std::unique_ptr<State> state_;
   std::vector<std::string> deviations_;
 };

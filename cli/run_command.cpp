@@ -56,6 +56,8 @@
 namespace drivecheck::cli {
 namespace {
 
+constexpr std::string_view kEthercatSim = "ethercat:sim";
+
 struct RunOptions {
   std::string bus = "sim";
   int node = 1;
@@ -153,9 +155,15 @@ std::set<std::string> failed_ids(const std::string& report_file) {
 void run(const RunOptions& options) {
   g_interrupted.store(false);
   const SignalScope signals(interrupt_run);
-  const auto spec = parse_bus_spec(options.bus);
+  // `ethercat:sim`: the reference drive as an EtherCAT slave on a simulated segment, the vectors
+  // through CoE (conformance/ethercat_port.hpp); otherwise simulated like `sim`.
+  const bool ethercat_sim = options.bus == kEthercatSim;
+  const auto spec =
+      ethercat_sim ? Expected<BusSpec, std::string>(BusSpec{}) : parse_bus_spec(options.bus);
   if (!spec) usage_error("run", spec.error());
   const bool sim = spec->kind == BusSpec::Kind::sim;
+  if (ethercat_sim && (!options.trace.empty() || !options.pcap.empty()))
+    usage_error("run", "--trace/--pcap are not written for --bus ethercat:sim yet");
   auto order = conformance::parse_vector_order(options.order);
   if (!order) usage_error("run", order.error());
   // `shuffle` alone: a seed drawn here, recorded in the reports so that the run can be repeated.
@@ -253,8 +261,14 @@ void run(const RunOptions& options) {
   std::unique_ptr<can::SimPort> sim_port;
   std::unique_ptr<EmbeddedDrive> drive;
   std::unique_ptr<can::SocketCanBus> socket_bus;
+  std::unique_ptr<EmbeddedEthercat> ethercat_drive;
   can::Bus* port = nullptr;
-  if (sim) {
+  if (ethercat_sim) {
+    auto created = EmbeddedEthercat::create(*profile, options.deviations);
+    if (!created) usage_error("run", created.error());
+    ethercat_drive = std::move(*created);
+    port = &ethercat_drive->clock();
+  } else if (sim) {
     sim_bus = std::make_unique<can::SimBus>(
         can::SimBusConfig{.bitrate = 1'000'000, .seed = options.seed});
     sim_port = sim_bus->attach("harness");
@@ -377,7 +391,9 @@ void run(const RunOptions& options) {
   engine_options.allow_factory_restore = options.allow_factory_restore;
   engine_options.real_bus = !sim;
   // The selection is made above (filters, levels, --rerun); the engine runs what it is given.
-  engine_options.simulation = drive ? drive->simulation() : nullptr;
+  engine_options.simulation = drive            ? drive->simulation()
+                              : ethercat_drive ? ethercat_drive->simulation()
+                                               : nullptr;
   engine_options.eds = eds_od ? &*eds_od : nullptr;
   // A real bus: a watcher thread notes the harness's own stalls (conformance/stall_log.hpp),
   // so that a busy host is never charged to the device: a check that fails in a vector during
@@ -426,11 +442,20 @@ void run(const RunOptions& options) {
     info.personality = drive->personality();
     info.deviations = drive->deviations();
   }
+  if (ethercat_drive) {
+    info.personality = ethercat_drive->personality();
+    info.deviations = ethercat_drive->deviations();
+  }
 
   conformance::RunResult result;
   {
     exit_if_interrupted("preparing the run");
-    conformance::Engine engine(*port, *profile, std::move(engine_options));
+    std::optional<conformance::Engine> engine_storage;
+    if (ethercat_drive)
+      engine_storage.emplace(*port, ethercat_drive->port(), *profile, std::move(engine_options));
+    else
+      engine_storage.emplace(*port, *profile, std::move(engine_options));
+    conformance::Engine& engine = *engine_storage;
     InterruptScope interrupts(engine);
     // The simulated bus runs in this thread; if a simulated node livelocks (events at one
     // instant forever) nothing returns. A watchdog thread stops such a run (exit 3).
@@ -510,8 +535,15 @@ void add_run_command(CLI::App& app) {
       "run",
       "Run the conformance vectors against a drive (default: the reference drive on the "
       "simulated bus)");
-  cmd->add_option("--bus", options->bus, "The bus: sim, or socketcan:IF for a real drive")
-      ->check(bus_validator())
+  cmd->add_option("--bus", options->bus,
+                  "The bus: sim, socketcan:IF for a real drive, or ethercat:sim (the reference "
+                  "drive as an EtherCAT slave on a simulated segment, vectors over CoE)")
+      ->check(CLI::Validator(
+          [](std::string& value) -> std::string {
+            if (value == kEthercatSim) return {};
+            return bus_validator()(value);
+          },
+          "sim|socketcan:IF|ethercat:sim"))
       ->capture_default_str();
   cmd->add_option("--node", options->node, "Node id of the drive under test")
       ->check(CLI::Range(kMinNodeId, kMaxNodeId))

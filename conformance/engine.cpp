@@ -7,6 +7,7 @@
 #include <chrono>
 #include <set>
 
+#include "conformance/can_port.hpp"
 #include "conformance/capabilities.hpp"
 #include "conformance/pdo_tracker.hpp"
 #include "conformance/samples.hpp"
@@ -78,17 +79,20 @@ class RunProbe final : public DeviceProbe {
 
 class Engine::Impl {
  public:
-  Impl(can::Bus& bus, const profile::DriveProfile& profile, EngineOptions options,
+  Impl(can::Bus& bus, DutPort* port, const profile::DriveProfile& profile, EngineOptions options,
        const std::atomic<bool>& interrupted, const std::atomic<bool>& stalled,
        std::atomic<std::uint64_t>& progress)
       : bus_(bus),
+        own_port_(port == nullptr ? std::make_unique<CanPort>() : nullptr),
+        port_(port != nullptr ? *port : *own_port_),
         profile_(profile),
         options_(std::move(options)),
         dissector_(dissector_options(options_)),
         pdo_(profile_, options_.node),
         capabilities_(options_.eds),
-        context_{bus_, profile_,     options_, dissector_, interrupted, stalled, progress,
-                 pdo_, std::nullopt, false,    {},         {},          {},      std::nullopt} {
+        context_{bus_,        port_,   profile_, options_, dissector_,
+                 interrupted, stalled, progress, pdo_,     std::nullopt,
+                 false,       {},      {},       {},       std::nullopt} {
     bus_.set_frame_handler({});
     bus_.set_loopback(true);
     if (options_.harness_node == options_.node)
@@ -130,7 +134,8 @@ class Engine::Impl {
         !options_.real_bus && options_.simulation != nullptr && options_.simulation->can_bus_off(),
         &capabilities_,
         !options_.real_bus || options_.allow_factory_restore,
-        options_.node};
+        options_.node,
+        port_.link()};
     if (auto reason = not_applicable_reason(vector, profile_, applicability); !reason.empty()) {
       result.verdict = Verdict::not_applicable;
       result.message = std::move(reason);
@@ -373,6 +378,8 @@ class Engine::Impl {
   }
 
   can::Bus& bus_;
+  std::unique_ptr<DutPort> own_port_;  // CAN: the engine's own CanPort
+  DutPort& port_;
   const profile::DriveProfile& profile_;
   EngineOptions options_;
   cia301::Dissector dissector_;
@@ -386,7 +393,12 @@ class Engine::Impl {
 };
 
 Engine::Engine(can::Bus& port, const profile::DriveProfile& profile, EngineOptions options)
-    : impl_(std::make_unique<Impl>(port, profile, std::move(options), interrupted_, stalled_,
+    : impl_(std::make_unique<Impl>(port, nullptr, profile, std::move(options), interrupted_,
+                                   stalled_, progress_)) {}
+
+Engine::Engine(can::Bus& clock, DutPort& dut, const profile::DriveProfile& profile,
+               EngineOptions options)
+    : impl_(std::make_unique<Impl>(clock, &dut, profile, std::move(options), interrupted_, stalled_,
                                    progress_)) {}
 
 void Engine::declare_stalled() {

@@ -68,6 +68,7 @@
 #include <string>
 #include <vector>
 
+#include "conformance/dut_port.hpp"
 #include "conformance/result.hpp"
 #include "conformance/simulation_control.hpp"
 #include "conformance/stall_log.hpp"
@@ -120,6 +121,11 @@ class Engine {
   // `port` and `profile` must outlive the engine. The engine takes the port in pull mode
   // (no frame handler) and turns its loopback on.
   Engine(can::Bus& port, const profile::DriveProfile& profile, EngineOptions options);
+  // The DUT's services through `dut` (dut_port.hpp), e.g. CoE over EtherCAT; `clock` is the
+  // engine's time (receive(deadline) lets simulated time pass) and carries the DUT's frames
+  // only on CAN. Both must outlive the engine.
+  Engine(can::Bus& clock, DutPort& dut, const profile::DriveProfile& profile,
+         EngineOptions options);
   ~Engine();
   Engine(const Engine&) = delete;
   Engine& operator=(const Engine&) = delete;

@@ -280,6 +280,10 @@ StepStatus VectorRun::harness_error(std::string action, std::string message) {
   return StepStatus::harness_error;
 }
 
+std::string_view to_string(LinkKind link) {
+  return link == LinkKind::ethercat ? "ethercat" : "can";
+}
+
 std::string SdoOutcome::describe() const {
   if (ok)
     return data.empty() ? "ok"

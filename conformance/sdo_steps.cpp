@@ -1,5 +1,5 @@
-// SDO transfers as the engine runs them (SdoClientTransfer driven by the engine's own receive
-// loop, so that every frame is evidence) and the stimulus steps.
+// SDO transfers as the engine runs them (through the DUT port, dut_port.hpp: on CAN driven by
+// the engine's own receive loop, so that every frame is evidence) and the stimulus steps.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -13,19 +13,6 @@
 namespace drivecheck::conformance {
 namespace {
 
-cia301::SdoTransferMode mode_of(Transfer transfer) {
-  switch (transfer) {
-    case Transfer::segmented:
-      return cia301::SdoTransferMode::segmented;
-    case Transfer::block:
-      return cia301::SdoTransferMode::block;
-    case Transfer::automatic:
-    case Transfer::expedited:
-      return cia301::SdoTransferMode::automatic;
-  }
-  return cia301::SdoTransferMode::automatic;
-}
-
 // Little-endian bytes of `value`, `size` long.
 std::vector<std::uint8_t> le_bytes(std::int64_t value, std::size_t size) {
   std::vector<std::uint8_t> bytes(size);
@@ -37,56 +24,8 @@ std::vector<std::uint8_t> le_bytes(std::int64_t value, std::size_t size) {
 
 }  // namespace
 
-namespace {
-
-SdoOutcome run_transfer(VectorRun& run, can::Bus& bus, cia301::SdoClientTransfer& transfer,
-                        std::span<const can::Frame> first) {
-  SdoOutcome outcome;
-  auto send_all = [&](std::span<const can::Frame> frames) {
-    for (const auto& frame : frames) {
-      if (auto ec = run.send(frame)) return ec;
-    }
-    return std::error_code{};
-  };
-  if (auto ec = send_all(first)) {
-    transfer.cancel();
-    outcome.error = ec;
-    return outcome;
-  }
-  while (transfer.running()) {
-    if (run.vector_timed_out()) {
-      // The vector's limit, not the server's SDO timeout: say so (a device that answered every
-      // request within 1 ms was reported as "did not answer in time" when a poll ran into it).
-      (void)send_all(transfer.abort(std::uint32_t{0x05040000}));
-      outcome.error = cia301::make_error_code(cia301::SdoClientError::aborted_locally);
-      outcome.vector_timed_out = true;
-      return outcome;
-    }
-    auto frame = run.pump(transfer.next_deadline());
-    const auto out =
-        frame ? transfer.on_frame(frame->frame, frame->timestamp) : transfer.on_time(bus.now());
-    if (auto ec = send_all(out)) {
-      transfer.cancel();
-      outcome.error = ec;
-      return outcome;
-    }
-  }
-  outcome.ok = transfer.succeeded();
-  outcome.error = transfer.error();
-  outcome.abort = cia301::server_abort_code(transfer.error());
-  if (outcome.ok) outcome.data.assign(transfer.data().begin(), transfer.data().end());
-  return outcome;
-}
-
-}  // namespace
-
 SdoOutcome VectorRun::sdo_upload(cia301::Multiplexer mux, Transfer transfer) {
-  cia301::SdoClientOptions options;
-  options.timeout = resolve({{}, "sdo_response"});
-  options.block_fallback = transfer != Transfer::block;
-  cia301::SdoClientTransfer sdo(node(), options);
-  const auto first = sdo.start_upload(mux, now(), mode_of(transfer));
-  auto outcome = run_transfer(*this, context_.bus, sdo, first);
+  auto outcome = context_.port.upload(*this, {mux, transfer, resolve({{}, "sdo_response"})});
   if (outcome.ok) sample(mux.index, mux.sub_index, outcome.data);
   if (outcome.ok && mux.index == 0x1017 && mux.sub_index == 0 && outcome.data.size() == 2)
     heartbeat_time_ = std::chrono::milliseconds(outcome.data[0] | outcome.data[1] << 8);
@@ -95,12 +34,8 @@ SdoOutcome VectorRun::sdo_upload(cia301::Multiplexer mux, Transfer transfer) {
 
 SdoOutcome VectorRun::sdo_download(cia301::Multiplexer mux, std::span<const std::uint8_t> data,
                                    Transfer transfer, std::optional<can::Duration> timeout) {
-  cia301::SdoClientOptions options;
-  options.timeout = timeout.value_or(resolve({{}, "sdo_response"}));
-  options.block_fallback = transfer != Transfer::block;
-  cia301::SdoClientTransfer sdo(node(), options);
-  const auto first = sdo.start_download(mux, data, now(), mode_of(transfer));
-  auto outcome = run_transfer(*this, context_.bus, sdo, first);
+  auto outcome = context_.port.download(
+      *this, {mux, transfer, timeout.value_or(resolve({{}, "sdo_response"}))}, data);
   sample(mux.index, mux.sub_index, data);
   if (outcome.ok && mux.index == 0x1017 && mux.sub_index == 0 && data.size() == 2)
     heartbeat_time_ = std::chrono::milliseconds(data[0] | data[1] << 8);

@@ -211,6 +211,52 @@ StepStatus VectorRun::consume_harness_heartbeat() {
   return StepStatus::ok;
 }
 
+StepStatus VectorRun::setup_by_port() {
+  const auto reset = [&](const char* action, bool node) -> StepStatus {
+    if (auto error = context_.port.reset(node); !error.empty())
+      return harness_error(
+          action, fmt::format("reset by the {} link: {}", to_string(context_.port.link()), error));
+    return StepStatus::ok;
+  };
+  switch (vector_.setup) {
+    case Setup::none:
+      break;
+    case Setup::restore_defaults: {
+      if (auto s = reset("setup restore-defaults", false); s != StepStatus::ok) return s;
+      const std::array<std::uint8_t, 4> load{0x6C, 0x6F, 0x61, 0x64};
+      const auto outcome = sdo_download({0x1011, 1}, load);
+      restored_defaults_ = true;
+      if (!outcome.ok)
+        return fail("setup restore-defaults", "1011h sub 1 := \"load\" accepted",
+                    outcome.describe());
+      [[fallthrough]];
+    }
+    case Setup::reset_node:
+      if (auto s = reset("setup reset-node", true); s != StepStatus::ok) return s;
+      break;
+    case Setup::reset_communication:
+      if (auto s = reset("setup reset-communication", false); s != StepStatus::ok) return s;
+      break;
+  }
+  if (vector_.setup != Setup::none) {
+    if (auto s = commission(); s != StepStatus::ok) return s;
+  }
+  check_leaks();
+  take_snapshot();
+  if (vector_.nmt && *vector_.nmt != cia301::NmtState::boot_up) {
+    const std::string name(cia301::to_string(*vector_.nmt));
+    if (auto error = context_.port.enter_state(*vector_.nmt); !error.empty())
+      return harness_error("setup nmt", fmt::format("{} not reached: {}", name, error));
+    check("setup nmt",
+          fmt::format("{} (its {} counterpart) entered", name, to_string(context_.port.link())),
+          "ok", true);
+  }
+  if (vector_.drive_state) {
+    if (auto s = reach_drive_state(*vector_.drive_state); s != StepStatus::ok) return s;
+  }
+  return StepStatus::ok;
+}
+
 StepStatus VectorRun::setup() {
   cia301::NmtMaster master;
   const auto command = [&](cia301::NmtCommand cmd) -> StepStatus {
@@ -225,6 +271,9 @@ StepStatus VectorRun::setup() {
     if (const auto error = context_.options.simulation->reset_inputs(); !error.empty())
       return harness_error("setup", fmt::format("cannot reset the simulated inputs: {}", error));
   }
+  // A link without NMT frames (EtherCAT): the port resets the DUT's communication (AL INIT
+  // then PREOP) and enters the state that stands for the NMT state.
+  if (context_.port.link() != LinkKind::can) return setup_by_port();
   switch (vector_.setup) {
     case Setup::none:
       break;

@@ -297,6 +297,9 @@ struct Vector {
   Level level = Level::must;
   std::vector<std::string> requires_features;  // `requires:`; `motion` added by motion: true
   std::vector<std::string> profiles;
+  // `transports:` the links the vector is written for ("can", "ethercat"); empty: any link its
+  // steps can run on (a frame-level step makes it CAN-only: verdict.hpp).
+  std::vector<std::string> transports;
   bool motion = false;
   Setup setup = Setup::reset_node;
   std::optional<cia301::NmtState> nmt = cia301::NmtState::pre_operational;  // nullopt: `none`

@@ -346,8 +346,8 @@ const std::vector<StepSyntax>& step_syntax() {
   return kSyntax;
 }
 
-constexpr std::array<std::string_view, 14> kVectorKeys{
-    "id",    "title", "source",      "level",   "requires", "profiles", "motion",
+constexpr std::array<std::string_view, 15> kVectorKeys{
+    "id",    "title", "source",      "level",   "requires", "profiles", "transports", "motion",
     "setup", "nmt",   "drive_state", "timeout", "steps",    "finally",  "note"};
 
 std::optional<cia402::State> parse_402_state(std::string_view text) {
@@ -1283,6 +1283,15 @@ class Parser {
       }
     }
     if (const auto profiles = node["profiles"]) vector.profiles = string_list(profiles, "profiles");
+    if (const auto transports = node["transports"]) {
+      for (auto& link : string_list(transports, "transports")) {
+        if (link != "can" && link != "ethercat") {
+          error(transports, fmt::format("transports: unknown link '{}' (can or ethercat)", link));
+        } else {
+          vector.transports.push_back(std::move(link));
+        }
+      }
+    }
     if (const auto motion = node["motion"])
       vector.motion = boolean(motion, "motion").value_or(false);
     if (vector.motion && std::find(vector.requires_features.begin(), vector.requires_features.end(),

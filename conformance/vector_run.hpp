@@ -19,6 +19,7 @@
 #include <system_error>
 #include <vector>
 
+#include "conformance/dut_port.hpp"
 #include "conformance/engine.hpp"
 #include "conformance/isolation.hpp"
 #include "conformance/pdo_tracker.hpp"
@@ -45,6 +46,7 @@ struct Leak {
 // What every vector of a run shares.
 struct EngineContext {
   can::Bus& bus;
+  DutPort& port;  // the services (SDO) of the DUT: CAN, or CoE through an EtherCAT master
   const profile::DriveProfile& profile;
   EngineOptions& options;
   cia301::Dissector& dissector;
@@ -71,19 +73,6 @@ struct EngineContext {
 // not_applicable: a value the vector takes from the device does not exist on it
 // (device_values.hpp); the message says why.
 enum class StepStatus : std::uint8_t { ok, failed, harness_error, not_applicable };
-
-struct SdoOutcome {
-  bool ok = false;
-  std::vector<std::uint8_t> data;      // upload
-  std::optional<std::uint32_t> abort;  // the server's abort code
-  std::error_code error;               // any failure (abort included)
-  // The vector's time limit ended the transfer (before its request or its answer): no
-  // verdict on the server, which may not have had its SDO timeout yet.
-  bool vector_timed_out = false;
-  std::string describe() const;  // "ok", "abort 06010002h (...)", "no answer ..."
-  // A failed transfer as an observation: its abort code, or nothing (no answer).
-  Observation observed() const;
-};
 
 class VectorRun {
  public:
@@ -153,6 +142,8 @@ class VectorRun {
 
   // ---- setup.cpp ----
   StepStatus setup();
+  // setup() on a link without NMT frames (DutPort::reset, DutPort::enter_state).
+  StepStatus setup_by_port();
   // The profile's commissioning writes, when they apply to this vector (part of setup()).
   StepStatus commission();
   StepStatus consume_harness_heartbeat();  // 1016h sub 1 := context_.harness_consumer
@@ -177,6 +168,8 @@ class VectorRun {
   // Setup got through: the steps began (`finally:` runs only then).
   bool steps_started() const { return steps_started_; }
   bool dut_spoke() const { return dut_frames_ > 0; }
+  // A DUT port that carries no CAN frames (EtherCAT) counts the DUT's answers here.
+  void note_dut_answer() { ++dut_frames_; }
   std::size_t current_step() const { return step_index_; }
 
  private:

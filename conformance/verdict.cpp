@@ -38,9 +38,46 @@ std::vector<profile::ObjectNeed> object_needs(const Vector& vector) {
   return needs;
 }
 
+std::string can_only_step(const Vector& vector) {
+  const auto check = [](const std::vector<Step>& steps, const char* where) -> std::string {
+    for (std::size_t i = 0; i < steps.size(); ++i) {
+      const auto& action = steps[i].action;
+      bool can = std::holds_alternative<SendStep>(action) ||
+                 std::holds_alternative<NmtStep>(action) ||
+                 std::holds_alternative<ExpectFrameStep>(action) ||
+                 std::holds_alternative<ExpectSilenceStep>(action) ||
+                 std::holds_alternative<ExpectBootupStep>(action) ||
+                 std::holds_alternative<ExpectHeartbeatStep>(action) ||
+                 std::holds_alternative<ExpectEmcyStep>(action) ||
+                 std::holds_alternative<ExpectPeriodicStep>(action) ||
+                 std::holds_alternative<BusOffStep>(action);
+      if (const auto* m = std::get_if<MeasureStep>(&action); m != nullptr && m->frames) can = true;
+      if (const auto* w = std::get_if<SdoWriteStep>(&action);
+          w != nullptr && w->transfer == Transfer::block)
+        can = true;
+      if (const auto* r = std::get_if<SdoReadStep>(&action);
+          r != nullptr && r->transfer == Transfer::block)
+        can = true;
+      if (can) return fmt::format("{} step {} ({})", where, i + 1, action_name(action));
+    }
+    return {};
+  };
+  if (auto step = check(vector.steps, "steps:"); !step.empty()) return step;
+  return check(vector.finally_steps, "finally:");
+}
+
 std::string not_applicable_reason(const Vector& vector, const profile::DriveProfile& profile,
                                   const ApplicabilityContext& context) {
   if (!vector.not_applicable.empty()) return vector.not_applicable;
+  const std::string link(to_string(context.link));
+  if (!vector.transports.empty() && std::find(vector.transports.begin(), vector.transports.end(),
+                                              link) == vector.transports.end())
+    return fmt::format("only on {} (transports:; this link: {})",
+                       fmt::join(vector.transports, ", "), link);
+  if (context.link != LinkKind::can) {
+    if (auto step = can_only_step(vector); !step.empty())
+      return fmt::format("needs the CAN link ({})", step);
+  }
   if (!vector.profiles.empty() && std::find(vector.profiles.begin(), vector.profiles.end(),
                                             profile.name) == vector.profiles.end()) {
     return fmt::format("only for profile {} (selected: {})", fmt::join(vector.profiles, ", "),

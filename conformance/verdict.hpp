@@ -7,6 +7,7 @@
 #include <string>
 
 #include "conformance/capabilities.hpp"
+#include "conformance/dut_port.hpp"
 #include "conformance/result.hpp"
 #include "conformance/vector.hpp"
 #include "protocol/profile/drive_profile.hpp"
@@ -25,7 +26,14 @@ struct ApplicabilityContext {
   // bus only with --allow-factory-restore.
   bool factory_restore_allowed = false;
   std::uint8_t node = 1;  // the DUT's node-ID (to decode the SDO downloads of `send:` frames)
+  LinkKind link = LinkKind::can;  // the DUT port's link (dut_port.hpp)
 };
+
+// The first step (in `steps:` or `finally:`) that needs the CAN link itself: frames (send,
+// expect_frame, expect_silence, expect_periodic, measure with frames:), NMT frames, boot-up,
+// heartbeat, bus-off, EMCY frames, a block SDO transfer. Empty: the vector's steps are
+// services that every link has (SDO, controlword, statusword, poll, wait, simulate, mark).
+std::string can_only_step(const Vector& vector);
 
 // Whether the vector would restore the DUT's factory defaults: `setup: restore-defaults`, or a
 // step (`steps:` or `finally:`) that writes 1011h (an sdo_write, or an SDO download a `send:`

@@ -82,6 +82,74 @@ TEST(Applicability, BusOffStepNeedsTheSimulatedBus) {
   EXPECT_EQ(not_applicable_reason(vector, p, {true, true, true}), "");
 }
 
+TEST(Applicability, FrameStepsNeedTheCanLink) {
+  // Given a vector of SDO steps only, one with a send step, one with an expect_heartbeat in
+  // finally:, and one with a block SDO read
+  const auto set = parse_vectors(
+      "- id: t/sdo\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1000, sub: 0}\n    - controlword: 0x0006\n"
+      "- id: t/send\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1000, sub: 0}\n    - send: \"080#\"\n"
+      "- id: t/finally\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1000, sub: 0}\n  finally:\n"
+      "    - expect_heartbeat: pre-operational\n"
+      "- id: t/block\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1000, sub: 0}\n      transfer: block\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  ASSERT_EQ(set.vectors.size(), 4u);
+  const auto p = make_profile();
+  ApplicabilityContext can;
+  ApplicabilityContext ethercat;
+  ethercat.link = LinkKind::ethercat;
+  // When checked on CAN and on EtherCAT; Then all apply on CAN, and on EtherCAT only the SDO
+  // vector, the others naming the step that needs the CAN link
+  for (const auto& vector : set.vectors)
+    EXPECT_EQ(not_applicable_reason(vector, p, can), "") << vector.id;
+  EXPECT_EQ(not_applicable_reason(set.vectors[0], p, ethercat), "");
+  EXPECT_EQ(not_applicable_reason(set.vectors[1], p, ethercat),
+            "needs the CAN link (steps: step 2 (send))");
+  EXPECT_EQ(not_applicable_reason(set.vectors[2], p, ethercat),
+            "needs the CAN link (finally: step 1 (expect_heartbeat))");
+  EXPECT_EQ(not_applicable_reason(set.vectors[3], p, ethercat),
+            "needs the CAN link (steps: step 1 (sdo_read))");
+}
+
+TEST(Applicability, TransportsLimitTheLinks) {
+  // Given a vector of SDO steps written for CAN only, and one for EtherCAT only
+  const auto set = parse_vectors(
+      "- id: t/can\n  title: t\n  source: \"CiA 301 §1\"\n  transports: [can]\n  steps:\n"
+      "    - sdo_read: {index: 0x1000, sub: 0}\n"
+      "- id: t/ecat\n  title: t\n  source: \"CiA 301 §1\"\n  transports: [ethercat]\n"
+      "  steps:\n    - sdo_read: {index: 0x1000, sub: 0}\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto p = make_profile();
+  ApplicabilityContext can;
+  ApplicabilityContext ethercat;
+  ethercat.link = LinkKind::ethercat;
+  // When checked on both links; Then each applies only on its own
+  EXPECT_EQ(not_applicable_reason(set.vectors[0], p, can), "");
+  EXPECT_EQ(not_applicable_reason(set.vectors[0], p, ethercat),
+            "only on can (transports:; this link: ethercat)");
+  EXPECT_EQ(not_applicable_reason(set.vectors[1], p, ethercat), "");
+  EXPECT_EQ(not_applicable_reason(set.vectors[1], p, can),
+            "only on ethercat (transports:; this link: can)");
+}
+
+TEST(VectorFile, UnknownTransportIsAnError) {
+  // Given a vector naming a link that does not exist
+  const auto set = parse_vectors(
+      "- id: t/x\n  title: t\n  source: \"CiA 301 §1\"\n  transports: [profibus]\n  steps:\n"
+      "    - sdo_read: {index: 0x1000, sub: 0}\n",
+      "t.yaml");
+  // When parsed; Then an error naming the file, line and the link
+  ASSERT_FALSE(set.ok());
+  EXPECT_NE(set.errors.front().to_string().find("t.yaml:4"), std::string::npos)
+      << set.errors.front().to_string();
+  EXPECT_NE(set.errors.front().to_string().find("profibus"), std::string::npos);
+}
+
 TEST(Applicability, FactoryRestoreNeedsTheOptIn) {
   // Given a profile with restore, and vectors that restore the factory defaults in their setup,
   // by an sdo_write of 1011h, by a raw SDO download of 1011h to node 5, in finally:, and one

@@ -1,0 +1,89 @@
+// The DUT port on EtherCAT: CoE SDO through an ethercat::Master (protocol/ethercat/master.hpp),
+// slave 0 of the segment. NMT states map to AL states by the Festo CMMP-AS table (000 §4.7.1,
+// Tab. 4.11): Stopped = INIT, Pre-operational = PREOP, Operational = OP (SAFEOP has no NMT
+// counterpart); a reset (node or communication) is AL INIT then PREOP.
+//
+// EthercatClock is the engine's can::Bus on EtherCAT: the link's clock and timers, no CAN frames
+// (send refuses, receive only lets time pass). While the master holds SAFEOP/OP it runs the
+// process data cycle (one LRW, checked) every `cycle` so the slave's SM watchdog stays fed, as a
+// master in cyclic operation does; in OP an SDO download of an object the outputs carry is also
+// put into the outputs (else the next cycle would write the old value over it).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "conformance/dut_port.hpp"
+#include "protocol/can/bus.hpp"
+#include "protocol/cia301/nmt.hpp"
+#include "protocol/ethercat/master.hpp"
+
+namespace drivecheck::conformance {
+
+class EthercatPort;
+
+class EthercatClock final : public can::Bus {
+ public:
+  EthercatClock(ethercat::Link& link, EthercatPort& port) : link_(link), port_(port) {}
+  can::TimePoint now() const override { return link_.now(); }
+  can::Duration unix_offset() const override { return link_.unix_offset(); }
+  std::error_code send(const can::Frame& frame) override;
+  std::optional<can::TimedFrame> receive(can::TimePoint deadline) override;
+  void set_frame_handler(FrameHandler handler) override { (void)handler; }
+  void set_filters(std::span<const can::Filter> filters) override { (void)filters; }
+  void set_loopback(bool enabled) override { (void)enabled; }
+  can::TimerId start_timer(can::TimePoint at, TimerCallback callback) override {
+    return link_.start_timer(at, std::move(callback));
+  }
+  void cancel_timer(can::TimerId id) override { link_.cancel_timer(id); }
+  void run_until(can::TimePoint deadline) override { receive(deadline); }
+  void stop() override {
+    stopped_ = true;
+    link_.stop();
+  }
+
+ private:
+  ethercat::Link& link_;
+  EthercatPort& port_;
+  bool stopped_ = false;
+};
+
+class EthercatPort final : public DutPort {
+ public:
+  EthercatPort(ethercat::Master& master, can::Duration cycle = std::chrono::milliseconds(1))
+      : master_(master), cycle_(cycle) {}
+  LinkKind link() const override { return LinkKind::ethercat; }
+  SdoOutcome upload(VectorRun& run, const SdoRequest& request) override;
+  SdoOutcome download(VectorRun& run, const SdoRequest& request,
+                      std::span<const std::uint8_t> data) override;
+
+  // The AL state for an NMT state (Tab. 4.11); nullopt: none (boot-up).
+  static std::optional<ethercat::AlState> al_state_of(cia301::NmtState state);
+  // Every slave to `state` ("" or why not).
+  std::string request_state(ethercat::AlState state);
+  // A reset: AL INIT then PREOP (the slave's communication); with `node` also the power cycle
+  // hook first when there is one (EtherCAT has no NMT reset node: on the simulated segment the
+  // harness power-cycles the emulated slave, as an operator would a real one).
+  std::string reset(bool node) override;
+  void set_power_cycle(std::function<void()> power_cycle) { power_cycle_ = std::move(power_cycle); }
+  // The AL state of Tab. 4.11 for `state`.
+  std::string enter_state(cia301::NmtState state) override;
+  // Runs the cycles that are due up to `deadline` and lets time pass (EthercatClock::receive).
+  void pass_time(can::TimePoint deadline);
+  // The last cycle error ("" none); cleared when read.
+  std::string take_cycle_error();
+  ethercat::Master& master() { return master_; }
+
+ private:
+  bool cyclic() const;
+  void run_cycle();
+  ethercat::Master& master_;
+  can::Duration cycle_;
+  can::TimePoint next_cycle_{};
+  std::string cycle_error_;
+  std::function<void()> power_cycle_;
+};
+
+}  // namespace drivecheck::conformance
