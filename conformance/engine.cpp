@@ -116,15 +116,7 @@ class Engine::Impl {
   }
 
   VectorResult run_vector(const Vector& vector, bool* dut_spoke) {
-    VectorResult result;
-    result.id = vector.id;
-    result.family = vector.family();
-    result.title = vector.title;
-    for (const auto& source : vector.sources)
-      result.sources.push_back(source.text);
-    result.level = vector.level;
-    result.file = vector.file;
-    result.line = vector.line;
+    VectorResult result = result_for(vector);
     result.started = bus_.now();
     const auto wall_start = std::chrono::steady_clock::now();
 

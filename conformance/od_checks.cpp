@@ -463,14 +463,7 @@ std::vector<VectorResult> eds_lint_results(const std::vector<cia306::Diagnostic>
     vector.sources = {cited(fmt::format("EDS {}", eds_file)), cited(std::string(rule->clause)),
                       cited("CTT 1.0 (EDS checker)")};
     vector.file = "(generated)";
-    VectorResult result;
-    result.id = vector.id;
-    result.family = vector.family();
-    result.title = vector.title;
-    for (const auto& source : vector.sources)
-      result.sources.push_back(source.text);
-    result.level = vector.level;
-    result.file = vector.file;
+    VectorResult result = result_for(vector);
     std::vector<std::string> found;
     for (const auto& finding : findings) {
       const bool ours = reader ? !is_lint_rule(finding.id) : finding.id == rule->id;

@@ -211,18 +211,42 @@ StepStatus VectorRun::consume_harness_heartbeat() {
   return StepStatus::ok;
 }
 
-StepStatus VectorRun::setup_by_port() {
-  const auto reset = [&](const char* action, bool node) -> StepStatus {
-    if (auto error = context_.port.reset(node); !error.empty())
-      return harness_error(
-          action, fmt::format("reset by the {} link: {}", to_string(context_.port.link()), error));
-    return StepStatus::ok;
+StepStatus VectorRun::setup() {
+  // The simulated world back to its power-on condition (enable present, no forced switches,
+  // no fault causes): a vector that removed an input must not leak into the next one.
+  if (context_.options.simulation != nullptr) {
+    if (const auto error = context_.options.simulation->reset_inputs(); !error.empty())
+      return harness_error("setup", fmt::format("cannot reset the simulated inputs: {}", error));
+  }
+  // A reset of the DUT's communication (`node`: of the whole node) and the DUT back: on CAN an
+  // NMT command and the boot-up awaited; a link without NMT frames (EtherCAT) resets through
+  // its port (AL INIT, then PREOP).
+  const bool can_link = context_.port.link() == LinkKind::can;
+  const auto reset = [&](const char* action, bool node_reset) -> StepStatus {
+    if (!can_link) {
+      if (auto error = context_.port.reset(node_reset); !error.empty()) {
+        return harness_error(action, fmt::format("reset by the {} link: {}",
+                                                 to_string(context_.port.link()), error));
+      }
+      return StepStatus::ok;
+    }
+    cia301::NmtMaster master;
+    const auto frame = master.command(
+        node_reset ? cia301::NmtCommand::reset_node : cia301::NmtCommand::reset_communication,
+        node());
+    if (auto ec = send_nmt(frame))
+      return harness_error("setup", fmt::format("cannot send {}: {}", frame, ec.message()));
+    return await_bootup(action);
   };
   switch (vector_.setup) {
     case Setup::none:
       break;
     case Setup::restore_defaults: {
+      // The SDO server in a known state first, whatever the vector before left (NMT Stopped,
+      // where SDO is not served; a transfer it did not finish; SDO COB-IDs it changed): reset
+      // communication, the DUT back.
       if (auto s = reset("setup restore-defaults", false); s != StepStatus::ok) return s;
+      // 1011h sub 1 := "load" (6C 6F 61 64), then reset node (CiA 301 §7.5.2.14).
       const std::array<std::uint8_t, 4> load{0x6C, 0x6F, 0x61, 0x64};
       const auto outcome = sdo_download({0x1011, 1}, load);
       restored_defaults_ = true;
@@ -236,69 +260,6 @@ StepStatus VectorRun::setup_by_port() {
       break;
     case Setup::reset_communication:
       if (auto s = reset("setup reset-communication", false); s != StepStatus::ok) return s;
-      break;
-  }
-  if (vector_.setup != Setup::none) {
-    if (auto s = commission(); s != StepStatus::ok) return s;
-  }
-  check_leaks();
-  take_snapshot();
-  if (vector_.nmt && *vector_.nmt != cia301::NmtState::boot_up) {
-    const std::string name(cia301::to_string(*vector_.nmt));
-    if (auto error = context_.port.enter_state(*vector_.nmt); !error.empty())
-      return harness_error("setup nmt", fmt::format("{} not reached: {}", name, error));
-    check("setup nmt",
-          fmt::format("{} (its {} counterpart) entered", name, to_string(context_.port.link())),
-          "ok", true);
-  }
-  if (vector_.drive_state) {
-    if (auto s = reach_drive_state(*vector_.drive_state); s != StepStatus::ok) return s;
-  }
-  return StepStatus::ok;
-}
-
-StepStatus VectorRun::setup() {
-  cia301::NmtMaster master;
-  const auto command = [&](cia301::NmtCommand cmd) -> StepStatus {
-    const auto frame = master.command(cmd, node());
-    if (auto ec = send_nmt(frame))
-      return harness_error("setup", fmt::format("cannot send {}: {}", frame, ec.message()));
-    return StepStatus::ok;
-  };
-  // The simulated world back to its power-on condition (enable present, no forced switches,
-  // no fault causes): a vector that removed an input must not leak into the next one.
-  if (context_.options.simulation != nullptr) {
-    if (const auto error = context_.options.simulation->reset_inputs(); !error.empty())
-      return harness_error("setup", fmt::format("cannot reset the simulated inputs: {}", error));
-  }
-  // A link without NMT frames (EtherCAT): the port resets the DUT's communication (AL INIT
-  // then PREOP) and enters the state that stands for the NMT state.
-  if (context_.port.link() != LinkKind::can) return setup_by_port();
-  switch (vector_.setup) {
-    case Setup::none:
-      break;
-    case Setup::restore_defaults: {
-      // The SDO server in a known state first, whatever the vector before left (NMT Stopped,
-      // where SDO is not served; a transfer it did not finish; SDO COB-IDs it changed): reset
-      // communication, boot-up awaited.
-      if (auto s = command(cia301::NmtCommand::reset_communication); s != StepStatus::ok) return s;
-      if (auto s = await_bootup("setup restore-defaults"); s != StepStatus::ok) return s;
-      // 1011h sub 1 := "load" (6C 6F 61 64), then reset node (CiA 301 §7.5.2.14).
-      const std::array<std::uint8_t, 4> load{0x6C, 0x6F, 0x61, 0x64};
-      const auto outcome = sdo_download({0x1011, 1}, load);
-      restored_defaults_ = true;
-      if (!outcome.ok)
-        return fail("setup restore-defaults", "1011h sub 1 := \"load\" accepted",
-                    outcome.describe());
-      [[fallthrough]];
-    }
-    case Setup::reset_node:
-      if (auto s = command(cia301::NmtCommand::reset_node); s != StepStatus::ok) return s;
-      if (auto s = await_bootup("setup reset-node"); s != StepStatus::ok) return s;
-      break;
-    case Setup::reset_communication:
-      if (auto s = command(cia301::NmtCommand::reset_communication); s != StepStatus::ok) return s;
-      if (auto s = await_bootup("setup reset-communication"); s != StepStatus::ok) return s;
       break;
   }
   // The profile's commissioning (FORMAT.md "Commissioning"): after a reset, before the NMT
@@ -318,14 +279,23 @@ StepStatus VectorRun::setup() {
   check_leaks();
   take_snapshot();
   // The NMT state, always commanded (also Pre-operational after a boot-up: a DUT may start
-  // itself) and confirmed.
+  // itself) and confirmed; on a link without NMT, the state that stands for it.
   if (vector_.nmt && *vector_.nmt != cia301::NmtState::boot_up) {
-    if (auto s = reach_nmt_state(*vector_.nmt); s != StepStatus::ok) return s;
+    if (can_link) {
+      if (auto s = reach_nmt_state(*vector_.nmt); s != StepStatus::ok) return s;
+    } else {
+      const std::string name(cia301::to_string(*vector_.nmt));
+      if (auto error = context_.port.enter_state(*vector_.nmt); !error.empty())
+        return harness_error("setup nmt", fmt::format("{} not reached: {}", name, error));
+      check("setup nmt",
+            fmt::format("{} (its {} counterpart) entered", name, to_string(context_.port.link())),
+            "ok", true);
+    }
   }
   if (vector_.drive_state) {
     if (auto s = reach_drive_state(*vector_.drive_state); s != StepStatus::ok) return s;
   }
-  drain();
+  if (can_link) drain();
   return StepStatus::ok;
 }
 

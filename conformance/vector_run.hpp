@@ -143,7 +143,6 @@ class VectorRun {
   // ---- setup.cpp ----
   StepStatus setup();
   // setup() on a link without NMT frames (DutPort::reset, DutPort::enter_state).
-  StepStatus setup_by_port();
   // The profile's commissioning writes, when they apply to this vector (part of setup()).
   StepStatus commission();
   StepStatus consume_harness_heartbeat();  // 1016h sub 1 := context_.harness_consumer

@@ -27,6 +27,19 @@ std::string missing_feature(std::string_view feature, const profile::DriveProfil
 
 }  // namespace
 
+VectorResult result_for(const Vector& vector) {
+  VectorResult result;
+  result.id = vector.id;
+  result.family = vector.family();
+  result.title = vector.title;
+  for (const auto& source : vector.sources)
+    result.sources.push_back(source.text);
+  result.level = vector.level;
+  result.file = vector.file;
+  result.line = vector.line;
+  return result;
+}
+
 bool restores_factory_defaults(const Vector& vector, std::uint8_t node) {
   return vector.setup == Setup::restore_defaults || writes_restore_defaults(vector, node);
 }

@@ -40,6 +40,9 @@ std::string can_only_step(const Vector& vector);
 // frame makes to 600h + node).
 bool restores_factory_defaults(const Vector& vector, std::uint8_t node);
 
+// A vector's result before it runs: what it is (id, family, title, sources, level, file:line).
+VectorResult result_for(const Vector& vector);
+
 // The reason a vector that would factory-restore is not applicable without the opt-in.
 inline constexpr const char* kFactoryRestoreNotAllowed =
     "would restore factory defaults and wipe the device's stored parameters; pass "
