@@ -131,14 +131,20 @@ std::string EthercatPort::reset(bool node) {
   return {};
 }
 
-SdoOutcome EthercatPort::upload(VectorRun& run, const SdoRequest& request) {
-  SdoOutcome outcome;
+bool EthercatPort::before_transfer(VectorRun& run, SdoOutcome& outcome) {
   if (run.vector_timed_out()) {
     outcome.error = cia301::make_error_code(cia301::SdoClientError::aborted_locally);
     outcome.vector_timed_out = true;
-    return outcome;
+    return false;
   }
+  // A process data cycle that is due runs first, so the SM watchdog stays fed.
   if (cyclic() && master_.port().link().now() >= next_cycle_) pass_time(next_cycle_);
+  return true;
+}
+
+SdoOutcome EthercatPort::upload(VectorRun& run, const SdoRequest& request) {
+  SdoOutcome outcome;
+  if (!before_transfer(run, outcome)) return outcome;
   auto value = master_.sdo_upload(0, request.mux);
   if (value) {
     outcome.ok = true;
@@ -153,12 +159,7 @@ SdoOutcome EthercatPort::upload(VectorRun& run, const SdoRequest& request) {
 SdoOutcome EthercatPort::download(VectorRun& run, const SdoRequest& request,
                                   std::span<const std::uint8_t> data) {
   SdoOutcome outcome;
-  if (run.vector_timed_out()) {
-    outcome.error = cia301::make_error_code(cia301::SdoClientError::aborted_locally);
-    outcome.vector_timed_out = true;
-    return outcome;
-  }
-  if (cyclic() && master_.port().link().now() >= next_cycle_) pass_time(next_cycle_);
+  if (!before_transfer(run, outcome)) return outcome;
   auto done = master_.sdo_download(0, request.mux, data);
   if (done) {
     outcome.ok = true;

@@ -78,6 +78,9 @@ class EthercatPort final : public DutPort {
 
  private:
   bool cyclic() const;
+  // Before an SDO transfer: false (and `outcome` says why) when the vector's time is up;
+  // otherwise runs the process data cycle that is due.
+  bool before_transfer(VectorRun& run, SdoOutcome& outcome);
   void run_cycle();
   ethercat::Master& master_;
   can::Duration cycle_;
