@@ -50,13 +50,6 @@ static_assert(is_register(reg::kStationAddress, 2) && is_register(reg::kStationA
               is_register(reg::kDcReceiveTimeEpu, 8) && is_register(reg::kDcSystemTimeOffset, 8) &&
               is_register(reg::kDcSystemTimeDifference, 4));
 
-// SII control/status bits (ESC Section II, 0502h).
-constexpr std::uint16_t kSiiWriteEnable = 0x0001;
-constexpr std::uint16_t kSiiReadEightBytes = 0x0040;
-constexpr std::uint16_t kSiiErrorAcknowledge = 0x2000;
-constexpr std::uint16_t kSiiErrorWriteEnable = 0x4000;
-constexpr std::uint16_t kSiiBusy = 0x8000;
-
 bool overlaps(std::size_t first, std::size_t last, std::size_t reg_first, std::size_t reg_size) {
   return first < reg_first + reg_size && reg_first <= last;
 }
@@ -165,7 +158,7 @@ void Esc::reset() {
   set16(reg::kWatchdogTimePdi, 0x03E8);
   set16(reg::kWatchdogTimeProcessData, 0x03E8);
   set16(reg::kWatchdogStatus, 0x0001);
-  set16(reg::kSiiControl, kSiiReadEightBytes);
+  set16(reg::kSiiControl, sii::kReadEightBytes);
   refresh_dynamic(now_);
 }
 
@@ -332,9 +325,9 @@ std::optional<TimePoint> Esc::next_deadline() const {
 void Esc::refresh_dynamic(TimePoint now) {
   set64(reg::kDcSystemTime,
         static_cast<std::uint64_t>(nanoseconds(now)) + get64(reg::kDcSystemTimeOffset));
-  std::uint16_t sii = static_cast<std::uint16_t>((get16(reg::kSiiControl) & kSiiWriteEnable) |
-                                                 kSiiReadEightBytes | sii_errors_);
-  if (now < sii_busy_until_) sii |= kSiiBusy;
+  std::uint16_t sii = static_cast<std::uint16_t>((get16(reg::kSiiControl) & sii::kWriteEnable) |
+                                                 sii::kReadEightBytes | sii_errors_);
+  if (now < sii_busy_until_) sii |= sii::kBusy;
   set16(reg::kSiiControl, sii);
   for (unsigned n = 0; n < config_.sync_managers; ++n) {
     const SmState& s = sms_[n];
@@ -379,7 +372,7 @@ void Esc::run_sii_command(std::uint16_t control, EscEvents& events) {
       sii_errors_ = 0;
       const std::uint64_t byte = static_cast<std::uint64_t>(word) * 2;
       if (byte >= image.size()) {
-        sii_errors_ = kSiiErrorAcknowledge;
+        sii_errors_ = sii::kCommandError;
         break;
       }
       for (unsigned i = 0; i < 8; ++i) {
@@ -391,10 +384,10 @@ void Esc::run_sii_command(std::uint16_t control, EscEvents& events) {
     case 2: {  // write 1 word
       sii_errors_ = 0;
       const std::uint64_t byte = static_cast<std::uint64_t>(word) * 2;
-      if ((control & kSiiWriteEnable) == 0) {
-        sii_errors_ = kSiiErrorWriteEnable;
+      if ((control & sii::kWriteEnable) == 0) {
+        sii_errors_ = sii::kWriteEnableError;
       } else if (byte + 2 > image.size()) {
-        sii_errors_ = kSiiErrorAcknowledge;
+        sii_errors_ = sii::kCommandError;
       } else {
         config_.sii[byte] = memory_[reg::kSiiData];
         config_.sii[byte + 1] = memory_[reg::kSiiData + 1];
@@ -410,11 +403,11 @@ void Esc::run_sii_command(std::uint16_t control, EscEvents& events) {
       sii_busy_until_ = now_ + config_.sii_busy_time;
       break;
     default:
-      sii_errors_ = kSiiErrorAcknowledge;
+      sii_errors_ = sii::kCommandError;
       break;
   }
   // The command bits read back 0 once accepted; write enable is self-clearing.
-  set16(reg::kSiiControl, kSiiReadEightBytes);
+  set16(reg::kSiiControl, sii::kReadEightBytes);
   refresh_dynamic(now_);
 }
 

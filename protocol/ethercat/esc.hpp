@@ -145,6 +145,19 @@ constexpr std::uint16_t sync_manager(unsigned n) {
 }  // namespace reg
 
 // SyncManager control and status bits (ESC Section II §3.x "SyncManager").
+// SII EEPROM control/status bits (register 0502h, ESC Section II): the ESC model sets them,
+// the master reads them.
+namespace sii {
+inline constexpr std::uint16_t kWriteEnable = 0x0001;
+inline constexpr std::uint16_t kReadEightBytes = 0x0040;  // 0: a read gives 4 bytes
+inline constexpr std::uint16_t kCommandRead = 0x0100;
+inline constexpr std::uint16_t kChecksumError = 0x0800;
+inline constexpr std::uint16_t kDeviceInfoError = 0x1000;
+inline constexpr std::uint16_t kCommandError = 0x2000;
+inline constexpr std::uint16_t kWriteEnableError = 0x4000;
+inline constexpr std::uint16_t kBusy = 0x8000;
+}  // namespace sii
+
 namespace sm {
 inline constexpr std::uint8_t kModeMask = 0x03;
 inline constexpr std::uint8_t kModeBuffered = 0x00;

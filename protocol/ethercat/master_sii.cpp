@@ -9,13 +9,7 @@
 namespace drivecheck::ethercat {
 namespace {
 
-constexpr std::uint16_t kReadEight = 0x0040;
-constexpr std::uint16_t kCommandRead = 0x0100;
-constexpr std::uint16_t kChecksumError = 0x0800;
-constexpr std::uint16_t kDeviceInfoError = 0x1000;
-constexpr std::uint16_t kCommandError = 0x2000;
-constexpr std::uint16_t kWriteEnableError = 0x4000;
-constexpr std::uint16_t kBusy = 0x8000;
+using namespace sii;  // the 0502h bits, as the ESC model sets them
 constexpr std::uint16_t kErrors = kCommandError | kWriteEnableError;
 
 std::string describe_sii_status(std::uint16_t status) {
@@ -99,7 +93,7 @@ Expected<std::vector<std::uint8_t>, MasterError> read_sii_words(MasterPort& port
                                       station, at, describe_sii_status(status)),
                           station);
     }
-    const std::size_t got = (status & kReadEight) != 0 ? 8 : 4;
+    const std::size_t got = (status & kReadEightBytes) != 0 ? 8 : 4;
     const std::size_t take = std::min(got, count * 2 - out.size());
     out.insert(out.end(), done->begin() + 8, done->begin() + 8 + static_cast<std::ptrdiff_t>(take));
   }

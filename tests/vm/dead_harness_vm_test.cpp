@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <string>
@@ -151,7 +152,9 @@ class DeadHarness : public ::testing::Test {
 
   Observation observe(const std::vector<std::string>& drive_options) {
     Observation o;
-    store_ = fmt::format("/tmp/dead-harness-{}-{}.txt", ::getpid(), ++runs_);
+    store_ = (std::filesystem::temp_directory_path() /
+              fmt::format("dead-harness-{}-{}.txt", ::getpid(), ++runs_))
+                 .string();
     std::remove(store_.c_str());
     can::SocketCanOptions options;
     options.receive_buffer_bytes = 4 << 20;
@@ -196,7 +199,9 @@ class DeadHarness : public ::testing::Test {
         g_drivecheck,
         {"run", "--bus", fmt::format("socketcan:{}", kInterface), "--node", std::to_string(kNode),
          "--profile", "cia402-reference", "--allow-motion", "--allow-factory-restore", "--filter",
-         kMotionVector, "--json", fmt::format("/tmp/dead-harness-run-{}.json", runs_)},
+         kMotionVector, "--json",
+         (std::filesystem::temp_directory_path() / fmt::format("dead-harness-run-{}.json", runs_))
+             .string()},
         error);
     if (!run_) {
       o.failure_to_start = error;
@@ -275,7 +280,9 @@ class DeadHarness : public ::testing::Test {
       o.abort_connection_option = static_cast<std::uint8_t>(*code);
     drain(o);
 
-    o.trace_file = fmt::format("/tmp/dead-harness-{}.log", runs_);
+    o.trace_file =
+        (std::filesystem::temp_directory_path() / fmt::format("dead-harness-{}.log", runs_))
+            .string();
     std::ofstream log(o.trace_file);
     for (const auto& timed : o.trace) {
       can::LogRecord record;
