@@ -4,10 +4,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <utility>
 
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/sdo_abort.hpp"
 #include "protocol/cia301/sdo_client.hpp"
+#include "protocol/ethercat/esc.hpp"
 
 namespace drivecheck::conformance {
 namespace {
@@ -59,6 +61,7 @@ std::optional<ethercat::AlState> EthercatPort::al_state_of(cia301::NmtState stat
 }
 
 bool EthercatPort::cyclic() const {
+  if (master_.port().now() < paused_until_) return false;
   const auto held = master_.held_state();
   return held == ethercat::AlState::safeop || held == ethercat::AlState::op;
 }
@@ -70,6 +73,10 @@ void EthercatPort::run_cycle() {
 
 void EthercatPort::pass_time(can::TimePoint deadline) {
   auto& link = master_.port().link();
+  if (link.now() < paused_until_ && paused_until_ < deadline) {
+    link.run_until(paused_until_);           // no cycle while paused, then as usual
+    if (link.now() < paused_until_) return;  // stop()
+  }
   if (!cyclic()) {
     link.run_until(deadline);
     return;
@@ -175,6 +182,144 @@ SdoOutcome EthercatPort::download(VectorRun& run, const SdoRequest& request,
   }
   if (answered(outcome)) run.note_dut_answer();
   return outcome;
+}
+
+// ---- raw access for the EtherCAT-only steps ----
+
+std::optional<ethercat::AlReading> EthercatPort::al_status(std::string& error) {
+  if (master_.slaves().empty()) {
+    error = "no slave (the bring-up failed)";
+    return std::nullopt;
+  }
+  auto reading = ethercat::read_al_status(master_.port(), master_.slaves()[0].info.station);
+  if (!reading) {
+    error = reading.error().message();
+    return std::nullopt;
+  }
+  return *reading;
+}
+
+std::optional<ethercat::AlReading> EthercatPort::raw_al_request(ethercat::AlState state,
+                                                                can::TimePoint deadline,
+                                                                std::string& error) {
+  auto before = al_status(error);
+  if (!before) return std::nullopt;
+  auto control = static_cast<std::uint16_t>(state);
+  if (before->error()) control |= ethercat::kAlControlAcknowledge;
+  if (auto written = master_.port().write(ethercat::Command::fpwr, before->station,
+                                          ethercat::reg::kAlControl, ethercat::le16(control));
+      !written) {
+    error = written.error().message();
+    return std::nullopt;
+  }
+  auto& link = master_.port().link();
+  for (;;) {
+    pass_time(std::min(deadline, link.now() + std::chrono::milliseconds(1)));
+    auto now = al_status(error);
+    if (!now) return std::nullopt;
+    if (now->error() || now->in(state) || link.now() >= deadline) return now;
+  }
+}
+
+std::string EthercatPort::settle() {
+  auto done = master_.request_state(master_.held_state());
+  next_cycle_ = master_.port().link().now();
+  if (!done) return done.error().message();
+  return {};
+}
+
+EthercatPort::CycleOutcome EthercatPort::checked_cycle() {
+  auto& link = master_.port().link();
+  if (link.now() < next_cycle_) pass_time(next_cycle_);
+  next_cycle_ = link.now() + cycle_;
+  CycleOutcome outcome;
+  const auto before = master_.port().frames_sent();
+  auto result = master_.cycle();
+  if (result) {
+    outcome.result = *result;
+  } else {
+    outcome.error = result.error().message();
+    // The LRW came back but the master found it wrong: its counts are in last_cycle().
+    if (master_.port().frames_sent() > before &&
+        result.error().code != ethercat::make_error_code(ethercat::MasterErrc::no_response))
+      outcome.result = master_.last_cycle();
+  }
+  return outcome;
+}
+
+std::optional<can::Duration> EthercatPort::sm_watchdog_time(std::string& error) {
+  if (master_.slaves().empty()) {
+    error = "no slave (the bring-up failed)";
+    return std::nullopt;
+  }
+  const auto station = master_.slaves()[0].info.station;
+  auto divider =
+      master_.port().read(ethercat::Command::fprd, station, ethercat::reg::kWatchdogDivider, 2);
+  auto time = master_.port().read(ethercat::Command::fprd, station,
+                                  ethercat::reg::kWatchdogTimeProcessData, 2);
+  if (!divider || !time) {
+    error = (!divider ? divider.error() : time.error()).message();
+    return std::nullopt;
+  }
+  // ESC datasheet Section II 0400h/0420h: one watchdog increment is (divider + 2) x 40 ns.
+  const std::int64_t ticks =
+      std::int64_t{ethercat::get_le16(*time)} * (std::int64_t{ethercat::get_le16(*divider)} + 2);
+  return std::chrono::nanoseconds(ticks * 40);
+}
+
+std::uint8_t EthercatPort::last_mailbox_counter() {
+  auto* mailbox = master_.mailbox(0);
+  return mailbox == nullptr ? 0 : mailbox->protocol().last_request_counter();
+}
+
+std::optional<std::size_t> EthercatPort::repeat_download(cia301::Multiplexer mux,
+                                                         std::span<const std::uint8_t> data,
+                                                         can::TimePoint until, std::string& error) {
+  auto* mailbox = master_.mailbox(0);
+  if (mailbox == nullptr || master_.slaves().empty() || !master_.slaves()[0].layout.mailbox_out) {
+    error = "slave 0 has no mailbox";
+    return std::nullopt;
+  }
+  const auto& out = *master_.slaves()[0].layout.mailbox_out;
+  ethercat::CoeSdoClient client;
+  const auto request = client.start_download(mux, data);
+  ethercat::MailboxHeader header;
+  header.type = static_cast<std::uint8_t>(ethercat::MailboxType::coe);
+  header.counter = mailbox->protocol().last_request_counter();
+  auto& link = master_.port().link();
+  // SM0 takes a write only while empty (working counter 0 otherwise): tried until `until`.
+  for (;;) {
+    auto written =
+        master_.port().write(ethercat::Command::fpwr, master_.slaves()[0].info.station, out.start,
+                             ethercat::build_mailbox(header, request, out.length));
+    if (written) break;
+    if (link.now() >= until) {
+      error = fmt::format("the write mailbox did not take the repeated request: {}",
+                          written.error().message());
+      return std::nullopt;
+    }
+    pass_time(std::min(until, link.now() + std::chrono::milliseconds(1)));
+  }
+  std::size_t replies = 0;
+  while (link.now() < until) {
+    pass_time(std::min(until, link.now() + std::chrono::milliseconds(1)));
+    auto message = mailbox->poll();
+    if (!message) {
+      error = message.error().message();
+      return std::nullopt;
+    }
+    if (!*message) continue;
+    const auto& in = **message;
+    if (in.header.type == static_cast<std::uint8_t>(ethercat::MailboxType::coe) &&
+        ethercat::peek_coe_service(in.data) ==
+            static_cast<std::uint8_t>(ethercat::CoeService::emergency)) {
+      if (auto emergency = ethercat::decode_emergency(in.data))
+        mailbox->emergencies().push_back(std::move(*emergency));
+      continue;  // an emergency is no reply
+    }
+    ++replies;
+  }
+  return replies;
 }
 
 }  // namespace drivecheck::conformance

@@ -76,6 +76,36 @@ class EthercatPort final : public DutPort {
   std::string take_cycle_error();
   ethercat::Master& master() { return master_; }
 
+  // ---- raw access for the EtherCAT-only steps (conformance/ethercat_steps.cpp) ----
+  // AL status (0130h) and code (0134h) of slave 0 now; "" or why not in `error`.
+  std::optional<ethercat::AlReading> al_status(std::string& error);
+  // 0120h := `state` as it is (with the acknowledge bit when an error is pending), then the AL
+  // status polled until that state, the error indication or `deadline`, time passing as usual.
+  std::optional<ethercat::AlReading> raw_al_request(ethercat::AlState state,
+                                                    can::TimePoint deadline, std::string& error);
+  // After a raw request or a slave that fell: every slave back in the state the master holds
+  // them in, errors acknowledged ("" or why not).
+  std::string settle();
+  // One process data cycle when it is due (time passes until then); the LRW's result (also
+  // when the master found it wrong) and the master's error ("" none).
+  struct CycleOutcome {
+    std::optional<ethercat::CycleResult> result;  // nullopt: no answer
+    std::string error;
+  };
+  CycleOutcome checked_cycle();
+  // No process data cycle before `until` (the SM watchdog is not fed meanwhile).
+  void pause_cycles(can::TimePoint until) { paused_until_ = until; }
+  // The process data watchdog time of slave 0's ESC (0400h divider, 0420h time).
+  std::optional<can::Duration> sm_watchdog_time(std::string& error);
+  // A CoE SDO download request of `data` written into the write mailbox with the counter of the
+  // master's last request (a repeat of it), then the read mailbox drained until `until`: the
+  // number of replies read (repeats of an earlier reply included).
+  std::optional<std::size_t> repeat_download(cia301::Multiplexer mux,
+                                             std::span<const std::uint8_t> data,
+                                             can::TimePoint until, std::string& error);
+  // The master's counter of its last mailbox request to slave 0 (0: none yet).
+  std::uint8_t last_mailbox_counter();
+
  private:
   bool cyclic() const;
   // Before an SDO transfer: false (and `outcome` says why) when the vector's time is up;
@@ -87,6 +117,7 @@ class EthercatPort final : public DutPort {
   can::TimePoint next_cycle_{};
   std::string cycle_error_;
   std::function<void()> power_cycle_;
+  can::TimePoint paused_until_{};
 };
 
 }  // namespace drivecheck::conformance

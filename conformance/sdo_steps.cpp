@@ -291,6 +291,7 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     set_mark(mark->name, now(), received_.size());
     return StepStatus::ok;
   }
+  if (is_ethercat_step(action)) return run_ethercat_step(step);
   return StepStatus::ok;  // an expectation: expectations.cpp
 }
 

@@ -259,11 +259,67 @@ struct ExpectPeriodicStep {
   friend bool operator==(const ExpectPeriodicStep&, const ExpectPeriodicStep&) = default;
 };
 
+// ---- EtherCAT only (FORMAT.md "EtherCAT steps"): a vector with one is `transports:
+// [ethercat]` in effect (not applicable on CAN, verdict.hpp) ----
+
+// What an AL state step accepts: the AL status (0130h) state and error indication, and with the
+// error indication the AL status code (0134h) in an accepted set of al_status_codes.inc.
+struct AlExpect {
+  std::uint8_t state = 0;  // the AL state's value (1 INIT, 2 PREOP, 3 BOOT, 4 SAFEOP, 8 OP)
+  bool error = false;
+  std::vector<std::uint16_t> codes;  // error: the accepted codes (never empty then)
+  std::vector<std::string> names;    // their names as written
+  friend bool operator==(const AlExpect&, const AlExpect&) = default;
+};
+// `al_request: op`: the master requests the AL state. Expecting it reached (the default), the
+// master goes there as in a bring-up (mailbox and process data SMs configured on the way up,
+// the cycle running from SAFEOP); expecting a refusal (`expect: {error: true}`), the request is
+// written to 0120h as it is, from the state the slave is in, and afterwards the error is
+// acknowledged and the slave put back where the master held it.
+struct AlRequestStep {
+  std::uint8_t state = 0;
+  AlExpect expect;  // state 0: the requested state, no error
+  DurationSpec within{{}, "state_change"};
+  friend bool operator==(const AlRequestStep&, const AlRequestStep&) = default;
+};
+// `expect_al: {state, error, code}`: AL status (0130h) and code (0134h), polled until `within`.
+struct ExpectAlStep {
+  AlExpect expect;
+  DurationSpec within{{}, "state_change"};
+  friend bool operator==(const ExpectAlStep&, const ExpectAlStep&) = default;
+};
+// `process_data: {cycles: N}`: N process data cycles (one LRW each, every 1 ms), each with the
+// working counter the configuration gives (outputs +2, inputs +1 per slave) and the AL state
+// the master holds, without error.
+struct ProcessDataStep {
+  std::size_t cycles = 1;
+  friend bool operator==(const ProcessDataStep&, const ProcessDataStep&) = default;
+};
+// `pause_process_data: watchdog | DURATION`: no process data for that long (`watchdog`: twice
+// the SM watchdog time the slave's ESC holds, 0400h/0420h); the cycle runs again afterwards.
+struct PauseProcessDataStep {
+  std::optional<DurationSpec> duration;  // nullopt: `watchdog`
+  friend bool operator==(const PauseProcessDataStep&, const PauseProcessDataStep&) = default;
+};
+// `mailbox_repeat: {index, sub, size, value, repeat}`: a CoE SDO download of `value` with the
+// master's next mailbox counter, answered; then a download of `repeat` with the same counter
+// (a repeated mailbox request, which the slave must not execute again); then an upload of
+// the object must give `value`.
+struct MailboxRepeatStep {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::size_t size = 4;
+  std::int64_t value = 0;
+  std::int64_t repeat = 0;
+  friend bool operator==(const MailboxRepeatStep&, const MailboxRepeatStep&) = default;
+};
+
 using Action =
     std::variant<SendStep, NmtStep, SdoWriteStep, SdoReadStep, WaitStep, ControlwordStep,
                  SimulateStep, MarkStep, ExpectFrameStep, ExpectSilenceStep, ExpectBootupStep,
                  ExpectHeartbeatStep, ExpectEmcyStep, ExpectStateStep, ExpectStatuswordStep,
-                 PollStep, MeasureStep, ExpectPeriodicStep, BusOffStep>;
+                 PollStep, MeasureStep, ExpectPeriodicStep, BusOffStep, AlRequestStep, ExpectAlStep,
+                 ProcessDataStep, PauseProcessDataStep, MailboxRepeatStep>;
 
 // The action key of each alternative, in variant order ("send", "nmt", ...).
 std::string_view action_name(const Action& action);
@@ -321,6 +377,8 @@ struct Vector {
   std::string family() const;
   // Whether a step puts the DUT's controller bus-off (`bus_off`).
   bool has_bus_off_step() const;
+  // The first EtherCAT-only step (steps: then finally:) as "steps: step 2 (al_request)", or "".
+  std::string ethercat_only_step() const;
 };
 
 }  // namespace drivecheck::conformance

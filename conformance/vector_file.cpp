@@ -16,6 +16,7 @@
 
 #include "conformance/device_values.hpp"
 #include "protocol/cia301/sdo_abort_sets.hpp"
+#include "protocol/ethercat/al_state_machine.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
@@ -23,15 +24,48 @@ namespace drivecheck::conformance {
 // ---- the model's small functions ----
 
 std::string_view action_name(const Action& action) {
-  constexpr std::array<std::string_view, std::variant_size_v<Action>> kNames{
-      "send",           "nmt",           "sdo_write",
-      "sdo_read",       "wait",          "controlword",
-      "simulate",       "mark",          "expect_frame",
-      "expect_silence", "expect_bootup", "expect_heartbeat",
-      "expect_emcy",    "expect_state",  "expect_statusword",
-      "poll",           "measure",       "expect_periodic",
-      "bus_off"};
+  constexpr std::array<std::string_view, std::variant_size_v<Action>> kNames{"send",
+                                                                             "nmt",
+                                                                             "sdo_write",
+                                                                             "sdo_read",
+                                                                             "wait",
+                                                                             "controlword",
+                                                                             "simulate",
+                                                                             "mark",
+                                                                             "expect_frame",
+                                                                             "expect_silence",
+                                                                             "expect_bootup",
+                                                                             "expect_heartbeat",
+                                                                             "expect_emcy",
+                                                                             "expect_state",
+                                                                             "expect_statusword",
+                                                                             "poll",
+                                                                             "measure",
+                                                                             "expect_periodic",
+                                                                             "bus_off",
+                                                                             "al_request",
+                                                                             "expect_al",
+                                                                             "process_data",
+                                                                             "pause_process_data",
+                                                                             "mailbox_repeat"};
   return kNames[action.index()];
+}
+
+std::string Vector::ethercat_only_step() const {
+  const auto check = [](const std::vector<Step>& list, const char* where) -> std::string {
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const auto& action = list[i].action;
+      if (std::holds_alternative<AlRequestStep>(action) ||
+          std::holds_alternative<ExpectAlStep>(action) ||
+          std::holds_alternative<ProcessDataStep>(action) ||
+          std::holds_alternative<PauseProcessDataStep>(action) ||
+          std::holds_alternative<MailboxRepeatStep>(action))
+        return fmt::format("{} step {} ({})", where, i + 1, action_name(action));
+    }
+    return {};
+  };
+  if (auto step = check(steps, "steps:"); !step.empty()) return step;
+  return check(finally_steps, "finally:");
 }
 
 bool Vector::has_bus_off_step() const {
@@ -342,6 +376,11 @@ const std::vector<StepSyntax>& step_syntax() {
       {"measure", {"clause"}},
       {"expect_periodic", {"period", "tolerance", "count", "mark", "last", "clause"}},
       {"bus_off", {}},
+      {"al_request", {"expect", "within", "clause"}},
+      {"expect_al", {"within", "clause"}},
+      {"process_data", {}},
+      {"pause_process_data", {}},
+      {"mailbox_repeat", {}},
   };
   return kSyntax;
 }
@@ -683,6 +722,67 @@ class Parser {
     return expect;
   }
 
+  // An AL state name (init preop safeop op boot) as its 0130h value.
+  std::optional<std::uint8_t> al_state(const YAML::Node& node, std::string_view what) {
+    auto text = scalar(node, what);
+    if (!text) return std::nullopt;
+    constexpr std::array<std::pair<std::string_view, std::uint8_t>, 5> kStates{
+        {{"init", 1}, {"preop", 2}, {"boot", 3}, {"safeop", 4}, {"op", 8}}};
+    for (const auto& [name, value] : kStates)
+      if (*text == name) return value;
+    error(node,
+          fmt::format("{}: '{}' is not an AL state (init, preop, safeop, op, boot)", what, *text));
+    return std::nullopt;
+  }
+
+  // `{state, error, code}` (al_request's expect:, expect_al's value). `code:` a name of
+  // protocol/ethercat/al_status_codes.inc (`-` for `_`) or a list of them: the accepted set.
+  std::optional<AlExpect> al_expect(const YAML::Node& node, std::string_view what,
+                                    bool state_required) {
+    if (!check_map(node, what, {"state", "error", "code"})) return std::nullopt;
+    AlExpect expect;
+    if (node["state"]) {
+      auto state = al_state(node["state"], "state");
+      if (!state) return std::nullopt;
+      expect.state = *state;
+    } else if (state_required) {
+      error(node, fmt::format("{}: 'state' is required", what));
+      return std::nullopt;
+    }
+    if (node["error"]) {
+      auto error_bit = boolean(node["error"], "error");
+      if (!error_bit) return std::nullopt;
+      expect.error = *error_bit;
+    }
+    if (node["code"]) {
+      if (!expect.error) {
+        error(node["code"], fmt::format("{}: 'code' goes with 'error: true'", what));
+        return std::nullopt;
+      }
+      for (const auto& text : string_list(node["code"], "code")) {
+        std::string name = text;
+        std::replace(name.begin(), name.end(), '-', '_');
+        const auto table = ethercat::al_status_code_table();
+        const auto it = std::find_if(table.begin(), table.end(),
+                                     [&name](const auto& row) { return row.name == name; });
+        if (it == table.end() || it->code == ethercat::AlStatusCode::no_error) {
+          error(node["code"], fmt::format("{}: '{}' is no AL status code of "
+                                          "protocol/ethercat/al_status_codes.inc",
+                                          what, text));
+          return std::nullopt;
+        }
+        expect.codes.push_back(static_cast<std::uint16_t>(it->code));
+        expect.names.push_back(text);
+      }
+    }
+    if (expect.error && expect.codes.empty()) {
+      error(node,
+            fmt::format("{}: 'error: true' needs 'code:' (the accepted AL status codes)", what));
+      return std::nullopt;
+    }
+    return expect;
+  }
+
   std::optional<Action> parse_action(std::string_view action, const YAML::Node& value,
                                      const YAML::Node& step_map) {
     const auto modifier = [&step_map](std::string_view key) { return step_map[std::string(key)]; };
@@ -797,6 +897,88 @@ class Parser {
         read.save = *saved;
       }
       return read;
+    }
+    if (action == "al_request") {
+      AlRequestStep step;
+      auto state = al_state(value, "al_request");
+      if (!state) return std::nullopt;
+      step.state = *state;
+      if (const auto node = modifier("expect")) {
+        auto expect = al_expect(node, "al_request expect", false);
+        if (!expect) return std::nullopt;
+        step.expect = std::move(*expect);
+      }
+      if (step.expect.state == 0 && step.expect.error) {
+        error(value, "al_request: a refusal needs the AL state it leaves the slave in (state:)");
+        return std::nullopt;
+      }
+      if (const auto node = modifier("within"))
+        step.within = duration(node, "within").value_or(step.within);
+      return step;
+    }
+    if (action == "expect_al") {
+      ExpectAlStep step;
+      auto expect = al_expect(value, "expect_al", true);
+      if (!expect) return std::nullopt;
+      step.expect = std::move(*expect);
+      if (const auto node = modifier("within"))
+        step.within = duration(node, "within").value_or(step.within);
+      return step;
+    }
+    if (action == "process_data") {
+      if (!check_map(value, "process_data", {"cycles"})) return std::nullopt;
+      if (!value["cycles"]) {
+        error(value, "process_data: 'cycles' is required");
+        return std::nullopt;
+      }
+      auto cycles = integer<std::size_t>(value["cycles"], "cycles", 1, 100000);
+      if (!cycles) return std::nullopt;
+      return ProcessDataStep{*cycles};
+    }
+    if (action == "pause_process_data") {
+      auto text = scalar(value, "pause_process_data");
+      if (!text) return std::nullopt;
+      if (*text == "watchdog") return PauseProcessDataStep{};
+      auto d = duration(value, "pause_process_data");
+      if (!d) return std::nullopt;
+      if (!d->is_timing() &&
+          (d->value <= can::Duration::zero() || d->value > std::chrono::seconds(10))) {
+        error(value, "pause_process_data: 'watchdog', or a duration above 0 and at most 10s");
+        return std::nullopt;
+      }
+      return PauseProcessDataStep{*d};
+    }
+    if (action == "mailbox_repeat") {
+      MailboxRepeatStep step;
+      if (!check_map(value, "mailbox_repeat", {"index", "sub", "size", "value", "repeat"}))
+        return std::nullopt;
+      auto idx = index(value, "mailbox_repeat");
+      auto sb = sub(value, "mailbox_repeat");
+      if (!idx || !sb) return std::nullopt;
+      step.index = *idx;
+      step.sub = *sb;
+      if (!value["size"] || !value["value"] || !value["repeat"]) {
+        error(value, "mailbox_repeat: 'size', 'value' and 'repeat' are required");
+        return std::nullopt;
+      }
+      auto size = integer<std::size_t>(value["size"], "size", 1, 4);
+      if (!size) return std::nullopt;
+      step.size = *size;
+      const auto bits = 8 * step.size;
+      const std::int64_t low = -(std::int64_t{1} << (bits - 1));
+      const std::int64_t high = (std::int64_t{1} << bits) - 1;
+      auto first = integer<std::int64_t>(value["value"], "value", low, high);
+      auto second = integer<std::int64_t>(value["repeat"], "repeat", low, high);
+      if (!first || !second) return std::nullopt;
+      if (*first == *second) {
+        error(value["repeat"],
+              "mailbox_repeat: 'repeat' must differ from 'value' (else a "
+              "second execution could not be seen)");
+        return std::nullopt;
+      }
+      step.value = *first;
+      step.repeat = *second;
+      return step;
     }
     if (action == "wait") {
       auto d = duration(value, "wait");

@@ -360,7 +360,8 @@ std::vector<std::string> check_timing_bounds(const Vector& vector, const Step& s
         using T = std::decay_t<decltype(a)>;
         if constexpr (std::is_same_v<T, ExpectFrameStep> || std::is_same_v<T, ExpectBootupStep> ||
                       std::is_same_v<T, ExpectEmcyStep> || std::is_same_v<T, ExpectStateStep> ||
-                      std::is_same_v<T, ExpectStatuswordStep> || std::is_same_v<T, PollStep>) {
+                      std::is_same_v<T, ExpectStatuswordStep> || std::is_same_v<T, PollStep> ||
+                      std::is_same_v<T, AlRequestStep> || std::is_same_v<T, ExpectAlStep>) {
           add("within", a.within);
         } else if constexpr (std::is_same_v<T, ExpectHeartbeatStep>) {
           if (a.within) add("within", *a.within);
@@ -560,6 +561,16 @@ LintReport lint_vector_tree(const LintOptions& options) {
                "bus_off: the duration is not shorter than the vector's timeout"});
         }
       }
+    }
+    // An EtherCAT-only step (FORMAT.md "EtherCAT steps") in a vector limited to other links.
+    if (auto step = vector.ethercat_only_step();
+        !step.empty() && !vector.transports.empty() &&
+        std::find(vector.transports.begin(), vector.transports.end(), "ethercat") ==
+            vector.transports.end()) {
+      report.errors.push_back(
+          {vector.file, static_cast<int>(vector.line),
+           fmt::format("vector {}: {} needs EtherCAT, but transports: lists only {}", vector.id,
+                       step, fmt::join(vector.transports, ", "))});
     }
     lint_isolation(vector, report);
     lint_dead_harness(vector, report);

@@ -74,6 +74,9 @@ struct EngineContext {
 // (device_values.hpp); the message says why.
 enum class StepStatus : std::uint8_t { ok, failed, harness_error, not_applicable };
 
+// Whether the action is one of the EtherCAT-only steps (ethercat_steps.cpp).
+bool is_ethercat_step(const Action& action);
+
 class VectorRun {
  public:
   VectorRun(EngineContext& context, const Vector& vector, VectorResult& result);
@@ -135,6 +138,10 @@ class VectorRun {
   // A 402 state or statusword pattern polled through 6041h until `deadline`.
   StepStatus poll_statusword(std::string action, std::uint16_t mask, std::uint16_t value,
                              std::string expected, can::TimePoint deadline);
+
+  // ---- ethercat_steps.cpp ----
+  // The EtherCAT-only steps (is_ethercat_step), through the EtherCAT DUT port.
+  StepStatus run_ethercat_step(const Step& step);
 
   // ---- device_values.cpp ----
   // Finds the `$dut.<name>` values the vector's steps use (once per run) and saves them.

@@ -365,6 +365,78 @@ class Writer {
   }
   void action(const WaitStep& s) { duration_key("wait", s.duration); }
   void action(const BusOffStep& s) { duration_key("bus_off", s.duration); }
+  static std::string al_state_keyword(std::uint8_t state) {
+    switch (state) {
+      case 1:
+        return "init";
+      case 2:
+        return "preop";
+      case 3:
+        return "boot";
+      case 4:
+        return "safeop";
+      default:
+        return "op";
+    }
+  }
+  void al_expect(const AlExpect& e) {
+    out_ << YAML::Flow << YAML::BeginMap;
+    if (e.state != 0) {
+      key("state");
+      plain(al_state_keyword(e.state));
+    }
+    key("error");
+    plain(e.error ? "true" : "false");
+    if (!e.names.empty()) {
+      key("code");
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (const auto& name : e.names)
+        plain(name);
+      out_ << YAML::EndSeq;
+    }
+    out_ << YAML::EndMap;
+  }
+  void action(const AlRequestStep& s) {
+    key("al_request");
+    plain(al_state_keyword(s.state));
+    if (s.expect != AlExpect{}) {
+      key("expect");
+      al_expect(s.expect);
+    }
+    duration_key("within", s.within);
+  }
+  void action(const ExpectAlStep& s) {
+    key("expect_al");
+    al_expect(s.expect);
+    duration_key("within", s.within);
+  }
+  void action(const ProcessDataStep& s) {
+    key("process_data");
+    out_ << YAML::Flow << YAML::BeginMap;
+    key("cycles");
+    plain(fmt::format("{}", s.cycles));
+    out_ << YAML::EndMap;
+  }
+  void action(const PauseProcessDataStep& s) {
+    if (s.duration) {
+      duration_key("pause_process_data", *s.duration);
+    } else {
+      key("pause_process_data");
+      plain("watchdog");
+    }
+  }
+  void action(const MailboxRepeatStep& s) {
+    key("mailbox_repeat");
+    out_ << YAML::Flow << YAML::BeginMap;
+    index_sub(s.index, s.sub);
+    key("size");
+    plain(fmt::format("{}", s.size));
+    key("value");
+    plain(fmt::format("{}", s.value));
+    key("repeat");
+    plain(fmt::format("{}", s.repeat));
+    out_ << YAML::EndMap;
+  }
   void action(const ControlwordStep& s) {
     key("controlword");
     plain(fmt::format("0x{:04X}", s.value));

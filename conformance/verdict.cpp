@@ -91,6 +91,10 @@ std::string not_applicable_reason(const Vector& vector, const profile::DriveProf
     if (auto step = can_only_step(vector); !step.empty())
       return fmt::format("needs the CAN link ({})", step);
   }
+  if (context.link != LinkKind::ethercat) {
+    if (auto step = vector.ethercat_only_step(); !step.empty())
+      return fmt::format("needs the EtherCAT link ({})", step);
+  }
   if (!vector.profiles.empty() && std::find(vector.profiles.begin(), vector.profiles.end(),
                                             profile.name) == vector.profiles.end()) {
     return fmt::format("only for profile {} (selected: {})", fmt::join(vector.profiles, ", "),
