@@ -134,6 +134,7 @@ std::string EthercatPort::reset(bool node) {
   // starts afresh there, and the next SDO then gets no answer.
   auto done = master_.bring_up(ethercat::AlState::preop);
   next_cycle_ = master_.port().link().now();
+  emergencies_.clear();
   if (!done) return done.error().message();
   return {};
 }
@@ -160,6 +161,7 @@ SdoOutcome EthercatPort::upload(VectorRun& run, const SdoRequest& request) {
     outcome = outcome_of(value.error());
   }
   if (answered(outcome)) run.note_dut_answer();
+  collect_emergencies(false);
   return outcome;
 }
 
@@ -181,7 +183,16 @@ SdoOutcome EthercatPort::download(VectorRun& run, const SdoRequest& request,
     outcome = outcome_of(done.error());
   }
   if (answered(outcome)) run.note_dut_answer();
+  collect_emergencies(false);
   return outcome;
+}
+
+void EthercatPort::collect_emergencies(bool poll) {
+  if (master_.slaves().empty()) return;
+  if (poll) (void)master_.poll_mailbox(0);  // a broken mailbox shows in the next SDO
+  const auto at = master_.port().now();
+  for (auto& message : master_.take_emergencies(0))
+    emergencies_.push_back({at, std::move(message), false});
 }
 
 // ---- raw access for the EtherCAT-only steps ----

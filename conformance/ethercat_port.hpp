@@ -105,6 +105,16 @@ class EthercatPort final : public DutPort {
                                              can::TimePoint until, std::string& error);
   // The master's counter of its last mailbox request to slave 0 (0: none yet).
   std::uint8_t last_mailbox_counter();
+  // CoE emergencies of slave 0, each stamped with the time the port took it from the master:
+  // those the master queued while it waited for a reply (after every SDO transfer), and with
+  // `poll` those the read mailbox holds now.
+  struct Emergency {
+    can::TimePoint at{};
+    ethercat::CoeEmergency message;
+    bool matched = false;  // an expect_emcy step took it
+  };
+  void collect_emergencies(bool poll);
+  std::vector<Emergency>& emergencies() { return emergencies_; }
 
  private:
   bool cyclic() const;
@@ -118,6 +128,7 @@ class EthercatPort final : public DutPort {
   std::string cycle_error_;
   std::function<void()> power_cycle_;
   can::TimePoint paused_until_{};
+  std::vector<Emergency> emergencies_;
 };
 
 }  // namespace drivecheck::conformance

@@ -68,6 +68,59 @@ std::vector<std::uint8_t> le_bytes(std::int64_t value, std::size_t size) {
 
 }  // namespace
 
+StepStatus VectorRun::expect_coe_emergency(const ExpectEmcyStep& e, can::TimePoint base) {
+  const std::string name = "expect_emcy";
+  auto* port = dynamic_cast<EthercatPort*>(&context_.port);
+  if (port == nullptr) return harness_error(name, "no EtherCAT port");
+  const auto within = resolve(e.within);
+  const auto since = e.since.empty() ? base : marks_.at(e.since).at;
+  const auto deadline = since + within;
+  auto expected = fmt::format("CoE emergency with code {{{:04X}h}}", fmt::join(e.codes, "h, "));
+  if (e.register_mask)
+    expected += fmt::format(", register & {:02X}h == {:02X}h", *e.register_mask, e.register_value);
+  expected += fmt::format(" within {}", profile::format_duration(within));
+  const auto matches = [&e](const ethercat::CoeEmergency& message) {
+    const auto& emcy = message.emcy;
+    if (std::find(e.codes.begin(), e.codes.end(), emcy.error_code) == e.codes.end()) return false;
+    if (e.register_mask && (emcy.error_register & *e.register_mask) != e.register_value)
+      return false;
+    for (std::size_t i = 0; i < e.manufacturer.size() && i < emcy.manufacturer.size(); ++i)
+      if (e.manufacturer[i] && *e.manufacturer[i] != emcy.manufacturer[i]) return false;
+    return true;
+  };
+  const auto describe_emcy = [](const ethercat::CoeEmergency& message) {
+    return fmt::format("{:04X}h register {:02X}h data {:02X}", message.emcy.error_code,
+                       message.emcy.error_register, fmt::join(message.emcy.manufacturer, " "));
+  };
+  for (;;) {
+    port->collect_emergencies(true);
+    std::vector<std::string> seen;
+    for (auto& entry : port->emergencies()) {
+      if (entry.at < since || entry.matched) continue;
+      if (matches(entry.message)) {
+        entry.matched = true;
+        note_dut_answer();
+        if (!e.mark.empty()) set_mark(e.mark, entry.at, received_.size());
+        check(name, expected,
+              fmt::format("{} after {}", describe_emcy(entry.message),
+                          profile::format_duration(entry.at - since)),
+              true);
+        return StepStatus::ok;
+      }
+      seen.push_back(describe_emcy(entry.message));
+    }
+    if (now() >= deadline || vector_timed_out()) {
+      Observation nothing;
+      nothing.nothing = true;
+      return fail_timed(name, expected,
+                        seen.empty() ? std::string("no CoE emergency")
+                                     : fmt::format("other emergencies: {}", fmt::join(seen, "; ")),
+                        nothing);
+    }
+    wait_until(std::min(deadline, now() + resolve({{}, "poll"})));
+  }
+}
+
 bool is_ethercat_step(const Action& action) {
   return std::holds_alternative<AlRequestStep>(action) ||
          std::holds_alternative<ExpectAlStep>(action) ||

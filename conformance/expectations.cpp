@@ -233,6 +233,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     return StepStatus::ok;
   }
   if (const auto* e = std::get_if<ExpectEmcyStep>(&action)) {
+    if (context_.port.link() == LinkKind::ethercat) return expect_coe_emergency(*e, start);
     const auto within = resolve(e->within);
     const auto from = watch_start(e->since);
     const auto base = e->since.empty() ? request_time() : marks_.at(e->since).at;

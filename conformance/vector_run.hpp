@@ -142,6 +142,9 @@ class VectorRun {
   // ---- ethercat_steps.cpp ----
   // The EtherCAT-only steps (is_ethercat_step), through the EtherCAT DUT port.
   StepStatus run_ethercat_step(const Step& step);
+  // expect_emcy on EtherCAT: a CoE emergency the port took from the master at or after `base`
+  // (the step's start, or the request before it) or the `since:` mark, within `within:`.
+  StepStatus expect_coe_emergency(const ExpectEmcyStep& step, can::TimePoint base);
 
   // ---- device_values.cpp ----
   // Finds the `$dut.<name>` values the vector's steps use (once per run) and saves them.

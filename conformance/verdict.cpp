@@ -61,7 +61,6 @@ std::string can_only_step(const Vector& vector) {
                  std::holds_alternative<ExpectSilenceStep>(action) ||
                  std::holds_alternative<ExpectBootupStep>(action) ||
                  std::holds_alternative<ExpectHeartbeatStep>(action) ||
-                 std::holds_alternative<ExpectEmcyStep>(action) ||
                  std::holds_alternative<ExpectPeriodicStep>(action) ||
                  std::holds_alternative<BusOffStep>(action);
       if (const auto* m = std::get_if<MeasureStep>(&action); m != nullptr && m->frames) can = true;

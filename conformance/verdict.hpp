@@ -31,8 +31,9 @@ struct ApplicabilityContext {
 
 // The first step (in `steps:` or `finally:`) that needs the CAN link itself: frames (send,
 // expect_frame, expect_silence, expect_periodic, measure with frames:), NMT frames, boot-up,
-// heartbeat, bus-off, EMCY frames, a block SDO transfer. Empty: the vector's steps are
-// services that every link has (SDO, controlword, statusword, poll, wait, simulate, mark).
+// heartbeat, bus-off, a block SDO transfer. Empty: the vector's steps are services that every
+// link has (SDO, controlword, statusword, poll, wait, simulate, mark, EMCY: CoE emergencies on
+// EtherCAT).
 std::string can_only_step(const Vector& vector);
 
 // Whether the vector would restore the DUT's factory defaults: `setup: restore-defaults`, or a
