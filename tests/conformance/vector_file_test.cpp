@@ -316,6 +316,60 @@ TEST(VectorFile, MissingRequiredKeys) {
   EXPECT_EQ(set.errors[1].to_string(), "v.yaml:1: vector a/b: 'steps' is missing");
 }
 
+TEST(VectorFile, EthercatStepsParse) {
+  // Given a vector with every EtherCAT-only step
+  const std::string yaml = std::string(kHead) + R"(  transports: [ethercat]
+  steps:
+    - al_request: op
+      expect: {state: init, error: true, code: [invalid-requested-state-change, unspecified_error]}
+    - expect_al: {state: safeop, error: true, code: sync-manager-watchdog}
+      within: 1s
+      clause: "CiA 301 §7.2.4"
+    - process_data: {cycles: 10}
+    - pause_process_data: watchdog
+    - mailbox_repeat: {index: 0x6083, sub: 0, size: 4, value: 1000, repeat: 2000}
+)";
+  // When it is parsed
+  const auto set = parse_vectors(yaml, "v.yaml");
+  // Then the AL codes are the table's values and the vector names its first EtherCAT step
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& v = set.vectors.front();
+  const auto& request = std::get<AlRequestStep>(v.steps[0].action);
+  EXPECT_EQ(request.state, 8);
+  EXPECT_EQ(request.expect.state, 1);
+  EXPECT_EQ(request.expect.codes, (std::vector<std::uint16_t>{0x0011, 0x0001}));
+  EXPECT_EQ(std::get<ExpectAlStep>(v.steps[1].action).expect.codes,
+            (std::vector<std::uint16_t>{0x001B}));
+  EXPECT_EQ(std::get<ProcessDataStep>(v.steps[2].action).cycles, 10U);
+  EXPECT_FALSE(std::get<PauseProcessDataStep>(v.steps[3].action).duration);
+  EXPECT_EQ(std::get<MailboxRepeatStep>(v.steps[4].action).repeat, 2000);
+  EXPECT_EQ(v.ethercat_only_step(), "steps: step 1 (al_request)");
+}
+
+TEST(VectorFile, EthercatStepErrorsNameTheLine) {
+  // Given EtherCAT steps with an unknown state, an unknown code, a refusal without codes, a
+  // code without the error indication and a repeat equal to the first value
+  // When each is parsed
+  // Then each is one error at the step's line
+  const std::string steps = std::string(kHead) + "  steps:\n";
+  EXPECT_EQ(only_error(steps + "    - al_request: operational\n"),
+            "v.yaml:6: al_request: 'operational' is not an AL state (init, preop, safeop, op, "
+            "boot)");
+  EXPECT_EQ(only_error(steps + "    - expect_al: {state: init, error: true, code: nope}\n"),
+            "v.yaml:6: expect_al: 'nope' is no AL status code of "
+            "protocol/ethercat/al_status_codes.inc");
+  EXPECT_EQ(only_error(steps + "    - expect_al: {state: init, error: true}\n"),
+            "v.yaml:6: expect_al: 'error: true' needs 'code:' (the accepted AL status codes)");
+  EXPECT_EQ(only_error(steps + "    - expect_al: {state: op, code: no-memory}\n"),
+            "v.yaml:6: expect_al: 'code' goes with 'error: true'");
+  EXPECT_EQ(only_error(steps + "    - mailbox_repeat: {index: 0x6083, sub: 0, size: 2, value: 7, "
+                               "repeat: 7}\n"),
+            "v.yaml:6: mailbox_repeat: 'repeat' must differ from 'value' (else a second "
+            "execution could not be seen)");
+  EXPECT_EQ(only_error(steps + "    - pause_process_data: 11s\n"),
+            "v.yaml:6: pause_process_data: 'watchdog', or a duration above 0 and at most 10s");
+}
+
 TEST(VectorFile, ValueMustFitItsSize) {
   // Given 0x1FF in one byte; When parsed; Then an error
   const auto error =

@@ -119,6 +119,17 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
       tolerance: 3ms
       count: 10000
       mark: p
+    - al_request: op
+    - al_request: boot
+      expect: {state: init, error: true, code: [bootstrap-not-supported, invalid_requested_state_change]}
+      within: 1s
+    - expect_al: {state: safeop, error: true, code: sync-manager-watchdog}
+      within: $timing.response
+    - expect_al: {state: preop}
+    - process_data: {cycles: 100000}
+    - pause_process_data: watchdog
+    - pause_process_data: 150ms
+    - mailbox_repeat: {index: 0x6083, sub: 0, size: 4, value: -1, repeat: 4294967295}
   finally:
     - sdo_write: {index: 0x6060, sub: 0, value: $mode_seen}
       note: "clean-up that runs after a failed step too"
@@ -195,10 +206,10 @@ TEST(VectorWriter, LoaderRefusesAnEmptyEmcyCodeList) {
   EXPECT_EQ(set.errors.front().to_string(), "v.yaml:5: expect_emcy: the list of codes is empty");
 }
 
-// Every vector file of vectors/cia301 and vectors/cia402.
+// Every vector file of vectors/cia301, vectors/cia402 and vectors/ethercat.
 std::vector<std::filesystem::path> tree_files() {
   std::vector<std::filesystem::path> files;
-  for (const char* family : {"cia301", "cia402"}) {
+  for (const char* family : {"cia301", "cia402", "ethercat"}) {
     for (const auto& entry : std::filesystem::directory_iterator(
              std::filesystem::path(DRIVECHECK_VECTORS_DIR) / family)) {
       if (entry.is_regular_file() && entry.path().extension() == ".yaml")

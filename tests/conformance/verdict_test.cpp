@@ -137,6 +137,28 @@ TEST(Applicability, TransportsLimitTheLinks) {
             "only on ethercat (transports:; this link: can)");
 }
 
+TEST(Applicability, EthercatStepsNeedTheEthercatLink) {
+  // Given a vector with an AL request (no transports:) and one with expect_emcy only
+  const auto set = parse_vectors(
+      "- id: t/al\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - sdo_read: {index: 0x1000, sub: 0}\n    - al_request: safeop\n"
+      "- id: t/emcy\n  title: t\n  source: \"CiA 301 §1\"\n  steps:\n"
+      "    - expect_emcy: {code: 0}\n",
+      "t.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto p = make_profile();
+  ApplicabilityContext can;
+  ApplicabilityContext ethercat;
+  ethercat.link = LinkKind::ethercat;
+  // When checked on both links
+  // Then the AL vector applies only on EtherCAT, naming its step on CAN; expect_emcy on both
+  EXPECT_EQ(not_applicable_reason(set.vectors[0], p, ethercat), "");
+  EXPECT_EQ(not_applicable_reason(set.vectors[0], p, can),
+            "needs the EtherCAT link (steps: step 2 (al_request))");
+  EXPECT_EQ(not_applicable_reason(set.vectors[1], p, can), "");
+  EXPECT_EQ(not_applicable_reason(set.vectors[1], p, ethercat), "");
+}
+
 TEST(VectorFile, UnknownTransportIsAnError) {
   // Given a vector naming a link that does not exist
   const auto set = parse_vectors(
