@@ -33,6 +33,7 @@
 #include "cli/vector_dirs.hpp"
 #include "conformance/capabilities.hpp"
 #include "conformance/engine.hpp"
+#include "conformance/ethercat_port.hpp"
 #include "conformance/od_checks.hpp"
 #include "conformance/provenance.hpp"
 #include "conformance/sha256.hpp"
@@ -46,6 +47,8 @@
 #include "protocol/cia301/nmt_master.hpp"
 #include "protocol/cia306/eds.hpp"
 #include "protocol/cia306/eds_lint.hpp"
+#include "protocol/ethercat/master.hpp"
+#include "protocol/ethercat/raw_link.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
 
@@ -57,6 +60,55 @@ namespace drivecheck::cli {
 namespace {
 
 constexpr std::string_view kEthercatSim = "ethercat:sim";
+constexpr std::string_view kEthercatPrefix = "ethercat:";
+
+// The interface of `ethercat:IF` (not `ethercat:sim`), or nullopt for any other bus.
+std::optional<std::string> ethercat_interface(std::string_view bus) {
+  if (bus.substr(0, kEthercatPrefix.size()) != kEthercatPrefix || bus == kEthercatSim)
+    return std::nullopt;
+  return std::string(bus.substr(kEthercatPrefix.size()));
+}
+
+// `--bus ethercat:IF`: the DUT is slave 0 (position 0) of the segment behind an AF_PACKET link
+// on IF (a NIC wired to the slaves, or a veth end with `drivecheck drive --bus ethercat:PEER` on
+// the other side), brought up to PREOP by the master; the engine talks CoE through the
+// EtherCAT port and takes its time from the link's clock (the process data cycle runs in it).
+// Every wait is bounded by the master's timeouts: a silent link ends the bring-up with an
+// error, or the run's SDOs with "no answer" (and the run with DUT lost), never in a hang.
+struct EthercatTarget {
+  std::unique_ptr<ethercat::RawLink> link;
+  std::unique_ptr<ethercat::Master> master;
+  std::unique_ptr<conformance::EthercatPort> port;
+  std::unique_ptr<conformance::EthercatClock> clock;
+};
+
+std::unique_ptr<EthercatTarget> open_ethercat(const std::string& interface) {
+  auto target = std::make_unique<EthercatTarget>();
+  auto link = ethercat::RawLink::open(interface);
+  if (!link) usage_error("run", ethercat::describe_open_error(interface, link.error()));
+  target->link = std::move(*link);
+  ethercat::MasterConfig config;
+  // A real link: the answer comes from another process or machine, which a loaded host may
+  // not schedule within the simulated segment's 2 ms.
+  config.port.response_timeout = std::chrono::milliseconds(20);
+  config.sii.timeout = std::chrono::milliseconds(500);
+  target->master = std::make_unique<ethercat::Master>(*target->link, config);
+  if (auto up = target->master->bring_up(ethercat::AlState::preop); !up) {
+    fmt::print(stderr, "drivecheck run: EtherCAT bring-up to PREOP on {} failed: {}\n", interface,
+               up.error().message());
+    exit_with(kExitDutLost);
+  }
+  if (target->master->slaves().size() > 1) {
+    fmt::print(stderr,
+               "drivecheck run: {} EtherCAT slaves on {}: the one at position 0 (station "
+               "{:04X}h) is tested\n",
+               target->master->slaves().size(), interface,
+               target->master->slaves()[0].info.station);
+  }
+  target->port = std::make_unique<conformance::EthercatPort>(*target->master);
+  target->clock = std::make_unique<conformance::EthercatClock>(*target->link, *target->port);
+  return target;
+}
 
 struct RunOptions {
   std::string bus = "sim";
@@ -158,12 +210,14 @@ void run(const RunOptions& options) {
   // `ethercat:sim`: the reference drive as an EtherCAT slave on a simulated segment, the vectors
   // through CoE (conformance/ethercat_port.hpp); otherwise simulated like `sim`.
   const bool ethercat_sim = options.bus == kEthercatSim;
-  const auto spec =
-      ethercat_sim ? Expected<BusSpec, std::string>(BusSpec{}) : parse_bus_spec(options.bus);
+  // `ethercat:IF`: a real EtherCAT link (open_ethercat).
+  const auto ethercat_if = ethercat_interface(options.bus);
+  const auto spec = ethercat_sim || ethercat_if ? Expected<BusSpec, std::string>(BusSpec{})
+                                                : parse_bus_spec(options.bus);
   if (!spec) usage_error("run", spec.error());
-  const bool sim = spec->kind == BusSpec::Kind::sim;
-  if (ethercat_sim && (!options.trace.empty() || !options.pcap.empty()))
-    usage_error("run", "--trace/--pcap are not written for --bus ethercat:sim yet");
+  const bool sim = spec->kind == BusSpec::Kind::sim && !ethercat_if;
+  if ((ethercat_sim || ethercat_if) && (!options.trace.empty() || !options.pcap.empty()))
+    usage_error("run", "--trace/--pcap are not written for --bus ethercat yet");
   auto order = conformance::parse_vector_order(options.order);
   if (!order) usage_error("run", order.error());
   // `shuffle` alone: a seed drawn here, recorded in the reports so that the run can be repeated.
@@ -262,8 +316,12 @@ void run(const RunOptions& options) {
   std::unique_ptr<EmbeddedDrive> drive;
   std::unique_ptr<can::SocketCanBus> socket_bus;
   std::unique_ptr<EmbeddedEthercat> ethercat_drive;
+  std::unique_ptr<EthercatTarget> ethercat_target;
   can::Bus* port = nullptr;
-  if (ethercat_sim) {
+  if (ethercat_if) {
+    ethercat_target = open_ethercat(*ethercat_if);
+    port = ethercat_target->clock.get();
+  } else if (ethercat_sim) {
     auto created = EmbeddedEthercat::create(*profile, options.deviations);
     if (!created) usage_error("run", created.error());
     ethercat_drive = std::move(*created);
@@ -304,15 +362,21 @@ void run(const RunOptions& options) {
   // A real bus without --profile: 1000h says what the DUT is (CiA 301 §7.5.2.1: bits 0..15 the
   // device profile number).
   if (options.profile.empty() && !sim) {
-    (void)port->send(cia301::NmtMaster().command(cia301::NmtCommand::enter_pre_operational,
-                                                 static_cast<std::uint8_t>(options.node)));
+    // EtherCAT: the master brought the slave to PREOP already.
+    if (!ethercat_target)
+      (void)port->send(cia301::NmtMaster().command(cia301::NmtCommand::enter_pre_operational,
+                                                   static_cast<std::uint8_t>(options.node)));
     conformance::EngineOptions probe_options;
     probe_options.node = static_cast<std::uint8_t>(options.node);
     probe_options.real_bus = true;
     std::optional<std::uint32_t> device_type;
     {
-      conformance::Engine probe(*port, *profile, probe_options);
-      device_type = probe.read_device_type();
+      std::optional<conformance::Engine> probe;
+      if (ethercat_target)
+        probe.emplace(*port, *ethercat_target->port, *profile, probe_options);
+      else
+        probe.emplace(*port, *profile, probe_options);
+      device_type = probe->read_device_type();
     }
     const auto choice = conformance::choose_generic_profile(device_type);
     if (choice.name != profile->name) {
@@ -453,6 +517,8 @@ void run(const RunOptions& options) {
     std::optional<conformance::Engine> engine_storage;
     if (ethercat_drive)
       engine_storage.emplace(*port, ethercat_drive->port(), *profile, std::move(engine_options));
+    else if (ethercat_target)
+      engine_storage.emplace(*port, *ethercat_target->port, *profile, std::move(engine_options));
     else
       engine_storage.emplace(*port, *profile, std::move(engine_options));
     conformance::Engine& engine = *engine_storage;
@@ -536,14 +602,23 @@ void add_run_command(CLI::App& app) {
       "Run the conformance vectors against a drive (default: the reference drive on the "
       "simulated bus)");
   cmd->add_option("--bus", options->bus,
-                  "The bus: sim, socketcan:IF for a real drive, or ethercat:sim (the reference "
-                  "drive as an EtherCAT slave on a simulated segment, vectors over CoE)")
+                  "The bus: sim, socketcan:IF for a real drive, ethercat:sim (the reference "
+                  "drive as an EtherCAT slave on a simulated segment, vectors over CoE), or "
+                  "ethercat:IF (the EtherCAT slave at position 0 behind the Ethernet interface "
+                  "IF; needs root or CAP_NET_RAW)")
       ->check(CLI::Validator(
           [](std::string& value) -> std::string {
             if (value == kEthercatSim) return {};
+            if (const auto interface = ethercat_interface(value)) {
+              if (interface->empty() || interface->size() > can::kMaxInterfaceNameLength) {
+                return fmt::format("interface name '{}' must have 1..{} characters", *interface,
+                                   can::kMaxInterfaceNameLength);
+              }
+              return {};
+            }
             return bus_validator()(value);
           },
-          "sim|socketcan:IF|ethercat:sim"))
+          "sim|socketcan:IF|ethercat:sim|ethercat:IF"))
       ->capture_default_str();
   cmd->add_option("--node", options->node, "Node id of the drive under test")
       ->check(CLI::Range(kMinNodeId, kMaxNodeId))

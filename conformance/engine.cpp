@@ -241,6 +241,23 @@ class Engine::Impl {
                 {},
                 {}});
     }
+    // On EtherCAT the master's process data cycle is the harness's heartbeat: a slave in
+    // SAFEOP/OP whose SM watchdog expires leaves OP and runs its 6007h reaction (ETG.1000.6,
+    // ESC datasheet Section I, the process data watchdog). A CAN heartbeat does not exist
+    // there, and making the drive consume one would fault it.
+    if (port_.link() == LinkKind::ethercat) {
+      result.checks.push_back(Check{0,
+                                    "envelope",
+                                    "dead-harness stop: the slave's SM watchdog (EtherCAT: no "
+                                    "heartbeat consumer is set up)",
+                                    "the master cycles the process data",
+                                    true,
+                                    {},
+                                    {}});
+      for (auto& frame : scratch.frames)
+        result.frames.push_back(std::move(frame));
+      return;
+    }
     // The harness becomes a heartbeat producer; the DUT consumes it (1016h sub 1:
     // node-ID in bits 16..23, time in ms in bits 0..15, 3x our period). What 1016h sub 1 held
     // before is put back at the end of the run (restore_heartbeat_consumer).
@@ -280,7 +297,7 @@ class Engine::Impl {
   // goes back, then the harness heartbeat stops (in this order, so the DUT never sees its
   // consumer time out). Nothing to do, or nothing possible (DUT lost), is said in a note.
   void restore_heartbeat_consumer(RunResult& result) {
-    if (!motion_prepared_) return;
+    if (!motion_prepared_ || port_.link() == LinkKind::ethercat) return;
     if (!original_consumer_) {
       result.harness_notes.push_back(
           "1016h sub 1 could not be read before the run, so it was not restored: the DUT may "

@@ -128,11 +128,17 @@ std::string EthercatPort::enter_state(cia301::NmtState state) {
 }
 
 std::string EthercatPort::reset(bool node) {
-  if (node && power_cycle_) power_cycle_();
-  // The whole bring-up (scan, SII, INIT, PREOP), not just INIT then PREOP: the master's
-  // mailbox keeps its counter and state through INIT (made once per scan), while the slave's
-  // starts afresh there, and the next SDO then gets no answer.
-  auto done = master_.bring_up(ethercat::AlState::preop);
+  // A power cycle loses the station address and the ESC's configuration: a new bring-up (scan,
+  // SII, INIT, PREOP). Otherwise AL INIT then PREOP; the master restarts its mailbox counters
+  // with the slave's at INIT (Master::request_state).
+  Expected<void, ethercat::MasterError> done;
+  if (node && power_cycle_) {
+    power_cycle_();
+    done = master_.bring_up(ethercat::AlState::preop);
+  } else {
+    done = master_.request_state(ethercat::AlState::init);
+    if (done) done = master_.request_state(ethercat::AlState::preop);
+  }
   next_cycle_ = master_.port().link().now();
   emergencies_.clear();
   if (!done) return done.error().message();

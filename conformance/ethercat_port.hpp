@@ -1,7 +1,8 @@
 // The DUT port on EtherCAT: CoE SDO through an ethercat::Master (protocol/ethercat/master.hpp),
 // slave 0 of the segment. NMT states map to AL states by the Festo CMMP-AS table (000 §4.7.1,
 // Tab. 4.11): Stopped = INIT, Pre-operational = PREOP, Operational = OP (SAFEOP has no NMT
-// counterpart); a reset (node or communication) is AL INIT then PREOP.
+// counterpart); a reset is AL INIT then PREOP (after the power cycle hook, when there is one,
+// a new bring-up).
 //
 // EthercatClock is the engine's can::Bus on EtherCAT: the link's clock and timers, no CAN frames
 // (send refuses, receive only lets time pass). While the master holds SAFEOP/OP it runs the

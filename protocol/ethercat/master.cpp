@@ -71,12 +71,17 @@ Expected<void, MasterError> Master::scan() {
   return {};
 }
 
+void Master::restart_mailbox(std::size_t slave) {
+  if (slaves_[slave].mailbox) slaves_[slave].mailbox->protocol().reset();
+}
+
 Expected<void, MasterError> Master::bring_up(AlState target) {
   if (auto scanned = scan(); !scanned) return scanned;
   for (std::size_t i = 0; i < slaves_.size(); ++i) {
     auto init = request_al_state(port_, slaves_[i].info.station, AlState::init, config_.al);
     if (!init) return Unexpected(init.error());
     slaves_[i].al = *init;
+    restart_mailbox(i);
   }
   return request_state(target);
 }
@@ -85,6 +90,8 @@ Expected<void, MasterError> Master::step(std::size_t slave, AlState from, AlStat
   MasterSlave& s = slaves_[slave];
   AlOptions options = config_.al;
   if (from == AlState::init && to == AlState::preop) {
+    // Also when the slave fell to INIT on its own: its mailbox handler starts afresh.
+    restart_mailbox(slave);
     if (auto written = write_mailbox_setup(port_, s.layout); !written) return written;
   } else if (from == AlState::preop && to == AlState::safeop) {
     if (auto written = write_process_data_setup(port_, s.layout); !written) return written;
@@ -109,6 +116,7 @@ Expected<void, MasterError> Master::request_state(std::size_t slave, AlState tar
     auto reached = request_al_state(port_, slaves_[slave].info.station, target, config_.al);
     if (!reached) return Unexpected(reached.error());
     slaves_[slave].al = *reached;
+    if (target == AlState::init) restart_mailbox(slave);
     return {};
   }
   for (int level = from + 1; level <= rank(target); ++level) {
@@ -141,6 +149,7 @@ Expected<void, MasterError> Master::request_state(AlState target) {
     auto reached = request_al_state(port_, slaves_[i].info.station, target, config_.al);
     if (!reached) return Unexpected(reached.error());
     slaves_[i].al = *reached;
+    if (target == AlState::init) restart_mailbox(i);
   }
   held_ = target;
   if (rank(target) < 2) cycling_ = false;

@@ -16,7 +16,9 @@
 // SM/FMMU plan and logical addresses, every slave to INIT (acknowledging errors), then step by
 // step upwards: mailbox SMs before IP, process data SMs and FMMUs before PS, one cycle before
 // SO and the cycle kept running while waiting for OP. request_state() moves every slave (in
-// position order) the same way later, downwards directly.
+// position order) the same way later, downwards directly. A slave taken to INIT (or found there
+// on the way up) gets a fresh mailbox sequence: its requests count from 1 again and its first
+// reply is new whatever counter the one before INIT had.
 //
 // cycle(): one process data cycle; an error when the LRW working counter is wrong
 // (process_data_wkc, naming the expected and actual counts and which slaves are not in the
@@ -113,6 +115,11 @@ class Master {
   Expected<void, MasterError> check_slave(std::size_t slave) const;
   Expected<void, MasterError> step(std::size_t slave, AlState from, AlState to);
   MasterError explain_cycle(const CycleResult& result);
+  // The slave's mailbox handler stops in INIT and starts again on INIT->PREOP with its counters
+  // at 0 (ETG.1000.4: Cnt 1..7, 0 reserved; the Beckhoff SSC's stop/start mailbox handler
+  // clears both counters and the repeat acknowledge). The master's counters, the expected
+  // reply counter and its repeat request bit restart with it.
+  void restart_mailbox(std::size_t slave);
 
   MasterConfig config_;
   MasterPort port_;

@@ -14,3 +14,18 @@ drivecheck_add_gtest(ethercat_master_raw_link_tests
 add_test(NAME ethercat.veth-master COMMAND ethercat_master_raw_link_tests)
 set_tests_properties(ethercat.veth-master PROPERTIES LABELS ethercat TIMEOUT 120
   SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]")
+
+# `drivecheck run --bus ethercat:IF` against `drivecheck drive --bus ethercat:PEER` on a veth
+# pair in a namespace the test creates, the verdicts compared with `run --bus ethercat:sim`
+# (issue 20, "Tested for real in CI"). Label `ethercat` only: it runs two drivecheck processes
+# in real time for about a minute.
+add_executable(ethercat_run_veth_tests ${CMAKE_CURRENT_LIST_DIR}/run_veth_test.cpp)
+target_link_libraries(ethercat_run_veth_tests PRIVATE drivecheck::reports GTest::gtest
+  GTest::gtest_main drivecheck::warnings)
+target_include_directories(ethercat_run_veth_tests PRIVATE ${PROJECT_SOURCE_DIR})
+target_compile_definitions(ethercat_run_veth_tests PRIVATE
+  DRIVECHECK_BINARY="$<TARGET_FILE:drivecheck>")
+add_dependencies(ethercat_run_veth_tests drivecheck)
+add_test(NAME ethercat.run-veth COMMAND ethercat_run_veth_tests)
+set_tests_properties(ethercat.run-veth PROPERTIES LABELS ethercat TIMEOUT 240
+  SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]")

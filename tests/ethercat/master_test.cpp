@@ -154,6 +154,29 @@ TEST(MasterBringUp, GoesBackDownAndUpAgain) {
   EXPECT_TRUE(master.cycle());
 }
 
+TEST(MasterSdo, MailboxCountersRestartWithTheSlaveAfterInit) {
+  // Given a slave in PREOP that answered one SDO (its reply counter is at 1)
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  ASSERT_TRUE(master.sdo_upload(0, {0x1018, 1}));
+  // When the master takes it to INIT and back to PREOP (the slave's mailbox handler stops and
+  // starts again: its counters restart) and reads again
+  ASSERT_TRUE(master.request_state(AlState::init));
+  ASSERT_TRUE(master.request_state(AlState::preop));
+  const auto vendor = master.sdo_upload(0, {0x1018, 1});
+  // Then the reply with the restarted counter 1 is taken as new, not dropped as a duplicate,
+  // and the master's next request starts the sequence again at 1
+  ASSERT_TRUE(vendor) << vendor.error().message();
+  EXPECT_EQ(*vendor, (Bytes{0x1D, 0, 0, 0}));
+  EXPECT_EQ(master.mailbox(0)->protocol().last_request_counter(), 1);
+  // And the same through the per-slave request
+  ASSERT_TRUE(master.request_state(0, AlState::init));
+  ASSERT_TRUE(master.request_state(0, AlState::preop));
+  const auto again = master.sdo_upload(0, {0x1018, 1});
+  ASSERT_TRUE(again) << again.error().message();
+}
+
 // An input-only slave without mailbox: SM0 holds one byte of inputs (TxPDO 1A00h, 8 bit).
 Bytes input_only_sii() {
   SiiImage image;
