@@ -15,6 +15,7 @@
 #include <optional>
 #include <string>
 
+#include "conformance/datagram_evidence.hpp"
 #include "conformance/dut_port.hpp"
 #include "protocol/can/bus.hpp"
 #include "protocol/cia301/nmt.hpp"
@@ -75,6 +76,9 @@ class EthercatPort final : public DutPort {
   // The last cycle error ("" none); cleared when read.
   std::string take_cycle_error();
   ethercat::Master& master() { return master_; }
+  // The vector's datagrams: feed it every frame of the link (datagram_evidence.hpp).
+  DatagramEvidence& evidence() { return evidence_; }
+  VectorResult* set_evidence_sink(VectorResult* sink) override { return evidence_.set_sink(sink); }
 
  private:
   bool cyclic() const;
@@ -87,6 +91,7 @@ class EthercatPort final : public DutPort {
   can::TimePoint next_cycle_{};
   std::string cycle_error_;
   std::function<void()> power_cycle_;
+  DatagramEvidence evidence_;
 };
 
 }  // namespace drivecheck::conformance

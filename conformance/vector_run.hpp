@@ -77,6 +77,9 @@ enum class StepStatus : std::uint8_t { ok, failed, harness_error, not_applicable
 class VectorRun {
  public:
   VectorRun(EngineContext& context, const Vector& vector, VectorResult& result);
+  ~VectorRun();
+  VectorRun(const VectorRun&) = delete;
+  VectorRun& operator=(const VectorRun&) = delete;
 
   // ---- evidence.cpp ----
   // Receives one frame from another node (recording it), or nullopt at `deadline` (clipped to
@@ -199,6 +202,7 @@ class VectorRun {
   EngineContext& context_;
   const Vector& vector_;
   VectorResult& result_;
+  VectorResult* previous_evidence_sink_ = nullptr;  // the DUT port's sink before this run
   can::TimePoint deadline_ = can::kForever;
   std::vector<can::TimedFrame> received_;  // frames from other nodes, in order
   std::size_t dut_frames_ = 0;

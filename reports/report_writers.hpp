@@ -140,6 +140,11 @@ Expected<void, std::string> write_html_report(const std::filesystem::path& path,
 std::string transcript_line(const conformance::EvidenceFrame& frame, can::TimePoint start);
 // The line that stands for the frames a long vector left out (VectorResult::frames_elided).
 std::string elided_line(std::size_t count);
+// "(   0.012000) LRW logical 00010000h len 14 wkc 3  ×120 (to 0.131000)": one EtherCAT datagram
+// entry (conformance::EvidenceDatagram), its count and last time when it stands for a run.
+std::string transcript_line(const conformance::EvidenceDatagram& datagram, can::TimePoint start);
+// The HTML/JUnit transcript of an EtherCAT vector's datagrams, elided entries marked.
+std::string datagram_transcript(const conformance::VectorResult& vector);
 
 // ---- console -----------------------------------------------------------------------------
 
