@@ -53,6 +53,8 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 //                    frames: [{t_ns, t_s, frame: "605#..", from_harness, decoded}],
 //                    frames_elided, frames_elided_at,
 //                    between_vectors: [frames that arrived before this vector's setup],
+//                    EtherCAT only: datagrams: [{t_ns, t_s, last_ns, count, decoded}],
+//                    datagrams_elided, datagrams_elided_at,
 //                    timings: [{name, measured_ns, measured_s, min_ns?, max_ns?, ok}],
 //                    samples: [{t_ns, signal, value, origin}], samples_elided,
 //                    started_ns, finished_ns, duration_s, wall_s } ] }
