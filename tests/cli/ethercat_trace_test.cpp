@@ -106,5 +106,20 @@ TEST(CliEthercatTrace, PcapngAndTraceAreRefusedWithAHint) {
   EXPECT_NE(run.err.find("--pcap"), std::string::npos) << run.err;
 }
 
+TEST(CliEthercatTrace, ACanPcapIsDecodedAsTheCanopenTranscript) {
+  // Given the pcap of a CAN run (--bus sim) of one SDO vector
+  // When decoded
+  // Then it is read as SocketCAN frames and each line is the CANopen dissector's
+  test_support::TempDir dir;
+  const auto run = drivecheck(
+      {"run", "--filter", "cia301/od/mandatory/device-type", "--pcap", (dir / "can.pcap").string()},
+      dir.path());
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const auto decoded = drivecheck({"decode", (dir / "can.pcap").string()});
+  ASSERT_EQ(decoded.exit_code, 0) << decoded.err;
+  EXPECT_NE(decoded.out.find("  pcap  "), std::string::npos) << decoded.out;
+  EXPECT_NE(decoded.out.find("initiate upload 1000:00"), std::string::npos) << decoded.out;
+}
+
 }  // namespace
 }  // namespace drivecheck
