@@ -1,4 +1,23 @@
-// drivecheck decode LOG: candump output as a CANopen transcript, one line per record:
+// drivecheck decode FILE: a candump log or a pcap capture as a decoded transcript.
+//
+// FILE is told apart by its first bytes: a pcap file (magic A1B2C3D4h or A1B23C4Dh, either byte
+// order) is read by its link type: Ethernet (1, EtherCAT: `drivecheck run --bus ethercat:sim
+// --pcap`, Wireshark captures) or SocketCAN (227, `drivecheck run --pcap` on CAN); anything
+// else is candump text. pcapng is refused with a hint (tshark/editcap -F pcap convert it).
+//
+// EtherCAT pcap, one line per datagram (protocol/ethercat/dissector.hpp):
+//
+//   0.000100160  #2  ret  FPRD station 1001h 0130h AL status len 2 wkc 1: PREOP
+//   ^ time (s.ns)  ^ frame number in the file
+//                       ^ out: the master's frame as sent; ret: as it came back (inferred by
+//                         the dissector: same commands and Idx tags as the frame before)
+//
+// A frame that is not well-formed EtherCAT gives one "malformed: ..." line. At the end stderr
+// says how many frames and datagrams were read and how many were malformed; a cut-off capture
+// (a writer killed mid-record) is decoded up to the cut and the cut is reported (exit 0 when
+// any frame was read, else 2).
+//
+// candump: a CANopen transcript, one line per record:
 //
 //   1700000000.002000  vcan0  T  605#4041600000000000  SDO rx  node 5  initiate upload 6041:00
 //   (statusword) ^ Unix time        ^ if.  ^ direction (R/T, '-' when the log has none)
@@ -35,8 +54,11 @@
 #include "cli/options.hpp"
 #include "protocol/can/candump_log.hpp"
 #include "protocol/can/candump_text.hpp"
+#include "protocol/can/pcap.hpp"
 #include "protocol/cia301/dissector.hpp"
 #include "protocol/cia306/eds.hpp"
+#include "protocol/ethercat/dissector.hpp"
+#include "protocol/ethercat/pcap.hpp"
 
 namespace drivecheck::cli {
 namespace {
@@ -74,6 +96,67 @@ NameTable eds_names(const cia306::Eds& eds) {
 std::string format_time(std::chrono::nanoseconds unix_time) {
   const std::int64_t ns = unix_time.count();  // never negative in a log we read
   return fmt::format("{}.{:06}", ns / 1'000'000'000, ns % 1'000'000'000 / 1000);
+}
+
+std::string format_time_ns(std::chrono::nanoseconds unix_time) {
+  const std::int64_t ns = unix_time.count();
+  return fmt::format("{}.{:09}", ns / 1'000'000'000, ns % 1'000'000'000);
+}
+
+enum class FileKind { candump, pcap, pcapng };
+
+FileKind kind_of(std::string_view bytes) {
+  if (bytes.size() < 4) return FileKind::candump;
+  const auto b = [&](std::size_t i) { return static_cast<std::uint8_t>(bytes[i]); };
+  const std::uint32_t le = b(0) | (b(1) << 8) | (b(2) << 16) | (std::uint32_t{b(3)} << 24);
+  const std::uint32_t be = __builtin_bswap32(le);
+  for (const std::uint32_t magic : {0xA1B2C3D4U, 0xA1B23C4DU})
+    if (le == magic || be == magic) return FileKind::pcap;
+  if (le == 0x0A0D0D0AU) return FileKind::pcapng;
+  return FileKind::candump;
+}
+
+std::uint32_t pcap_link_type(std::string_view bytes) {
+  if (bytes.size() < 24) return 0;
+  const auto b = [&](std::size_t i) { return static_cast<std::uint8_t>(bytes[i]); };
+  const std::uint32_t magic = b(0) | (b(1) << 8) | (b(2) << 16) | (std::uint32_t{b(3)} << 24);
+  const std::uint32_t le = b(20) | (b(21) << 8) | (b(22) << 16) | (std::uint32_t{b(23)} << 24);
+  const bool swap = magic != 0xA1B2C3D4U && magic != 0xA1B23C4DU;
+  return swap ? __builtin_bswap32(le) : le;
+}
+
+int decode_ethercat_pcap(std::string_view text, const std::string& name) {
+  const auto bytes = std::span<const std::uint8_t>(
+      reinterpret_cast<const std::uint8_t*>(text.data()), text.size());
+  const auto read = ethercat::read_ethernet_pcap(bytes);
+  ethercat::FrameDissector dissector;
+  std::string out;
+  std::size_t datagrams = 0;
+  std::size_t malformed = 0;
+  for (std::size_t i = 0; i < read.records.size(); ++i) {
+    const auto& record = read.records[i];
+    const auto frame = dissector.dissect(record.bytes);
+    if (frame.malformed) ++malformed;
+    const char* pass = frame.malformed                               ? "?  "
+                       : frame.pass == ethercat::FramePass::returned ? "ret"
+                                                                     : "out";
+    for (const std::string& line : frame.lines) {
+      fmt::format_to(std::back_inserter(out), "{}  #{}  {}  {}\n", format_time_ns(record.timestamp),
+                     i + 1, pass, line);
+    }
+    if (!frame.malformed) datagrams += frame.lines.size();
+    if (out.size() > (1U << 20)) {
+      std::fwrite(out.data(), 1, out.size(), stdout);
+      out.clear();
+    }
+  }
+  std::fwrite(out.data(), 1, out.size(), stdout);
+  std::fflush(stdout);
+  fmt::print(stderr,
+             "drivecheck decode: {}: {} EtherCAT frame(s), {} datagram(s), {} malformed{}\n", name,
+             read.records.size(), datagrams, malformed,
+             read.error ? fmt::format("; stopped: {}", *read.error) : std::string());
+  return read.records.empty() && read.error ? kExitUsage : kExitPass;
 }
 
 int decode(const DecodeOptions& options) {
@@ -116,7 +199,43 @@ int decode(const DecodeOptions& options) {
     }
     text = std::move(content).str();
   }
-  const can::CandumpText read = can::read_candump_text(text, name);
+  const FileKind kind = kind_of(text);
+  if (kind == FileKind::pcapng) {
+    fmt::print(stderr,
+               "{}: a pcapng file; drivecheck decode reads pcap (convert it: editcap -F pcap "
+               "{} out.pcap)\n",
+               name, name);
+    return kExitUsage;
+  }
+  std::vector<can::LogRecord> pcap_records;
+  if (kind == FileKind::pcap) {
+    const std::uint32_t link = pcap_link_type(text);
+    if (link == ethercat::kLinktypeEthernet) return decode_ethercat_pcap(text, name);
+    const auto records = can::parse_pcap(std::span<const std::uint8_t>(
+        reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+    if (!records) {
+      fmt::print(stderr, "{}: {}\n", name, records.error());
+      return kExitUsage;
+    }
+    for (const auto& record : *records) {
+      can::LogRecord line;
+      line.timestamp = record.timestamp;
+      line.interface = "pcap";
+      line.frame = record.frame;
+      pcap_records.push_back(std::move(line));
+    }
+  }
+  can::CandumpText read;
+  if (kind == FileKind::pcap) {
+    for (auto& record : pcap_records) {
+      can::CandumpLine line;
+      line.record = std::move(record);
+      line.format = can::CandumpLineFormat::log;
+      read.lines.push_back(std::move(line));
+    }
+  } else {
+    read = can::read_candump_text(text, name);
+  }
   std::size_t time_width = 0;
   std::size_t interface_width = 0;
   std::size_t frame_width = 0;
@@ -157,10 +276,12 @@ int decode(const DecodeOptions& options) {
 void add_decode_command(CLI::App& app) {
   auto options = std::make_shared<DecodeOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "decode", "Print candump output (-L log, plain or -ta) as a decoded CANopen transcript");
-  cmd->add_option(
-         "LOG", options->log,
-         "candump output: a -L log, plain candump or candump -ta ('-' reads standard input)")
+      "decode",
+      "Print candump output (-L log, plain or -ta) or a pcap capture (CAN, or EtherCAT "
+      "Ethernet frames) as a decoded transcript");
+  cmd->add_option("LOG", options->log,
+                  "candump output (a -L log, plain candump or candump -ta) or a pcap file (CAN "
+                  "or EtherCAT, told apart by its header); '-' reads standard input")
       ->required();
   cmd->add_option("--node", options->nodes,
                   "Node id on the bus (repeatable); frames of other nodes are flagged")

@@ -132,7 +132,8 @@ EmbeddedEthercat::EmbeddedEthercat(std::unique_ptr<State> state,
 EmbeddedEthercat::~EmbeddedEthercat() = default;
 
 Expected<std::unique_ptr<EmbeddedEthercat>, std::string> EmbeddedEthercat::create(
-    const profile::DriveProfile& profile, const std::vector<std::string>& deviations) {
+    const profile::DriveProfile& profile, const std::vector<std::string>& deviations,
+    Monitor monitor) {
   auto parsed = reference_drive::DeviationSet::parse(deviations);
   if (!parsed) return Unexpected(std::move(parsed).error());
   auto state = std::make_unique<State>();
@@ -144,13 +145,20 @@ Expected<std::unique_ptr<EmbeddedEthercat>, std::string> EmbeddedEthercat::creat
   if (!drive) return Unexpected(std::move(drive).error());
   state->drive = std::move(*drive);
   state->segment.attach(*state->drive);
+  if (monitor) state->segment.add_monitor(std::move(monitor));
   state->drive->power_on();
   ethercat::MasterConfig config;
   config.scan.expected_slaves = 1;
   state->master = std::make_unique<ethercat::Master>(state->segment, config);
+  state->port = std::make_unique<conformance::EthercatPort>(*state->master);
+  // The evidence follows the segment from the bring-up on (no vector records yet, but its
+  // dissector learns where the mailboxes are).
+  state->segment.add_monitor(
+      [port = state->port.get()](const ethercat::TimedFrame& frame, ethercat::FrameDirection d) {
+        port->evidence().on_frame(frame, d == ethercat::FrameDirection::received);
+      });
   if (auto up = state->master->bring_up(ethercat::AlState::preop); !up)
     return Unexpected(fmt::format("EtherCAT bring-up to PREOP: {}", up.error().message()));
-  state->port = std::make_unique<conformance::EthercatPort>(*state->master);
   // reset-node on the simulated segment: the drive's own NMT reset node (its application and
   // dictionary as after a reset; ServoDrive::power_on is once only), then the ESC as at power-on.
   state->port->set_power_cycle([drive = state->drive.get()] {

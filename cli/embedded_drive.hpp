@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,6 +17,7 @@
 #include "conformance/simulation_control.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/common/expected.hpp"
+#include "protocol/ethercat/sim_segment.hpp"
 #include "protocol/profile/drive_profile.hpp"
 
 namespace drivecheck::cli {
@@ -49,8 +51,13 @@ class EmbeddedDrive {
 // and the engine's DUT port (CoE SDO) and clock over it (conformance/ethercat_port.hpp).
 class EmbeddedEthercat {
  public:
+  // Every frame on the segment, from the first of the bring-up on (e.g. a pcap writer).
+  using Monitor = std::function<void(const ethercat::TimedFrame&, ethercat::FrameDirection)>;
+  // `monitor` (may be empty) is attached before the drive powers on; the engine's datagram
+  // evidence is fed from the segment as well (conformance/datagram_evidence.hpp).
   static Expected<std::unique_ptr<EmbeddedEthercat>, std::string> create(
-      const profile::DriveProfile& profile, const std::vector<std::string>& deviations);
+      const profile::DriveProfile& profile, const std::vector<std::string>& deviations,
+      Monitor monitor = {});
   ~EmbeddedEthercat();
   EmbeddedEthercat(const EmbeddedEthercat&) = delete;
   EmbeddedEthercat& operator=(const EmbeddedEthercat&) = delete;

@@ -49,6 +49,8 @@
 #include "protocol/cia306/eds_lint.hpp"
 #include "protocol/ethercat/master.hpp"
 #include "protocol/ethercat/raw_link.hpp"
+#include "protocol/ethercat/pcap.hpp"
+#include "protocol/ethercat/sim_segment.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
 
@@ -216,8 +218,15 @@ void run(const RunOptions& options) {
                                                 : parse_bus_spec(options.bus);
   if (!spec) usage_error("run", spec.error());
   const bool sim = spec->kind == BusSpec::Kind::sim && !ethercat_if;
-  if ((ethercat_sim || ethercat_if) && (!options.trace.empty() || !options.pcap.empty()))
-    usage_error("run", "--trace/--pcap are not written for --bus ethercat yet");
+  // EtherCAT has no CAN frames for a candump log: its trace is the pcap (and `drivecheck
+  // decode` of it the text form).
+  if ((ethercat_sim || ethercat_if) && !options.trace.empty())
+    usage_error("run",
+                "--trace writes a candump log of CAN frames; on --bus ethercat use --pcap "
+                "FILE.pcap (`drivecheck decode FILE.pcap` prints it as text)");
+  if (ethercat_if && !options.pcap.empty())
+    usage_error("run", "--pcap is written for --bus ethercat:sim only (no capture of a real "
+                       "EtherCAT link yet: use tshark/dumpcap on the interface)");
   auto order = conformance::parse_vector_order(options.order);
   if (!order) usage_error("run", order.error());
   // `shuffle` alone: a seed drawn here, recorded in the reports so that the run can be repeated.
@@ -311,6 +320,7 @@ void run(const RunOptions& options) {
   }
 
   // The bus: the embedded drive on a simulated bus, or a real interface.
+  std::unique_ptr<ethercat::PcapWriter> ethercat_pcap;  // outlives the segment that feeds it
   std::unique_ptr<can::SimBus> sim_bus;
   std::unique_ptr<can::SimPort> sim_port;
   std::unique_ptr<EmbeddedDrive> drive;
@@ -322,7 +332,18 @@ void run(const RunOptions& options) {
     ethercat_target = open_ethercat(*ethercat_if);
     port = ethercat_target->clock.get();
   } else if (ethercat_sim) {
-    auto created = EmbeddedEthercat::create(*profile, options.deviations);
+    // --pcap on EtherCAT: every frame of the segment (sent and returned) from the first frame of
+    // the bring-up, at the segment's time + its Unix offset (0 on the simulated segment, as on
+    // --bus sim: simulated time 0 is 1970-01-01); flushed after every vector.
+    EmbeddedEthercat::Monitor monitor;
+    if (!options.pcap.empty()) {
+      ethercat_pcap = std::make_unique<ethercat::PcapWriter>(
+          options.pcap, ethercat::SimSegmentConfig{}.unix_offset);
+      if (!ethercat_pcap->ok()) usage_error("run", ethercat_pcap->error());
+      monitor = [writer = ethercat_pcap.get()](const ethercat::TimedFrame& frame,
+                                               ethercat::FrameDirection) { writer->write(frame); };
+    }
+    auto created = EmbeddedEthercat::create(*profile, options.deviations, std::move(monitor));
     if (!created) usage_error("run", created.error());
     ethercat_drive = std::move(*created);
     port = &ethercat_drive->clock();
@@ -345,7 +366,7 @@ void run(const RunOptions& options) {
   // Traces: the whole simulated wire, or what the harness port sees on a real bus.
   std::unique_ptr<can::TraceRecorder> recorder;
   std::unique_ptr<can::RecordingBus> recording;
-  if (!options.trace.empty() || !options.pcap.empty()) {
+  if (!ethercat_sim && (!options.trace.empty() || !options.pcap.empty())) {
     auto opened = can::TraceRecorder::open(
         {options.trace, options.pcap},
         {.interface = sim ? "sim" : spec->interface, .unix_offset = port->unix_offset()});
@@ -476,6 +497,8 @@ void run(const RunOptions& options) {
   };
   engine_options.on_vector_finished = [&](const conformance::VectorResult& r) {
     console.vector_finished(r);
+    // An interrupted or killed run keeps every vector it finished in the pcap.
+    if (ethercat_pcap) ethercat_pcap->flush();
   };
 
   conformance::RunInfo info;
@@ -582,6 +605,13 @@ void run(const RunOptions& options) {
   if (!junit.empty()) report(reports::write_junit_report(junit, result));
   if (!html.empty()) report(reports::write_html_report(html, result));
   if (!json.empty()) report(reports::write_json_report(json, result));
+  if (ethercat_pcap) {
+    ethercat_pcap->flush();
+    if (!ethercat_pcap->ok()) {
+      fmt::print(stderr, "drivecheck run: the pcap is incomplete: {}\n", ethercat_pcap->error());
+      written = false;
+    }
+  }
   if (recorder) {
     (void)recorder->flush();
     if (recorder->error()) {
@@ -667,9 +697,12 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--junit", options->junit, "Write a JUnit XML report")->type_name("FILE");
   cmd->add_option("--html", options->html, "Write an HTML report")->type_name("FILE");
   cmd->add_option("--json", options->json, "Write a JSON report")->type_name("FILE");
-  cmd->add_option("--trace", options->trace, "Record every frame to a candump -L log")
+  cmd->add_option("--trace", options->trace,
+                  "Record every frame to a candump -L log (CAN only; on ethercat:sim use --pcap)")
       ->type_name("FILE.log");
-  cmd->add_option("--pcap", options->pcap, "Record every frame to a pcap file for Wireshark")
+  cmd->add_option("--pcap", options->pcap,
+                  "Record every frame to a pcap file for Wireshark (CAN: LINKTYPE_CAN_SOCKETCAN; "
+                  "ethercat:sim: Ethernet frames, both ways; `drivecheck decode FILE` reads both)")
       ->type_name("FILE");
   add_vectors_option(*cmd, options->vectors);
   cmd->add_option("--deviation", options->deviations,

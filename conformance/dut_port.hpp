@@ -67,6 +67,14 @@ class DutPort {
     (void)state;
     return "no communication states on this link";
   }
+  // Links whose traffic is not the engine's CAN frames (EtherCAT): where the port records the
+  // vector's evidence (VectorResult::datagrams) from now on; nullptr: nowhere. VectorRun sets
+  // it for its lifetime and puts the previous one back after. Returns the previous sink. CAN
+  // records its frames itself (VectorRun::pump).
+  virtual VectorResult* set_evidence_sink(VectorResult* sink) {
+    (void)sink;
+    return nullptr;
+  }
 };
 
 }  // namespace drivecheck::conformance

@@ -16,6 +16,7 @@
 #include <optional>
 #include <string>
 
+#include "conformance/datagram_evidence.hpp"
 #include "conformance/dut_port.hpp"
 #include "protocol/can/bus.hpp"
 #include "protocol/cia301/nmt.hpp"
@@ -76,6 +77,9 @@ class EthercatPort final : public DutPort {
   // The last cycle error ("" none); cleared when read.
   std::string take_cycle_error();
   ethercat::Master& master() { return master_; }
+  // The vector's datagrams: feed it every frame of the link (datagram_evidence.hpp).
+  DatagramEvidence& evidence() { return evidence_; }
+  VectorResult* set_evidence_sink(VectorResult* sink) override { return evidence_.set_sink(sink); }
 
   // ---- raw access for the EtherCAT-only steps (conformance/ethercat_steps.cpp) ----
   // AL status (0130h) and code (0134h) of slave 0 now; "" or why not in `error`.
@@ -130,6 +134,7 @@ class EthercatPort final : public DutPort {
   std::function<void()> power_cycle_;
   can::TimePoint paused_until_{};
   std::vector<Emergency> emergencies_;
+  DatagramEvidence evidence_;
 };
 
 }  // namespace drivecheck::conformance

@@ -23,6 +23,13 @@ std::string format_ms(can::Duration duration) {
 VectorRun::VectorRun(EngineContext& context, const Vector& vector, VectorResult& result)
     : context_(context), vector_(vector), result_(result) {
   deadline_ = context_.bus.now() + resolve(vector.timeout);
+  // On EtherCAT the port records the datagrams: into this vector's result from here on
+  // (the evidence begins at the setup, which follows).
+  previous_evidence_sink_ = context_.port.set_evidence_sink(&result_);
+}
+
+VectorRun::~VectorRun() {
+  context_.port.set_evidence_sink(previous_evidence_sink_);
 }
 
 can::Duration VectorRun::resolve(const DurationSpec& spec) const {

@@ -46,6 +46,19 @@ struct EvidenceFrame {
   std::string decoded;        // the dissector's one-line meaning
 };
 
+// One EtherCAT datagram the master exchanged during the vector, decoded
+// (protocol/ethercat/dissector.hpp), as it came back (working counter, data read); a frame that
+// never came back is shown as sent, marked "(no answer)". Consecutive identical frames that
+// carry no mailbox content (the cyclic process data, polls of an empty mailbox) are one entry
+// per datagram with their count: "LRW logical 00010000h len 14 wkc 3" x120.
+struct EvidenceDatagram {
+  can::TimePoint at{};    // the (first) frame back at the master
+  can::TimePoint last{};  // the last frame of a run (== at when count is 1)
+  std::size_t count = 1;  // identical frames in a row summarised into this entry
+  std::string decoded;    // command, address, registers, length, wkc, mailbox and CoE
+  friend bool operator==(const EvidenceDatagram&, const EvidenceDatagram&) = default;
+};
+
 // What the DUT did where a check failed, as data (beside the Actual: text), so that a profile
 // deviation's `observed:` (protocol/profile/drive_profile.hpp) can be compared with it exactly.
 // The steps fill what they saw: an SDO step its abort code, the value it read, no answer or a
@@ -133,6 +146,12 @@ struct VectorResult {
   // Frames that arrived between the previous vector's end and this vector's setup (e.g. a late
   // answer to the vector before): shown with this vector, marked, never as its evidence.
   std::vector<EvidenceFrame> between_vectors;
+  // EtherCAT (--bus ethercat:...): the datagrams of the vector, from its setup on; a long one
+  // keeps its first and last entries (the run's --pcap has every frame): datagrams_elided
+  // entries were left out after datagrams[datagrams_elided_at - 1]. Empty on CAN.
+  std::vector<EvidenceDatagram> datagrams;
+  std::size_t datagrams_elided = 0;
+  std::size_t datagrams_elided_at = 0;
   std::vector<Timing> timings;
   // Samples in time order per signal; a long vector's samples are thinned by time
   // (conformance/samples.hpp): samples_elided were left out, never a bit edge.

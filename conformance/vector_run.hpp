@@ -80,6 +80,9 @@ bool is_ethercat_step(const Action& action);
 class VectorRun {
  public:
   VectorRun(EngineContext& context, const Vector& vector, VectorResult& result);
+  ~VectorRun();
+  VectorRun(const VectorRun&) = delete;
+  VectorRun& operator=(const VectorRun&) = delete;
 
   // ---- evidence.cpp ----
   // Receives one frame from another node (recording it), or nullopt at `deadline` (clipped to
@@ -209,6 +212,7 @@ class VectorRun {
   EngineContext& context_;
   const Vector& vector_;
   VectorResult& result_;
+  VectorResult* previous_evidence_sink_ = nullptr;  // the DUT port's sink before this run
   can::TimePoint deadline_ = can::kForever;
   std::vector<can::TimedFrame> received_;  // frames from other nodes, in order
   std::size_t dut_frames_ = 0;

@@ -973,6 +973,18 @@ void render_vector(std::string& out, const VectorResult& vector, const RunResult
     }
     out += "</pre></div>\n";
   }
+  if (!vector.datagrams.empty()) {
+    // EtherCAT: the master's datagrams, decoded; runs of identical frames counted.
+    std::size_t frames = vector.datagrams_elided;
+    for (const auto& d : vector.datagrams)
+      frames += d.count;
+    fmt::format_to(std::back_inserter(out),
+                   "<p class=\"mono\">{} EtherCAT datagrams, {} bus time</p><pre "
+                   "class=\"transcript datagrams\">{}</pre></div></details>\n",
+                   frames, ms_text(vector.finished - vector.started),
+                   esc(datagram_transcript(vector)));
+    return;
+  }
   fmt::format_to(std::back_inserter(out),
                  "<p class=\"mono\">{} frames, {} bus time</p><pre class=\"transcript\">",
                  vector.frames.size() + vector.frames_elided,

@@ -99,6 +99,20 @@ json vector_json(const VectorResult& vector) {
   out["between_vectors"] = frames_json(vector.between_vectors);
   out["frames_elided"] = vector.frames_elided;
   out["frames_elided_at"] = vector.frames_elided_at;
+  // EtherCAT only (absent on CAN): the datagrams, runs of identical frames counted.
+  if (!vector.datagrams.empty() || vector.datagrams_elided != 0) {
+    json datagrams = json::array();
+    for (const auto& d : vector.datagrams) {
+      datagrams.push_back({{"t_ns", ns_of(d.at)},
+                           {"t_s", seconds(d.at.time_since_epoch())},
+                           {"last_ns", ns_of(d.last)},
+                           {"count", d.count},
+                           {"decoded", d.decoded}});
+    }
+    out["datagrams"] = std::move(datagrams);
+    out["datagrams_elided"] = vector.datagrams_elided;
+    out["datagrams_elided_at"] = vector.datagrams_elided_at;
+  }
   json timings = json::array();
   for (const auto& timing : vector.timings) {
     json t = {{"name", timing.name},
@@ -342,6 +356,27 @@ VectorResult read_vector(Reader& reader, const json& in, std::int64_t version) {
     if (vector.frames_elided_at > vector.frames.size()) {
       throw ReadError{reader.where("frames_elided_at") + ": beyond the frames kept"};
     }
+  }
+  // EtherCAT runs only.
+  if (in.contains("datagrams")) {
+    i = 0;
+    for (const json& item : reader.array(in, "datagrams")) {
+      Scope scope(reader, fmt::format("datagrams[{}]", i++));
+      if (!item.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+      conformance::EvidenceDatagram d;
+      d.at = time_at(reader.nanoseconds(item, "t_ns"));
+      d.last = time_at(reader.nanoseconds(item, "last_ns"));
+      d.count = static_cast<std::size_t>(reader.unsigned_integer(item, "count"));
+      if (d.count == 0) throw ReadError{reader.where("count") + ": must be at least 1"};
+      d.decoded = reader.string(item, "decoded");
+      vector.datagrams.push_back(std::move(d));
+    }
+    vector.datagrams_elided =
+        static_cast<std::size_t>(reader.unsigned_integer(in, "datagrams_elided"));
+    vector.datagrams_elided_at =
+        static_cast<std::size_t>(reader.unsigned_integer(in, "datagrams_elided_at"));
+    if (vector.datagrams_elided_at > vector.datagrams.size())
+      throw ReadError{reader.where("datagrams_elided_at") + ": beyond the datagrams kept"};
   }
   i = 0;
   for (const json& item : reader.array(in, "timings")) {

@@ -199,6 +199,7 @@ void add_testcase(pugi::xml_node suite, const VectorResult& vector, const RunRes
       out += transcript_line(frame, vector.started) + "\n";
   }
   out += "\n";
+  out += datagram_transcript(vector);  // EtherCAT; empty on CAN
   for (std::size_t i = 0; i < vector.frames.size(); ++i) {
     if (vector.frames_elided != 0 && i == vector.frames_elided_at)
       out += elided_line(vector.frames_elided) + "\n";

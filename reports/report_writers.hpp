@@ -53,6 +53,8 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 //                    frames: [{t_ns, t_s, frame: "605#..", from_harness, decoded}],
 //                    frames_elided, frames_elided_at,
 //                    between_vectors: [frames that arrived before this vector's setup],
+//                    EtherCAT only: datagrams: [{t_ns, t_s, last_ns, count, decoded}],
+//                    datagrams_elided, datagrams_elided_at,
 //                    timings: [{name, measured_ns, measured_s, min_ns?, max_ns?, ok}],
 //                    samples: [{t_ns, signal, value, origin}], samples_elided,
 //                    started_ns, finished_ns, duration_s, wall_s } ] }
@@ -140,6 +142,11 @@ Expected<void, std::string> write_html_report(const std::filesystem::path& path,
 std::string transcript_line(const conformance::EvidenceFrame& frame, can::TimePoint start);
 // The line that stands for the frames a long vector left out (VectorResult::frames_elided).
 std::string elided_line(std::size_t count);
+// "(   0.012000) LRW logical 00010000h len 14 wkc 3  ×120 (to 0.131000)": one EtherCAT datagram
+// entry (conformance::EvidenceDatagram), its count and last time when it stands for a run.
+std::string transcript_line(const conformance::EvidenceDatagram& datagram, can::TimePoint start);
+// The HTML/JUnit transcript of an EtherCAT vector's datagrams, elided entries marked.
+std::string datagram_transcript(const conformance::VectorResult& vector);
 
 // ---- console -----------------------------------------------------------------------------
 

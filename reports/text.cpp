@@ -97,6 +97,38 @@ std::string transcript_line(const conformance::EvidenceFrame& frame, can::TimePo
   return line;
 }
 
+namespace {
+std::string relative_time(can::TimePoint at, can::TimePoint start) {
+  const std::int64_t ns = (at - start).count();
+  const char* sign = ns < 0 ? "-" : "";
+  const std::int64_t magnitude = ns < 0 ? -ns : ns;
+  return fmt::format("{}{}.{:06}", sign, magnitude / 1'000'000'000,
+                     magnitude % 1'000'000'000 / 1000);
+}
+}  // namespace
+
+std::string transcript_line(const conformance::EvidenceDatagram& datagram, can::TimePoint start) {
+  std::string line =
+      fmt::format("({:>11}) {}", relative_time(datagram.at, start), datagram.decoded);
+  if (datagram.count > 1)
+    line += fmt::format("  ×{} (to {})", datagram.count, relative_time(datagram.last, start));
+  return line;
+}
+
+std::string datagram_transcript(const conformance::VectorResult& vector) {
+  std::string out;
+  for (std::size_t i = 0; i < vector.datagrams.size(); ++i) {
+    if (vector.datagrams_elided != 0 && i == vector.datagrams_elided_at)
+      out += fmt::format(
+          "   … {} datagram entries not kept in this report (the run's --pcap has every "
+          "frame) …\n",
+          vector.datagrams_elided);
+    out += transcript_line(vector.datagrams[i], vector.started);
+    out += '\n';
+  }
+  return out;
+}
+
 std::string elided_line(std::size_t count) {
   return fmt::format(
       "   … {} frame(s) not kept in this report (the run's --trace log has every "

@@ -55,8 +55,19 @@ Expected<std::vector<std::uint8_t>, std::string> encode_ethernet_pcap_record(
 
 Expected<std::vector<EthernetPcapRecord>, std::string> parse_ethernet_pcap(
     std::span<const std::uint8_t> bytes) {
+  auto read = read_ethernet_pcap(bytes);
+  if (read.error) return Unexpected(std::move(*read.error));
+  return std::move(read.records);
+}
+
+EthernetPcapRead read_ethernet_pcap(std::span<const std::uint8_t> bytes) {
+  EthernetPcapRead read;
+  const auto fail = [&](std::string why) {
+    read.error = std::move(why);
+    return std::move(read);
+  };
   if (bytes.size() < kFileHeader) {
-    return Unexpected(fmt::format("pcap: {} bytes, the file header needs 24", bytes.size()));
+    return fail(fmt::format("pcap: {} bytes, the file header needs 24", bytes.size()));
   }
   const std::uint32_t magic = get32(bytes, 0, false);
   bool swap = false;
@@ -67,24 +78,23 @@ Expected<std::vector<EthernetPcapRecord>, std::string> parse_ethernet_pcap(
     swap = true;
     nanoseconds = __builtin_bswap32(magic) == kMagicNs;
   } else {
-    return Unexpected(fmt::format("pcap: byte 0: magic {:08X}h is not a pcap file", magic));
+    return fail(fmt::format("pcap: byte 0: magic {:08X}h is not a pcap file", magic));
   }
   const std::uint32_t network = get32(bytes, 20, swap);
   if (network != kLinktypeEthernet) {
-    return Unexpected(fmt::format("pcap: byte 20: link type {} is not Ethernet (1)", network));
+    return fail(fmt::format("pcap: byte 20: link type {} is not Ethernet (1)", network));
   }
-  std::vector<EthernetPcapRecord> records;
+  auto& records = read.records;
   std::size_t at = kFileHeader;
   while (at < bytes.size()) {
     if (bytes.size() - at < kRecordHeader) {
-      return Unexpected(fmt::format("pcap: byte {}: record header cut off", at));
+      return fail(fmt::format("pcap: byte {}: record header cut off", at));
     }
     const std::uint32_t sec = get32(bytes, at, swap);
     const std::uint32_t frac = get32(bytes, at + 4, swap);
     const std::uint32_t length = get32(bytes, at + 8, swap);
     if (length > bytes.size() - at - kRecordHeader) {
-      return Unexpected(
-          fmt::format("pcap: byte {}: record of {} bytes runs past the end", at, length));
+      return fail(fmt::format("pcap: byte {}: record of {} bytes runs past the end", at, length));
     }
     EthernetPcapRecord record;
     record.timestamp = std::chrono::nanoseconds(static_cast<std::int64_t>(sec) * 1'000'000'000 +
@@ -94,7 +104,7 @@ Expected<std::vector<EthernetPcapRecord>, std::string> parse_ethernet_pcap(
     records.push_back(std::move(record));
     at += kRecordHeader + length;
   }
-  return records;
+  return read;
 }
 
 PcapWriter::PcapWriter(const std::filesystem::path& path, Duration unix_offset)

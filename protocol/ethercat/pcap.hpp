@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -40,6 +41,14 @@ Expected<std::vector<std::uint8_t>, std::string> encode_ethernet_pcap_record(
 // Reads a whole file image (either byte order, µs or ns); errors name the byte offset.
 Expected<std::vector<EthernetPcapRecord>, std::string> parse_ethernet_pcap(
     std::span<const std::uint8_t> bytes);
+// As parse_ethernet_pcap, but keeps the records before a damaged or cut-off one (a capture
+// whose writer was killed mid-record): `error` says where reading stopped; a bad file header
+// gives no records.
+struct EthernetPcapRead {
+  std::vector<EthernetPcapRecord> records;
+  std::optional<std::string> error;
+};
+EthernetPcapRead read_ethernet_pcap(std::span<const std::uint8_t> bytes);
 
 class PcapWriter {
  public:

@@ -3,7 +3,9 @@
 // numbers. Also: the JSON report of that run validates against reports/report.schema.json.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <pugixml.hpp>
@@ -104,6 +106,81 @@ TEST(ReportSchema, EveryVerdictValidatesAgainstTheJsonSchema) {
   if (result.exit_code == 77) GTEST_SKIP() << result.out;
   // Then it is valid
   EXPECT_EQ(result.exit_code, 0) << result.out << result.err;
+}
+
+// A run with EtherCAT evidence: the first vector's datagrams, a run of cyclic frames counted
+// and entries left out after the head.
+conformance::RunResult run_with_datagrams() {
+  auto run = test_support::synthetic_run_every_tally();
+  auto& vector = run.vectors.front();
+  const auto at = [&](int us) { return vector.started + std::chrono::microseconds(us); };
+  vector.datagrams = {
+      {at(100), at(100), 1,
+       "FPWR station 1001h 1000h SM0 write mailbox len 128 wkc 1: CoE len 10 addr 0000h cnt 1: "
+       "SDO upload initiate 1000h:00"},
+      {at(1000), at(120000), 120, "LRW logical 00010000h len 14 wkc 3"},
+      {at(121000), at(121000), 1,
+       "FPRD station 1001h 1080h SM1 read mailbox len 128 wkc 1: CoE len 14 addr 0000h cnt 1: "
+       "SDO abort by the server 1018h:01 06010002h write_read_only: Attempt to write a read only "
+       "object"}};
+  vector.datagrams_elided = 800;
+  vector.datagrams_elided_at = 1;
+  return run;
+}
+
+TEST(ReportSchema, EthercatDatagramsValidateRoundTripAndRender) {
+  // Given a run whose first vector has EtherCAT datagrams (a counted run, elided entries)
+  test_support::TempDir dir;
+  const auto path = dir.path() / "report.json";
+  const auto run = run_with_datagrams();
+  ASSERT_TRUE(write_json_report(path, run));
+  // When its JSON is validated and read back, and its HTML and JUnit rendered
+  const auto result =
+      test_support::run_command({"python3", DRIVECHECK_CHECK_REPORTS, "--schema",
+                                 DRIVECHECK_REPORT_SCHEMA, "--json", path.string()});
+  if (result.exit_code == 77) GTEST_SKIP() << result.out;
+  // Then it is valid, reads back the same, and both show each entry, the count and the elision
+  EXPECT_EQ(result.exit_code, 0) << result.out << result.err;
+  const auto read = read_json_report(path);
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(read->vectors.front().datagrams, run.vectors.front().datagrams);
+  EXPECT_EQ(read->vectors.front().datagrams_elided, 800U);
+  EXPECT_EQ(render_json(*read), render_json(run));
+  EXPECT_TRUE(read->vectors.back().datagrams.empty());
+  for (const std::string& text : {render_html(run), render_junit(run)}) {
+    EXPECT_NE(text.find("LRW logical 00010000h len 14 wkc 3  ×120 (to 0.120000)"),
+              std::string::npos);
+    EXPECT_NE(text.find("06010002h write_read_only"), std::string::npos);
+    EXPECT_NE(text.find("800 datagram entries not kept"), std::string::npos);
+  }
+}
+
+TEST(ReportSchema, DatagramsWithoutTheirElisionCountAreInvalid) {
+  // Given a report whose datagrams lack datagrams_elided (and one with a count of 0)
+  test_support::TempDir dir;
+  auto document = nlohmann::json::parse(render_json(run_with_datagrams()));
+  document["vectors"][0].erase("datagrams_elided");
+  const auto path = dir.path() / "report.json";
+  {
+    std::ofstream out(path);
+    out << document.dump();
+  }
+  auto zero = nlohmann::json::parse(render_json(run_with_datagrams()));
+  zero["vectors"][0]["datagrams"][0]["count"] = 0;
+  const auto zero_path = dir.path() / "zero.json";
+  {
+    std::ofstream out(zero_path);
+    out << zero.dump();
+  }
+  // When validated against the schema
+  // Then both are refused
+  for (const auto& file : {path, zero_path}) {
+    const auto result =
+        test_support::run_command({"python3", DRIVECHECK_CHECK_REPORTS, "--schema",
+                                   DRIVECHECK_REPORT_SCHEMA, "--json", file.string()});
+    if (result.exit_code == 77) GTEST_SKIP() << result.out;
+    EXPECT_NE(result.exit_code, 0) << file << ": " << result.out;
+  }
 }
 
 }  // namespace
