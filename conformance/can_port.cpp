@@ -63,6 +63,7 @@ cia301::SdoClientOptions client_options(const SdoRequest& request) {
   cia301::SdoClientOptions options;
   options.timeout = request.timeout;
   options.block_fallback = request.transfer != Transfer::block;
+  if (request.block_size != 0) options.block_size = request.block_size;
   return options;
 }
 

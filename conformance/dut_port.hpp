@@ -45,6 +45,8 @@ struct SdoRequest {
   cia301::Multiplexer mux;
   Transfer transfer = Transfer::automatic;
   can::Duration timeout{};  // the response time allowed
+  // Block upload: the blksize the client offers (1..127); 0 = the client's default (127).
+  std::uint8_t block_size = 0;
 };
 
 class DutPort {

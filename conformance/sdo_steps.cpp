@@ -24,8 +24,10 @@ std::vector<std::uint8_t> le_bytes(std::int64_t value, std::size_t size) {
 
 }  // namespace
 
-SdoOutcome VectorRun::sdo_upload(cia301::Multiplexer mux, Transfer transfer) {
-  auto outcome = context_.port.upload(*this, {mux, transfer, resolve({{}, "sdo_response"})});
+SdoOutcome VectorRun::sdo_upload(cia301::Multiplexer mux, Transfer transfer,
+                                 std::uint8_t block_size) {
+  auto outcome =
+      context_.port.upload(*this, {mux, transfer, resolve({{}, "sdo_response"}), block_size});
   if (outcome.ok) sample(mux.index, mux.sub_index, outcome.data);
   if (outcome.ok && mux.index == 0x1017 && mux.sub_index == 0 && outcome.data.size() == 2)
     heartbeat_time_ = std::chrono::milliseconds(outcome.data[0] | outcome.data[1] << 8);
@@ -153,7 +155,7 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     return StepStatus::ok;
   }
   if (const auto* read = std::get_if<SdoReadStep>(&action)) {
-    const auto outcome = sdo_upload({read->index, read->sub}, read->transfer);
+    const auto outcome = sdo_upload({read->index, read->sub}, read->transfer, read->block_size);
     const auto what = fmt::format("read {:04X}h sub {}", read->index, read->sub);
     const auto& expect = read->expect;
     if (expect.kind == SdoExpect::Kind::abort) {

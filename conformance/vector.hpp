@@ -139,6 +139,7 @@ struct SdoReadStep {
   SdoExpect expect;
   bool is_signed = false;
   std::string save;
+  std::uint8_t block_size = 0;  // `block_size:` with transfer: block (1..127); 0 = default
   friend bool operator==(const SdoReadStep&, const SdoReadStep&) = default;
 };
 struct WaitStep {

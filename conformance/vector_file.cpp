@@ -360,7 +360,7 @@ const std::vector<StepSyntax>& step_syntax() {
       {"send", {}},
       {"nmt", {"node"}},
       {"sdo_write", {"transfer", "expect"}},
-      {"sdo_read", {"transfer", "expect", "signed", "save"}},
+      {"sdo_read", {"transfer", "block_size", "expect", "signed", "save"}},
       {"wait", {}},
       {"controlword", {}},
       {"simulate", {}},
@@ -888,6 +888,16 @@ class Parser {
       read.index = *idx;
       read.sub = *sb;
       if (const auto node = modifier("transfer")) read.transfer = transfer(node);
+      if (const auto node = modifier("block_size")) {
+        // The blksize the client offers in the block upload initiate (CiA 301 §7.2.4.3.13).
+        auto size = integer<std::uint8_t>(node, "block_size", 1, 127);
+        if (!size) return std::nullopt;
+        if (read.transfer != Transfer::block) {
+          error(node, "block_size: only with transfer: block");
+          return std::nullopt;
+        }
+        read.block_size = *size;
+      }
       if (const auto node = modifier("expect")) read.expect = sdo_expect(node, true);
       if (const auto node = modifier("signed"))
         read.is_signed = boolean(node, "signed").value_or(false);

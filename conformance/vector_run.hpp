@@ -129,7 +129,9 @@ class VectorRun {
   void on_echo(can::TimePoint at);
 
   // ---- sdo_steps.cpp ----
-  SdoOutcome sdo_upload(cia301::Multiplexer mux, Transfer transfer = Transfer::automatic);
+  // block_size: the blksize a block upload offers (0 = the client's default).
+  SdoOutcome sdo_upload(cia301::Multiplexer mux, Transfer transfer = Transfer::automatic,
+                        std::uint8_t block_size = 0);
   // `timeout`: the response time allowed (default $timing.sdo_response).
   SdoOutcome sdo_download(cia301::Multiplexer mux, std::span<const std::uint8_t> data,
                           Transfer transfer = Transfer::automatic,

@@ -358,6 +358,10 @@ class Writer {
     index_sub(s.index, s.sub);
     out_ << YAML::EndMap;
     transfer(s.transfer);
+    if (s.block_size != 0) {
+      key("block_size");
+      plain(fmt::format("{}", s.block_size));
+    }
     expect(s.expect);
     key("signed");
     plain(s.is_signed ? "true" : "false");

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <string>
 #include <vector>
 
@@ -128,6 +129,34 @@ std::string not_applicable_reason(const Vector& vector, const profile::DriveProf
   return {};
 }
 
+namespace {
+
+// A documented text may name a node-relative COB-ID, "580+N#4B616000": the manual's frame
+// from the DUT at whatever node-ID the run uses (1..127). Plain text is a substring.
+bool text_observed(const std::string& documented, const std::string& actual) {
+  const auto plus = documented.find("+N");
+  if (plus == std::string::npos || plus < 3) return actual.find(documented) != std::string::npos;
+  const std::string base_text = documented.substr(plus - 3, 3);
+  unsigned base = 0;
+  for (const char c : base_text) {
+    if (!std::isxdigit(static_cast<unsigned char>(c)))
+      return actual.find(documented) != std::string::npos;
+    base = base * 16 +
+           static_cast<unsigned>(std::isdigit(static_cast<unsigned char>(c))
+                                     ? c - '0'
+                                     : std::toupper(static_cast<unsigned char>(c)) - 'A' + 10);
+  }
+  const std::string before = documented.substr(0, plus - 3);
+  const std::string after = documented.substr(plus + 2);
+  for (unsigned node = 1; node <= 127; ++node) {
+    if (actual.find(fmt::format("{}{:03X}{}", before, base + node, after)) != std::string::npos)
+      return true;
+  }
+  return false;
+}
+
+}  // namespace
+
 bool observation_matches(const profile::DeviationObservation& documented, const Check& check) {
   using Kind = profile::DeviationObservation::Kind;
   const Observation& seen = check.observed;
@@ -150,7 +179,7 @@ bool observation_matches(const profile::DeviationObservation& documented, const 
     case Kind::statusword:
       return seen.statusword && (*seen.statusword & documented.mask) == documented.statusword;
     case Kind::text:
-      return check.actual.find(documented.text) != std::string::npos;
+      return text_observed(documented.text, check.actual);
   }
   return false;
 }

@@ -66,7 +66,8 @@ std::vector<profile::ObjectNeed> object_needs(const Vector& vector);
 enum class Outcome : std::uint8_t { pass, fail, harness_error };
 
 // Whether the failing check shows the observation a deviation documents (abort code, value,
-// nothing, accepted, state or statusword from Check::observed; text from its Actual).
+// nothing, accepted, state or statusword from Check::observed; text from its Actual, where a
+// node-relative COB-ID "580+N#..." matches the frame from any node-ID 1..127).
 bool observation_matches(const profile::DeviationObservation& documented, const Check& check);
 // The failing check's observation in words: "abort 06090030h", "value -1000", "nothing in
 // time", or its Actual quoted when it has no typed observation.

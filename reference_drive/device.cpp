@@ -128,6 +128,8 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   sdo.timeout = config_.sdo_timeout;
   sdo.short_frames = config_.sdo_short_frames;
   if (has(Deviation::sdo_no_timeout)) sdo.timeout = can::Duration::max();  // deviation
+  if (has(Deviation::sdo_block_upload_blksize_ignored))                    // deviation
+    sdo.upload_block_size = cia301::kSdoMaxBlockSize;
   sdo_ = std::make_unique<cia301::SdoServer>(*od_, sdo);
   sdo_runner_ = std::make_unique<cia301::SdoServerRunner>(bus_, *sdo_);
   // Further channels (1201h..): on the COB-IDs their records hold, re-read after each write.

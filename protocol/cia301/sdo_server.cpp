@@ -421,11 +421,15 @@ void SdoServer::on_block_upload_initiate(const BlockUploadInitiateRequest& reque
   buffer_.assign(data->begin(), data->end());
   offset_ = 0;
   crc_ = request.crc_supported && config_.block_crc;
-  block_size_ = request.block_size;
+  block_size_ = upload_block_size(request.block_size);
   state_ = State::block_upload_start;
   emit(encode_payload(BlockUploadInitiateResponse{mux_, config_.block_crc, true,
                                                   static_cast<std::uint32_t>(buffer_.size())}));
   arm(now);
+}
+
+std::uint8_t SdoServer::upload_block_size(std::uint8_t asked) const {
+  return config_.upload_block_size != 0 ? config_.upload_block_size : asked;
 }
 
 void SdoServer::send_sub_block() {
@@ -448,7 +452,7 @@ void SdoServer::on_block_upload_ack(const BlockUploadAck& ack, can::TimePoint no
   if (ack.ackseq > segments_sent_) return fail(SdoAbort::invalid_sequence_number);
   if (!valid_block_size(ack.block_size)) return fail(SdoAbort::invalid_block_size);
   offset_ = std::min(buffer_.size(), offset_ + std::size_t{ack.ackseq} * kSdoSegmentDataLength);
-  block_size_ = ack.block_size;
+  block_size_ = upload_block_size(ack.block_size);
   if (sub_block_has_last_ && ack.ackseq == segments_sent_) {
     const std::size_t tail = buffer_.size() % kSdoSegmentDataLength;
     BlockUploadEndRequest end;

@@ -121,6 +121,10 @@ struct SdoServerConfig {
   bool block_crc = true;  // the server supports CRC in block transfers (c bit)
   // blksize the server asks for in block download (1..127; clamped into that range).
   std::uint8_t block_size = kSdoMaxBlockSize;
+  // Block upload: segments per sub-block. 0 = as many as the client's blksize allows (CiA 301
+  // §7.2.4.3.13/14); another value ignores the client's blksize, which only a deviation of the
+  // reference drive does (sdo-block-upload-blksize-ignored).
+  std::uint8_t upload_block_size = 0;
   // The largest download the server buffers; more: abort 05040005h (out of memory).
   std::size_t max_download_size = std::size_t{1} << 20;
   ShortFramePolicy short_frames = ShortFramePolicy::ignore;
@@ -218,6 +222,7 @@ class SdoServer {
   void on_block_download_end(const BlockDownloadEndRequest& request);
   void on_block_upload_initiate(const BlockUploadInitiateRequest& request, can::TimePoint now);
   void on_block_upload_ack(const BlockUploadAck& ack, can::TimePoint now);
+  std::uint8_t upload_block_size(std::uint8_t asked) const;  // segments per upload sub-block
   void send_sub_block();
   // The checks of a download initiate that names a size: access, type length, memory.
   Expected<void, SdoAbort> check_download(Multiplexer mux, bool size_indicated, std::uint32_t size);

@@ -131,6 +131,7 @@ struct PdoDefault {
 //   {state: switch-on-disabled}  the last statusword showed this CiA 402 state
 //   {statusword: {mask: 0x6F, value: 0x27}}  the last statusword, masked, was this
 //   {text: "substring"}        last resort: the failing check's Actual contains this text
+//                              ("580+N#..": a DUT frame at any node-ID, see FORMAT.md)
 struct DeviationObservation {
   enum class Kind : std::uint8_t { abort, value, nothing, accepted, state, statusword, text };
   Kind kind = Kind::text;

@@ -358,5 +358,28 @@ TEST(Verdict, HarnessErrorAndPass) {
   EXPECT_EQ(pass.verdict, Verdict::pass);
 }
 
+TEST(Verdict, NodeRelativeTextMatchesTheFrameOfAnyNode) {
+  // Given a documented text naming the DUT's frame node-relative, and checks whose Actual shows
+  // that frame from node 1, node 64 and node 127, another frame, and a frame of another range
+  profile::DeviationObservation documented;
+  documented.kind = profile::DeviationObservation::Kind::text;
+  documented.text = "580+N#4B616000";
+  const auto check = [](std::string actual) {
+    Check c;
+    c.actual = std::move(actual);
+    return c;
+  };
+  // When each is matched; Then only the documented frame from a node 1..127 matches
+  EXPECT_TRUE(observation_matches(documented, check("saw 581#4B61600000000000")));
+  EXPECT_TRUE(observation_matches(documented, check("saw 5C0#4B61600000000000")));
+  EXPECT_TRUE(observation_matches(documented, check("saw 5FF#4B61600000000000")));
+  EXPECT_FALSE(observation_matches(documented, check("saw 5C0#4F61600000000000")));
+  EXPECT_FALSE(observation_matches(documented, check("saw 580#4B61600000000000")));
+  EXPECT_FALSE(observation_matches(documented, check("saw 600#4B61600000000000")));
+  // And a plain text stays a substring
+  documented.text = "ok, 2 byte(s)";
+  EXPECT_TRUE(observation_matches(documented, check("read: ok, 2 byte(s)")));
+}
+
 }  // namespace
 }  // namespace drivecheck::conformance
