@@ -356,7 +356,7 @@ void Cia402Application::bind(cia301::ObjectDictionary& od) {
   validate(od, cia402::kMotionProfileType.index, 0, true,
            [refuse](std::int64_t v) { return refuse(v < 0 || v > 3); });
   validate(od, cia402::kTorqueProfileType.index, 0, true,
-           [refuse](std::int64_t v) { return refuse(v != 0); });
+           [refuse](std::int64_t v) { return refuse(v != 0 && v != 1); });
   for (std::uint16_t index : {std::uint16_t{0x6091}, std::uint16_t{0x6092}, std::uint16_t{0x6093},
                               std::uint16_t{0x6094}, std::uint16_t{0x6097}}) {
     for (std::uint8_t sub : {std::uint8_t{1}, std::uint8_t{2}}) {
