@@ -555,7 +555,11 @@ void Cia402Application::publish() {
   const double demand = position_control ? axis_.demand_position() : axis_.position();
   put(od, cia402::kPositionDemandValue, FactorGroup::to_i32(f.position_to_user(demand)));
   put(od, cia402::kPositionDemandInternalValue, FactorGroup::to_i32(demand));
-  put(od, cia402::kPositionActualInternalValue, axis_.actual_position());
+  // Deviation factor-internal-position-in-user-units: 6063h shows 6064h's user units.
+  put(od, cia402::kPositionActualInternalValue,
+      config_.deviations.has(Deviation::factor_internal_position_in_user_units)
+          ? std::int64_t{FactorGroup::to_i32(f.position_to_user(axis_.position()))}
+          : std::int64_t{axis_.actual_position()});
   put(od, cia402::kPositionActualValue, FactorGroup::to_i32(f.position_to_user(axis_.position())));
   put(od, cia402::kVelocityDemandValue,
       FactorGroup::to_i32(f.velocity_to_user(axis_.following() ? axis_.demand_velocity() : 0.0)));
