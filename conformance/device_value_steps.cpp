@@ -50,6 +50,11 @@ StepStatus VectorRun::resolve_device_values() {
     if (const auto* read = std::get_if<SdoReadStep>(&step.action);
         read && read->expect.kind == SdoExpect::Kind::value)
       use(read->expect.value);
+    if (const auto* read = std::get_if<SdoReadStep>(&step.action);
+        read && read->expect.kind == SdoExpect::Kind::range) {
+      use(read->expect.low);
+      use(read->expect.high);
+    }
   }
   for (const auto& name : names) {
     if (const auto it = context_.device_values.find(name); it != context_.device_values.end()) {

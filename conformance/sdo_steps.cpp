@@ -68,7 +68,13 @@ std::optional<std::int64_t> VectorRun::value_of(const ValueSpec& spec, std::stri
         fmt::format("no value was saved as '{}' (its sdo_read failed or did not run)", spec.saved);
     return std::nullopt;
   }
-  return it->second;
+  std::int64_t sum = 0;
+  if (__builtin_add_overflow(it->second, spec.offset, &sum)) {
+    error = fmt::format("${}{:+}: {} {:+} is outside INTEGER64", spec.saved, spec.offset,
+                        it->second, spec.offset);
+    return std::nullopt;
+  }
+  return sum;
 }
 
 StepStatus VectorRun::write_controlword(std::uint16_t value, std::string action) {
@@ -230,14 +236,25 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
         }
         break;
       }
-      case SdoExpect::Kind::range:
-        expected = fmt::format("{}: value in [{}, {}]", what, expect.low, expect.high);
+      case SdoExpect::Kind::range: {
+        std::string error;
+        const auto low = value_of(expect.low, error);
+        const auto high = low ? value_of(expect.high, error) : std::nullopt;
+        if (!low || !high) return harness_error(name, error);
+        // A bound from a saved value shows how it was computed: [$p+398 = 1398, ...].
+        const auto bound = [](const ValueSpec& spec, std::int64_t v) {
+          if (spec.saved.empty()) return fmt::format("{}", v);
+          return spec.offset == 0 ? fmt::format("${} = {}", spec.saved, v)
+                                  : fmt::format("${}{:+} = {}", spec.saved, spec.offset, v);
+        };
+        expected = fmt::format("{}: value in [{}, {}]", what, bound(expect.low, *low),
+                               bound(expect.high, *high));
         ok = read->is_signed
-                 ? value >= expect.low && value <= expect.high
-                 : raw <= static_cast<std::uint64_t>(std::max<std::int64_t>(expect.high, 0)) &&
-                       (expect.low <= 0 || raw >= static_cast<std::uint64_t>(expect.low)) &&
-                       expect.high >= 0;
+                 ? value >= *low && value <= *high
+                 : raw <= static_cast<std::uint64_t>(std::max<std::int64_t>(*high, 0)) &&
+                       (*low <= 0 || raw >= static_cast<std::uint64_t>(*low)) && *high >= 0;
         break;
+      }
       case SdoExpect::Kind::size:
         expected = fmt::format("{}: {} byte(s)", what, expect.size);
         ok = data.size() == expect.size;

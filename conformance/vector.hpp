@@ -54,10 +54,13 @@ struct FrameSpec {
   friend bool operator==(const FrameSpec&, const FrameSpec&) = default;
 };
 
-// A value that is a literal or a value saved earlier in the vector (`$name`).
+// A value that is a literal or a value saved earlier in the vector (`$name`), optionally plus
+// or minus a literal (`$name+400`, `$name-2`: arithmetic on read values, e.g. a distance in
+// increments from a position read before a move).
 struct ValueSpec {
   std::int64_t literal = 0;
-  std::string saved;  // non-empty: the name given to an earlier sdo_read's `save:`
+  std::string saved;        // non-empty: the name given to an earlier sdo_read's `save:`
+  std::int64_t offset = 0;  // with `saved`: added to the saved value
   friend bool operator==(const ValueSpec&, const ValueSpec&) = default;
 };
 
@@ -100,8 +103,8 @@ struct SdoExpect {
   Kind kind = Kind::ok;
   ValueSpec value;
   std::optional<std::uint64_t> mask;
-  std::int64_t low = 0;
-  std::int64_t high = 0;
+  ValueSpec low;  // Kind::range: each bound a literal or `$name±k`
+  ValueSpec high;
   std::size_t size = 0;
   std::vector<std::uint8_t> data;
   AbortExpect abort;  // Kind::abort

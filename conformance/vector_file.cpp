@@ -551,14 +551,36 @@ class Parser {
     auto text = scalar(node, what);
     if (!text) return std::nullopt;
     if (text->starts_with("$")) {
-      const auto saved = text->substr(1);
-      if (is_device_value(saved)) return ValueSpec{0, saved};  // device_values.hpp
+      auto saved = text->substr(1);
+      // `$name+k` / `$name-k`: the saved value plus a literal. A name saved whole (names may
+      // hold '-') wins over the split.
+      std::int64_t offset = 0;
+      const auto sign = saved.find_last_of("+-");
+      if (sign != std::string::npos && sign > 0 && saves_.count(saved) == 0 &&
+          !is_device_value(saved)) {
+        const auto digits = saved.substr(sign + 1);
+        const auto amount = parse_integer(digits);
+        if (!amount || digits.starts_with('+') || digits.starts_with('-') ||
+            amount->bits > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+          if (saved[sign] == '+' || saves_.count(saved.substr(0, sign)) != 0) {
+            error(node, fmt::format("{}: '{}': expected $name+k or $name-k with an integer k "
+                                    "(at most 2^63-1)",
+                                    what, *text));
+            return std::nullopt;
+          }
+        } else {
+          offset = amount->value;
+          if (saved[sign] == '-') offset = -offset;
+          saved = saved.substr(0, sign);
+        }
+      }
+      if (is_device_value(saved)) return ValueSpec{0, saved, offset};  // device_values.hpp
       if (saves_.count(saved) == 0) {
         error(node, fmt::format("{}: '{}' names no value saved earlier in this vector (save: {})",
                                 what, *text, saved));
         return std::nullopt;
       }
-      return ValueSpec{0, saved};
+      return ValueSpec{0, saved, offset};
     }
     auto value = integer<std::int64_t>(node, what, std::numeric_limits<std::int64_t>::min(),
                                        std::numeric_limits<std::int64_t>::max());
@@ -694,16 +716,16 @@ class Parser {
       if (!range.IsSequence() || range.size() != 2) {
         error(range, "range: expected [low, high]");
       } else {
-        const auto low =
-            integer<std::int64_t>(range[0], "range low", std::numeric_limits<std::int64_t>::min(),
-                                  std::numeric_limits<std::int64_t>::max());
-        const auto high =
-            integer<std::int64_t>(range[1], "range high", std::numeric_limits<std::int64_t>::min(),
-                                  std::numeric_limits<std::int64_t>::max());
+        // Each bound a literal or `$name±k` (a saved value plus a literal).
+        const auto low = value_spec(range[0], "range low");
+        const auto high = value_spec(range[1], "range high");
         if (low && high) {
           expect.low = *low;
           expect.high = *high;
-          if (*low > *high) error(range, "range: low is above high");
+          const bool comparable = low->saved == high->saved;  // both literal, or one name
+          const auto lo = low->saved.empty() ? low->literal : low->offset;
+          const auto hi = high->saved.empty() ? high->literal : high->offset;
+          if (comparable && lo > hi) error(range, "range: low is above high");
         }
       }
     }

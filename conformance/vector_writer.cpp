@@ -134,7 +134,10 @@ std::string pattern_bytes(const std::vector<std::optional<std::uint8_t>>& bytes)
 }
 
 std::string value_text(const ValueSpec& value) {
-  if (!value.saved.empty()) return "$" + value.saved;
+  if (!value.saved.empty()) {
+    if (value.offset == 0) return "$" + value.saved;
+    return fmt::format("${}{:+}", value.saved, value.offset);
+  }
   return fmt::format("{}", value.literal);
 }
 
@@ -288,8 +291,8 @@ class Writer {
         break;
       case SdoExpect::Kind::range:
         key("range");
-        out_ << YAML::Flow << YAML::BeginSeq << fmt::format("{}", expect.low)
-             << fmt::format("{}", expect.high) << YAML::EndSeq;
+        out_ << YAML::Flow << YAML::BeginSeq << value_text(expect.low) << value_text(expect.high)
+             << YAML::EndSeq;
         break;
       case SdoExpect::Kind::size:
         key("size");

@@ -356,7 +356,7 @@ void Cia402Application::bind(cia301::ObjectDictionary& od) {
   validate(od, cia402::kMotionProfileType.index, 0, true,
            [refuse](std::int64_t v) { return refuse(v < 0 || v > 3); });
   validate(od, cia402::kTorqueProfileType.index, 0, true,
-           [refuse](std::int64_t v) { return refuse(v != 0); });
+           [refuse](std::int64_t v) { return refuse(v != 0 && v != 1); });
   for (std::uint16_t index : {std::uint16_t{0x6091}, std::uint16_t{0x6092}, std::uint16_t{0x6093},
                               std::uint16_t{0x6094}, std::uint16_t{0x6097}}) {
     for (std::uint8_t sub : {std::uint8_t{1}, std::uint8_t{2}}) {
@@ -555,7 +555,11 @@ void Cia402Application::publish() {
   const double demand = position_control ? axis_.demand_position() : axis_.position();
   put(od, cia402::kPositionDemandValue, FactorGroup::to_i32(f.position_to_user(demand)));
   put(od, cia402::kPositionDemandInternalValue, FactorGroup::to_i32(demand));
-  put(od, cia402::kPositionActualInternalValue, axis_.actual_position());
+  // Deviation factor-internal-position-in-user-units: 6063h shows 6064h's user units.
+  put(od, cia402::kPositionActualInternalValue,
+      config_.deviations.has(Deviation::factor_internal_position_in_user_units)
+          ? std::int64_t{FactorGroup::to_i32(f.position_to_user(axis_.position()))}
+          : std::int64_t{axis_.actual_position()});
   put(od, cia402::kPositionActualValue, FactorGroup::to_i32(f.position_to_user(axis_.position())));
   put(od, cia402::kVelocityDemandValue,
       FactorGroup::to_i32(f.velocity_to_user(axis_.following() ? axis_.demand_velocity() : 0.0)));

@@ -21,6 +21,7 @@ void CyclicSyncMode::on_reset(ModeContext& ctx) {
   last_sync_.reset();
   tracking_ = true;
   bits_ = 0;
+  following_error_latched_ = false;
 }
 
 void CyclicSyncMode::enter(ModeContext& ctx, const ModeCycle& cycle) {
@@ -32,8 +33,11 @@ void CyclicSyncMode::latch(ModeContext& ctx, can::TimePoint at) {
   const FactorGroup& f = ctx.factors;
   switch (kind_) {
     case CyclicKind::position: {
-      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetPosition)) +
-                            static_cast<double>(ctx.read_signed(cia402::kPositionOffset));
+      // Deviation csp-position-offset-ignored: 60B0h stored, not added.
+      const double offset = ctx.has(Deviation::csp_position_offset_ignored)
+                                ? 0.0
+                                : static_cast<double>(ctx.read_signed(cia402::kPositionOffset));
+      const double target = static_cast<double>(ctx.read_signed(cia402::kTargetPosition)) + offset;
       start_ = tracking_ ? ctx.axis.position() : ctx.axis.demand_position();
       end_ = ctx.clamp_position(f.position_to_internal(target));
       feed_forward_ =
@@ -121,10 +125,26 @@ void CyclicSyncMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
       (kind_ == CyclicKind::torque && ctx.has(Deviation::cst_follows_bit_never_set));
   const bool follows = cycle.drive_enabled && !hidden;
   if (follows) bits_ |= kFollows;
-  if (kind_ == CyclicKind::position && ctx.following_error) bits_ |= kFollowingError;
+  // Bit 13 (csp): set once the following error outlasted 6066h; it stays set through the fault
+  // reaction that the drive takes on it (FAULT REACTION ACTIVE, FAULT) and clears when the
+  // drive is enabled again without a following error. Deviation csp-following-error-bit-never-set:
+  // the fault reaction is taken, the bit never shows.
+  const bool shown =
+      kind_ == CyclicKind::position && !ctx.has(Deviation::csp_following_error_bit_never_set);
+  if (shown && ctx.following_error) {
+    bits_ |= kFollowingError;
+    following_error_latched_ = true;
+  } else if (cycle.state != cia402::State::fault_reaction_active &&
+             cycle.state != cia402::State::fault) {
+    following_error_latched_ = false;
+  }
 }
 
 std::uint16_t CyclicSyncMode::statusword_bits(cia402::State state) const {
+  if ((state == cia402::State::fault_reaction_active || state == cia402::State::fault) &&
+      following_error_latched_) {
+    return kFollowingError;
+  }
   if (state != cia402::State::operation_enabled) return 0;
   return bits_;
 }

@@ -11,9 +11,10 @@
 // latched every drive cycle instead, so that masters without SYNC work too.
 // Statusword (OPERATION ENABLED): bit 12 drive follows the command value (1 while the drive
 // function follows set-points, 0 with halt or a stop ramp); bit 13 following error (csp: the
-// application's 6065h/6066h check); bit 10 0 (reserved).
+// application's 6065h/6066h check, CiA 402-2 6066h; it stays set through the fault reaction
+// the reference drive takes on it, until the drive is enabled again); bit 10 0 (reserved).
 // Deviations: csp/csv/cst-follows-bit-never-set, csv-velocity-offset-ignored,
-// cst-torque-offset-ignored.
+// cst-torque-offset-ignored, csp-position-offset-ignored, csp-following-error-bit-never-set.
 #pragma once
 
 #include <cstdint>
@@ -50,6 +51,7 @@ class CyclicSyncMode final : public OperationMode {
   bool tracking_ = true;  // not enabled: the command follows the actual values
   std::uint64_t syncs_ = 0;
   std::uint16_t bits_ = 0;
+  bool following_error_latched_ = false;  // csp bit 13 through the fault reaction it caused
 };
 
 }  // namespace drivecheck::reference_drive

@@ -168,6 +168,8 @@ void InterpolatedPositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
     ctx.axis.command_position(ctx.axis.position());
   } else {
     if (enable && !active_) {
+      // Deviation ip-records-cleared-on-enable: the records written before bit 4 are dropped.
+      if (ctx.has(Deviation::ip_records_cleared_on_enable)) fifo_.clear();
       active_ = true;
       start_ = end_ = ctx.axis.demand_position();
       segment_at_.reset();

@@ -22,7 +22,8 @@
 // statusword bit 12 ip mode active follows it (same cycle); clearing bit 4 holds the demand
 // where it is. Bit 13 following error (the application's check). Halt: the PDS stops the axis,
 // the FIFO is kept.
-// Deviation: ip-active-bit-never-set.
+// Records written before bit 4 is set wait in the FIFO (only 60C4h sub 6 = 0 clears it).
+// Deviations: ip-active-bit-never-set, ip-records-cleared-on-enable.
 #pragma once
 
 #include <algorithm>

@@ -785,6 +785,23 @@ TEST_F(EngineDriveTest, PollAndSave) {
   EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
 }
 
+TEST_F(EngineDriveTest, RangeAroundASavedValue) {
+  // Given the drive's device type 1000h saved, then read again against bounds computed from it
+  const auto pass =
+      run(make_vector("    - sdo_read: {index: 0x1000, sub: 0}\n      save: type\n"
+                      "    - sdo_read: {index: 0x1000, sub: 0}\n"
+                      "      expect: {range: [\"$type-1\", \"$type+1\"]}\n"));
+  // Then bounds around the saved value pass
+  EXPECT_EQ(pass.verdict, Verdict::pass) << pass.message;
+  // And bounds that leave it out fail, showing the computed bounds
+  const auto fail =
+      run(make_vector("    - sdo_read: {index: 0x1000, sub: 0}\n      save: type\n"
+                      "    - sdo_read: {index: 0x1000, sub: 0}\n"
+                      "      expect: {range: [\"$type+1\", \"$type+2\"]}\n"));
+  EXPECT_EQ(fail.verdict, Verdict::fail);
+  EXPECT_NE(fail.message.find("value in [$type+1 = "), std::string::npos) << fail.message;
+}
+
 TEST_F(EngineDriveTest, DutLostAfterSilentVectors) {
   // Given one vector where the drive answers, then four where it says nothing
   std::vector<Vector> vectors;

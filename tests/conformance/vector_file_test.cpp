@@ -273,6 +273,53 @@ TEST(VectorFile, UnknownMarkAndSavedValue) {
             std::string::npos);
 }
 
+TEST(VectorFile, SavedValuePlusOrMinusALiteral) {
+  // Given a saved value used as $p+k, $p-k in a value and in both range bounds, and a name
+  // saved whole that ends in -<digits>
+  const auto set =
+      parse_vectors(std::string(kHead) +
+                        "  steps:\n"
+                        "    - sdo_read: {index: 0x6063, sub: 0}\n"
+                        "      save: p\n"
+                        "    - sdo_read: {index: 0x6064, sub: 0}\n"
+                        "      save: q-2\n"
+                        "    - sdo_read: {index: 0x6063, sub: 0}\n"
+                        "      expect: {range: [\"$p+392\", \"$p+0x198\"]}\n"
+                        "    - sdo_write: {index: 0x607A, sub: 0, value: $p-5, size: 4}\n"
+                        "    - sdo_write: {index: 0x607A, sub: 0, value: $q-2, size: 4}\n"
+                        "    - sdo_write: {index: 0x607A, sub: 0, value: $q-2-1, size: 4}\n",
+                    "v.yaml");
+  // When parsed
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& steps = set.vectors.at(0).steps;
+  // Then the bounds and values carry the name and the offset
+  const auto& range = std::get<SdoReadStep>(steps.at(2).action).expect;
+  EXPECT_EQ(range.kind, SdoExpect::Kind::range);
+  EXPECT_EQ(range.low, (ValueSpec{0, "p", 392}));
+  EXPECT_EQ(range.high, (ValueSpec{0, "p", 0x198}));
+  EXPECT_EQ(*std::get<SdoWriteStep>(steps.at(3).action).value, (ValueSpec{0, "p", -5}));
+  // And a name saved whole wins over the split; a further -k applies to it
+  EXPECT_EQ(*std::get<SdoWriteStep>(steps.at(4).action).value, (ValueSpec{0, "q-2", 0}));
+  EXPECT_EQ(*std::get<SdoWriteStep>(steps.at(5).action).value, (ValueSpec{0, "q-2", -1}));
+  // And a k that is not an integer, an unsaved name and literal bounds the wrong way round are
+  // errors naming the line
+  EXPECT_NE(only_error(std::string(kHead) +
+                       "  steps:\n    - sdo_read: {index: 0x6063, sub: 0}\n      save: p\n"
+                       "    - sdo_write: {index: 0x607A, sub: 0, value: $p+x, size: 4}\n")
+                .find("v.yaml:8: value: '$p+x': expected $name+k or $name-k"),
+            std::string::npos);
+  EXPECT_NE(only_error(std::string(kHead) + "  steps:\n    - sdo_read: {index: 0x6063, sub: 0}\n"
+                                            "      expect: {range: [\"$r+1\", 5]}\n")
+                .find("v.yaml:7: range low: '$r+1' names no value saved"),
+            std::string::npos);
+  EXPECT_NE(only_error(std::string(kHead) +
+                       "  steps:\n    - sdo_read: {index: 0x6063, sub: 0}\n      save: p\n"
+                       "    - sdo_read: {index: 0x6063, sub: 0}\n"
+                       "      expect: {range: [\"$p+5\", \"$p-5\"]}\n")
+                .find("range: low is above high"),
+            std::string::npos);
+}
+
 TEST(VectorFile, DeviceValuesOkOrAbortAndSilencePatterns) {
   // Given $dut values, ok-or-abort and a frame pattern in expect_silence
   const auto set = parse_vectors(

@@ -69,6 +69,9 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
     - sdo_write: {index: 0x2000, sub: 1, data: "01 02 0A"}
       transfer: block
     - sdo_write: {index: 0x6060, sub: 0, value: $mode_seen}
+    - sdo_write: {index: 0x6060, sub: 0, value: $mode_seen-1}
+    - sdo_read: {index: 0x6061, sub: 0}
+      expect: {range: ["$mode_seen-2", "$mode_seen+0x10"]}
     - sdo_read: {index: 0x1018, sub: 1}
       expect: {range: [-9223372036854775808, 9223372036854775807]}
     - sdo_read: {index: 0x1008, sub: 0}

@@ -620,6 +620,41 @@ TEST(ProfileTorque, SlopeIgnoredDeviation) {
   EXPECT_EQ(d.value(0x6077), 100);
 }
 
+TEST(ProfileTorque, Sin2RampStartsSoftAndEndsAtTheTarget) {
+  // Given tq with slope 1000 ‰/s and 6088h = 1 (sin² ramp)
+  Cia402Drive d;
+  d.write(0x6087, 0, 1000, 4);
+  d.write(0x6088, 0, 1, 2);
+  EXPECT_EQ(d.value(0x6088), 1);
+  d.enable(4);
+  // When 6071h = 500 ‰ is written
+  d.write(0x6071, 0, 500, 2);
+  // Then after a fifth of the linear ramp's 0.5 s the demand is near 500 × sin²(π/10) = 48, not
+  // the linear 100
+  d.rig().run(100ms);
+  EXPECT_NEAR(d.value(0x6074), 48, 8);
+  // And at half time it is half way (sin² is symmetric), and at the end the target
+  d.rig().run(150ms);
+  EXPECT_NEAR(d.value(0x6074), 250, 10);
+  ASSERT_TRUE(d.wait_for(kTargetReached, kTargetReached, 400ms));
+  EXPECT_EQ(d.value(0x6074), 500);
+}
+
+TEST(ProfileTorque, TorqueProfileTypeIgnoredDeviation) {
+  // Given the deviation tq-torque-profile-type-ignored and 6088h = 1
+  Cia402ApplicationConfig config;
+  config.deviations.add(Deviation::tq_torque_profile_type_ignored);
+  Cia402Drive d(config);
+  d.write(0x6087, 0, 1000, 4);
+  d.write(0x6088, 0, 1, 2);
+  d.enable(4);
+  // When 6071h = 500 is written / Then the ramp is linear: 100 after 100 ms
+  d.write(0x6071, 0, 500, 2);
+  d.rig().run(100ms);
+  EXPECT_NEAR(d.value(0x6074), 100, 8);
+  EXPECT_EQ(d.value(0x6088), 1);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Interpolated position and cyclic synchronous modes
 
@@ -687,6 +722,48 @@ TEST(CyclicSyncPosition, FollowsBitNeverSetDeviation) {
   d.enable(8);
   // Then bit 12 stays 0
   EXPECT_EQ(d.statusword() & kBit12, 0);
+}
+
+TEST(CyclicSyncPosition, FollowingErrorBit13StaysThroughTheFault) {
+  // Given csp, following error window 1 for 0 ms
+  Cia402Drive d;
+  d.enable(8);
+  d.write(0x6066, 0, 0, 2);
+  d.write(0x6065, 0, 1, 4);
+  EXPECT_EQ(d.statusword() & kBit13, 0);
+  // When 607Ah steps by 1000 (taken in the next cycles: no SYNC yet)
+  d.write(0x607A, 0, d.value(0x6064) + 1000, 4);
+  d.rig().run(20ms);
+  // Then the drive took its fault reaction (8611h) and bit 13 shows the following error
+  EXPECT_EQ(d.statusword() & 0x08, kFault);
+  EXPECT_EQ(d.uvalue(0x603F), 0x8611u);
+  EXPECT_NE(d.statusword() & kBit13, 0);
+  // And it is still there in FAULT, once the reaction is over
+  ASSERT_TRUE(d.wait_for(0x4F, kFault, 2s));
+  EXPECT_NE(d.statusword() & kBit13, 0);
+  // And a fault reset and enabling again clear it
+  // (607Ah where the axis coasted to, so that the step is not asked again)
+  d.controlword(0x0080);
+  d.write(0x6065, 0, 10000, 4);
+  ASSERT_TRUE(d.app().simulate("axis-coast-to-rest", 1));
+  d.write(0x607A, 0, d.value(0x6064), 4);
+  d.enable(8);
+  EXPECT_EQ(d.statusword() & kBit13, 0);
+}
+
+TEST(CyclicSyncPosition, FollowingErrorBitNeverSetDeviation) {
+  // Given the deviation csp-following-error-bit-never-set, csp, window 1 for 0 ms
+  Cia402ApplicationConfig config;
+  config.deviations.add(Deviation::csp_following_error_bit_never_set);
+  Cia402Drive d(config);
+  d.enable(8);
+  d.write(0x6066, 0, 0, 2);
+  d.write(0x6065, 0, 1, 4);
+  // When 607Ah steps by 1000 / Then the fault comes, bit 13 never
+  d.write(0x607A, 0, d.value(0x6064) + 1000, 4);
+  d.rig().run(20ms);
+  EXPECT_EQ(d.uvalue(0x603F), 0x8611u);
+  EXPECT_EQ(d.statusword() & kBit13, 0);
 }
 
 TEST(CyclicSyncVelocity, FollowsTargetVelocity) {
