@@ -113,6 +113,12 @@ Expected<std::unique_ptr<EthercatDrive>, std::string> EthercatDrive::create(
 }
 
 Expected<void, std::string> EthercatDrive::build() {
+  for (Deviation d : options_.deviations.list()) {
+    if (!acts_on(d, DeviationLink::ethercat)) {
+      return Unexpected(fmt::format("deviation '{}' does not act on EtherCAT (CAN only: {})",
+                                    to_string(d), only_on_why(d)));
+    }
+  }
   ServoDriveOptions servo;
   servo.node = 1;  // no meaning on EtherCAT (the EMCY COB-ID the clock port looks for)
   servo.profile = options_.profile;
@@ -150,6 +156,8 @@ Expected<void, std::string> EthercatDrive::build() {
   ecat::CoeSdoServerOptions sdo;
   sdo.read_size = kMailboxSize;
   coe_ = std::make_unique<ecat::CoeSlave>(od, std::move(mailbox), sdo);
+  coe_deviations_ = std::make_unique<CoeDeviationHook>(od, options_.deviations);
+  if (coe_deviations_->active()) coe_->sdo().set_hook(coe_deviations_.get());
   power_on_esc();
   return {};
 }

@@ -36,6 +36,9 @@
 // 1 SM-synchronous (ETG.1020 as public) or 2/3 DC: each SM2 write is the cyclic modes' SYNC
 // (DriveApplication::on_sync, as a CAN SYNC is).
 //
+// The SDO service deviations (sdo-read-only-wrong-abort, device-type-wrong, store-signature-
+// ignored, ...: reference_drive/sdo_deviations.hpp) act on the CoE SDO server through
+// coe_deviations.hpp, as DeviationPort makes them act on CAN SDO frames.
 // Named EtherCAT deviations (deviations.inc, family ethercat/...): wrong-working-counter (the
 // working counter of every LRW is put back as it came in), al-status-code-missing (0134h
 // written 0 while the error indication is set), mailbox-counter-ignored
@@ -60,6 +63,7 @@
 #include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/deviations.hpp"
 #include "reference_drive/ethercat/clock_port.hpp"
+#include "reference_drive/ethercat/coe_deviations.hpp"
 #include "reference_drive/ethercat/process_data.hpp"
 #include "reference_drive/servo_drive.hpp"
 
@@ -132,6 +136,7 @@ class EthercatDrive final : public drivecheck::ethercat::SegmentDevice {
   std::unique_ptr<ServoDrive> servo_;
   std::vector<std::uint8_t> sii_;
   std::unique_ptr<drivecheck::ethercat::EscSlave> slave_;
+  std::unique_ptr<CoeDeviationHook> coe_deviations_;  // outlives coe_
   std::unique_ptr<drivecheck::ethercat::CoeSlave> coe_;
   ProcessDataLayout outputs_;
   ProcessDataLayout inputs_;
