@@ -592,5 +592,57 @@ TEST(EthercatDriveDeviation, SmWatchdogIgnored) {
   EXPECT_EQ(master.drive().servo().application().pds().state(), cia402::State::operation_enabled);
 }
 
+
+// ---- The SDO service deviations over CoE (sdo_deviations.hpp through coe_deviations.hpp) ----
+
+TEST(EthercatDriveDeviation, SdoServiceDeviationsActOnCoe) {
+  // Given the standard drive and drives with sdo-read-only-wrong-abort, device-type-wrong,
+  // sdo-length-not-checked and sdo-upload-size-wrong, each in PREOP
+  // When 1000h is written and read, and 6040h (2 octets) written with 4 and read
+  // Then the standard drive answers as CiA 301 says and each deviant drive as its row says
+  Master standard;
+  standard.to_preop();
+  EXPECT_EQ(standard.download(0x1000, 0, {0, 0, 0, 0}).abort, 0x06010002u);
+  EXPECT_EQ(le32(standard.upload(0x1000, 0).value), 0x00020192u);
+  EXPECT_EQ(standard.download(0x6040, 0, {0, 0, 0, 0}).abort, 0x06070012u);
+  EXPECT_EQ(standard.upload(0x6040, 0).value.size(), 2u);
+
+  Master wrong_abort(deviant(Deviation::sdo_read_only_wrong_abort));
+  wrong_abort.to_preop();
+  EXPECT_EQ(wrong_abort.download(0x1000, 0, {0, 0, 0, 0}).abort, 0x06020000u);
+  Master device_type(deviant(Deviation::device_type_wrong));
+  device_type.to_preop();
+  EXPECT_EQ(le32(device_type.upload(0x1000, 0).value), 0u);
+  Master length(deviant(Deviation::sdo_length_not_checked));
+  length.to_preop();
+  EXPECT_FALSE(length.download(0x6040, 0, {0, 0, 0, 0}).abort);
+  Master size(deviant(Deviation::sdo_upload_size_wrong));
+  size.to_preop();
+  EXPECT_EQ(size.upload(0x6040, 0).value.size(), 4u);
+}
+
+TEST(EthercatDriveDeviation, StoreSignatureIgnoredStoresAnyValueOverCoe) {
+  // Given a drive with store-signature-ignored in PREOP
+  // When 1010h:01 is written with a value that is not "save"
+  // Then the write is confirmed (it stored), where the standard drive aborts 08000020h
+  Master standard;
+  standard.to_preop();
+  EXPECT_EQ(standard.download(0x1010, 1, {1, 2, 3, 4}).abort, 0x08000020u);
+  Master deviant_drive(deviant(Deviation::store_signature_ignored));
+  deviant_drive.to_preop();
+  EXPECT_FALSE(deviant_drive.download(0x1010, 1, {1, 2, 3, 4}).abort);
+}
+
+TEST(EthercatDriveDeviation, CanOnlyDeviationIsRefused) {
+  // Given a deviation the table marks CAN only (bootup-missing)
+  // When an EtherCAT drive is created with it
+  // Then creation fails and says why, instead of running a drive that is not deviant
+  ecat::SimSegment segment;
+  auto created = EthercatDrive::create(segment, deviant(Deviation::bootup_missing));
+  ASSERT_FALSE(created);
+  EXPECT_NE(created.error().find("bootup-missing"), std::string::npos) << created.error();
+  EXPECT_NE(created.error().find("CAN only"), std::string::npos) << created.error();
+}
+
 }  // namespace
 }  // namespace drivecheck::reference_drive::ethercat
