@@ -592,7 +592,6 @@ TEST(EthercatDriveDeviation, SmWatchdogIgnored) {
   EXPECT_EQ(master.drive().servo().application().pds().state(), cia402::State::operation_enabled);
 }
 
-
 // ---- The SDO service deviations over CoE (sdo_deviations.hpp through coe_deviations.hpp) ----
 
 TEST(EthercatDriveDeviation, SdoServiceDeviationsActOnCoe) {
