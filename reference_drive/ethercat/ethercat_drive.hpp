@@ -44,8 +44,11 @@
 // written 0 while the error indication is set), mailbox-counter-ignored
 // (MailboxSlaveConfig::honour_counter off), sm-watchdog-ignored (the watchdog leaves OP alone).
 //
-// Not here yet: the mailbox repeat request (the ESC model gives the PDI no repeat acknowledge
-// bit), DC sync pulses, the CoE personalities' own switches beyond `coe_rules`.
+// Mailbox repeat (ETG.1000.4): when the master toggles SM1's repeat request, the last reply goes
+// into SM1 again (unless SM1 still holds it) and the repeat acknowledge (0807h+8 bit 1, written
+// by the PDI) takes the request's value.
+//
+// Not here yet: DC sync pulses, the CoE personalities' own switches beyond `coe_rules`.
 #pragma once
 
 #include <cstdint>
@@ -124,6 +127,7 @@ class EthercatDrive final : public drivecheck::ethercat::SegmentDevice {
   void on_events(const drivecheck::ethercat::EscEvents& events);
   void on_emcy(const cia301::Emcy& emcy);
   void feed_read_mailbox();
+  void repeat_read_mailbox();  // SM1 repeat request: the last reply again, then the acknowledge
   void refresh_inputs();
   void after_esc();  // deviations on the AL status code; the watchdog timer
   void arm_watchdog_timer();
