@@ -12,6 +12,7 @@
 #include "protocol/cia301/emcy_producer.hpp"
 #include "protocol/cia301/object_dictionary.hpp"
 #include "protocol/cia301/pdo.hpp"
+#include "reference_drive/sdo_deviations.hpp"
 
 namespace drivecheck::reference_drive {
 namespace {
@@ -85,32 +86,22 @@ constexpr std::uint8_t kMaxBlockSize = 127;       // seqno 1..127
 constexpr unsigned ccs_of(std::uint8_t byte0) {
   return byte0 >> 5;
 }
+constexpr unsigned kCcsDownloadSegment = 0;
 constexpr unsigned kCcsDownloadInitiate = 1;
 constexpr unsigned kCcsUploadInitiate = 2;
 constexpr unsigned kCcsUploadSegment = 3;
+constexpr unsigned kCcsAbort = 4;
 constexpr unsigned kCcsInvalid = 7;
 
-// Abort codes (CiA 301 §7.2.4.3.17) the mutators look at.
-constexpr std::uint32_t kAbortInvalidCommand = 0x05040001;
-constexpr std::uint32_t kAbortWriteReadOnly = 0x06010002;
-constexpr std::uint32_t kAbortNoObject = 0x06020000;
-constexpr std::uint32_t kAbortPdoLength = 0x06040042;
-constexpr std::uint32_t kAbortParameterIncompatible = 0x06040043;
-constexpr std::uint32_t kAbortLengthMismatch = 0x06070010;
-constexpr std::uint32_t kAbortLengthHigh = 0x06070012;
-constexpr std::uint32_t kAbortLengthLow = 0x06070013;
+// Abort codes (CiA 301 §7.2.4.3.17) the CAN-only mutators look at (the SDO service ones are
+// in sdo_deviations.cpp).
 constexpr std::uint32_t kAbortNoSubIndex = 0x06090011;
 constexpr std::uint32_t kAbortInvalidValue = 0x06090030;
-constexpr std::uint32_t kAbortCannotStore = 0x08000020;
 
 // Heartbeat / NMT state bytes.
 constexpr std::uint8_t kStateStopped = 0x04;
 constexpr std::uint8_t kStateOperational = 0x05;
 constexpr std::uint8_t kStatePreOperational = 0x7F;
-
-// 1010h "save" and 1011h "load" signatures, as the bytes of an expedited download.
-constexpr std::array<std::uint8_t, 4> kSave{0x73, 0x61, 0x76, 0x65};
-constexpr std::array<std::uint8_t, 4> kLoad{0x6C, 0x6F, 0x61, 0x64};
 
 std::uint32_t load_u32(const can::Frame& frame, std::size_t at) {
   return static_cast<std::uint32_t>(frame.data[at]) |
@@ -134,11 +125,94 @@ can::Frame download_response(std::uint32_t id, const can::Frame& frame) {
   return can::Frame::standard(
       id, {kDownloadResponse, frame.data[1], frame.data[2], frame.data[3], 0, 0, 0, 0});
 }
-// An abort of the transfer `request` (an SDO frame) with `code`.
-can::Frame abort_frame(std::uint32_t id, const can::Frame& request, std::uint32_t code) {
-  can::Frame frame = can::Frame::standard(
-      id, {kAbort, request.data[1], request.data[2], request.data[3], 0, 0, 0, 0});
-  store_u32(frame, 4, code);
+// An SDO request (the 8 data octets of 600h+N) as the SDO deviations see it.
+SdoRequestView request_view(std::span<const std::uint8_t, 8> data) {
+  SdoRequestView r;
+  r.index = static_cast<std::uint16_t>(data[1] | (data[2] << 8));
+  r.sub = data[3];
+  switch (ccs_of(data[0])) {
+    case kCcsDownloadInitiate: {
+      r.kind = SdoRequestView::Kind::download;
+      r.expedited = (data[0] & 0x02) != 0;
+      if (r.expedited) {
+        const std::size_t size = (data[0] & 0x01) != 0 ? 4 - ((data[0] >> 2) & 0x03) : 4;
+        r.data.assign(data.begin() + 4, data.begin() + 4 + static_cast<std::ptrdiff_t>(size));
+      }
+      break;
+    }
+    case kCcsUploadInitiate:
+      r.kind = SdoRequestView::Kind::upload;
+      break;
+    case kCcsDownloadSegment:
+      r.kind = SdoRequestView::Kind::download_segment;
+      break;
+    case kCcsUploadSegment:
+      r.kind = SdoRequestView::Kind::upload_segment;
+      break;
+    case kCcsAbort:
+      r.kind = SdoRequestView::Kind::abort;
+      break;
+    case kCcsInvalid:
+      r.kind = SdoRequestView::Kind::invalid;
+      break;
+    default:
+      r.kind = SdoRequestView::Kind::other;
+      break;  // block transfers
+  }
+  return r;
+}
+// An SDO response (580h+N, 8 octets) as the SDO deviations see it.
+SdoAnswerView answer_view(const can::Frame& frame) {
+  const std::uint8_t command = frame.data[0];
+  const std::uint16_t index = index_of(frame);
+  const std::uint8_t sub = frame.data[3];
+  if (command == kAbort) return SdoAnswerView::abort_of(index, sub, load_u32(frame, 4));
+  if (command == kDownloadResponse) return SdoAnswerView::confirmed(index, sub);
+  if ((command & 0xE3) == 0x43) {  // scs 2, e = 1, s = 1: n in bits 2-3
+    const std::size_t size = 4 - ((command >> 2) & 0x03);
+    return SdoAnswerView::upload(
+        index, sub,
+        {frame.data.begin() + 4, frame.data.begin() + 4 + static_cast<std::ptrdiff_t>(size)});
+  }
+  SdoAnswerView a;
+  if ((command & 0xE0) == 0x00) {  // scs 0: upload segment, toggle in bit 4
+    a.kind = SdoAnswerView::Kind::upload_segment;
+    a.toggle = (command & 0x10) != 0;
+  }
+  return a;
+}
+// The frame of `answer` on `id`; an upload segment keeps `original` but for its toggle bit.
+can::Frame answer_frame(std::uint32_t id, const SdoAnswerView& answer, const can::Frame& original) {
+  const auto lo = static_cast<std::uint8_t>(answer.index);
+  const auto hi = static_cast<std::uint8_t>(answer.index >> 8);
+  switch (answer.kind) {
+    case SdoAnswerView::Kind::abort: {
+      can::Frame frame = can::Frame::standard(id, {kAbort, lo, hi, answer.sub, 0, 0, 0, 0});
+      store_u32(frame, 4, answer.code);
+      return frame;
+    }
+    case SdoAnswerView::Kind::download_confirmed:
+      return can::Frame::standard(id, {kDownloadResponse, lo, hi, answer.sub, 0, 0, 0, 0});
+    case SdoAnswerView::Kind::expedited_upload: {
+      const std::size_t size = std::min<std::size_t>(answer.data.size(), 4);
+      can::Frame frame = can::Frame::standard(
+          id,
+          {static_cast<std::uint8_t>(0x43 | ((4 - size) << 2)), lo, hi, answer.sub, 0, 0, 0, 0});
+      std::copy_n(answer.data.begin(), size, frame.data.begin() + 4);
+      return frame;
+    }
+    case SdoAnswerView::Kind::upload_segment: {
+      can::Frame frame = original;
+      frame.id = id;
+      frame.data[0] =
+          static_cast<std::uint8_t>(answer.toggle ? frame.data[0] | 0x10 : frame.data[0] & ~0x10);
+      return frame;
+    }
+    case SdoAnswerView::Kind::other:
+      break;
+  }
+  can::Frame frame = original;
+  frame.id = id;
   return frame;
 }
 // The objects that hold a configurable COB-ID (CiA 301 §7.3.5 restricts their CAN-IDs): SYNC
@@ -148,12 +222,6 @@ bool is_cob_id_object(std::uint16_t index, std::uint8_t sub) {
   const bool pdo = (index >= 0x1400 && index <= 0x15FF) || (index >= 0x1800 && index <= 0x19FF);
   return pdo && sub == 1;
 }
-// An expedited download request (ccs 1, e = 1) to `index`; any sub-index.
-bool is_expedited_download(const can::Frame& request, std::uint16_t index) {
-  return ccs_of(request.data[0]) == kCcsDownloadInitiate && (request.data[0] & 0x02) != 0 &&
-         index_of(request) == index;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -255,7 +323,7 @@ std::string DeviationSet::names() const {
 // DeviationPort
 
 DeviationPort::DeviationPort(can::Bus& port, DeviationSet deviations)
-    : port_(port), deviations_(deviations) {}
+    : port_(port), deviations_(deviations), sdo_(std::make_unique<SdoDeviations>(deviations)) {}
 
 DeviationPort::~DeviationPort() {
   if (held_timer_ != can::kNoTimer) port_.cancel_timer(held_timer_);
@@ -289,19 +357,6 @@ bool DeviationPort::is_tpdo(std::uint32_t id, bool synchronous_only) const {
     return type != nullptr && type->as_unsigned() <= 240;
   }
   return false;
-}
-
-unsigned DeviationPort::mapping_bits(const can::Frame& request) const {
-  const std::uint16_t index = index_of(request);
-  const bool mapping = (index >= 0x1600 && index <= 0x17FF) || (index >= 0x1A00 && index <= 0x1BFF);
-  if (!mapping || od_ == nullptr) return 0;
-  unsigned bits = 0;
-  for (unsigned sub = 1; sub <= request.data[4]; ++sub) {
-    const cia301::Entry* entry = od_->find(index, static_cast<std::uint8_t>(sub));
-    if (entry == nullptr) return 0;
-    bits += static_cast<unsigned>(entry->as_unsigned() & 0xFF);
-  }
-  return bits;
 }
 
 bool DeviationPort::restricted_cob_id_written(const can::Frame& abort) const {
@@ -358,36 +413,10 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
         sdo_hung_ = true;
         return std::nullopt;
       }
-      if (code == kAbortInvalidCommand && ccs_of(last_request_) == kCcsInvalid &&
-          d.has(Deviation::sdo_invalid_command_ignored)) {
-        return std::nullopt;
-      }
-      const bool length =
-          code == kAbortLengthMismatch || code == kAbortLengthHigh || code == kAbortLengthLow;
-      if (code == kAbortParameterIncompatible && index_of(frame) == 0x1016 &&
-          d.has(Deviation::heartbeat_consumer_duplicate_accepted)) {
-        return download_response(frame.id, frame);
-      }
       if (code == kAbortInvalidValue && d.has(Deviation::restricted_cob_id_accepted) &&
           restricted_cob_id_written(frame)) {
         return download_response(frame.id, frame);
       }
-      if ((code == kAbortWriteReadOnly && d.has(Deviation::sdo_read_only_write_accepted)) ||
-          (length && d.has(Deviation::sdo_length_not_checked)) ||
-          (code == kAbortPdoLength && d.has(Deviation::pdo_mapping_too_long_accepted))) {
-        return download_response(frame.id, frame);
-      }
-      if (code == kAbortWriteReadOnly && d.has(Deviation::sdo_read_only_wrong_abort)) {
-        store_u32(out, 4, kAbortNoObject);
-      } else if (code == kAbortNoObject && d.has(Deviation::sdo_no_object_wrong_abort)) {
-        store_u32(out, 4, kAbortNoSubIndex);
-      }
-      if (d.has(Deviation::sdo_abort_wrong_multiplexer)) {
-        out.data[1] = 0;
-        out.data[2] = 0;
-        out.data[3] = 0;
-      }
-      return out;
     }
     // End block upload (scs 6, ss 1) with n = 0 after the client's block acknowledge (ccs 5,
     // cs 2): n = 7 instead, the off-by-one of n = 7 - size mod 7. (A sub-block segment with c = 1
@@ -397,42 +426,13 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       out.data[0] = static_cast<std::uint8_t>(command | (7U << 2));
       return out;
     }
-    if (command == kDownloadResponse && d.has(Deviation::sdo_download_response_missing) &&
-        ccs_of(last_request_) == kCcsDownloadInitiate && (last_request_ & 0x02) != 0) {
-      return std::nullopt;
-    }
-    // Expedited upload response with size indicated: scs 2, e = 1, s = 1 (4xh, n in bits 2-3).
-    if ((command & 0xE3) == 0x43) {
-      const std::uint16_t index = index_of(frame);
-      if (index == 0x1000 && frame.data[3] == 0 && d.has(Deviation::device_type_wrong)) {
-        store_u32(out, 4, 0);
-      }
-      if (index == 0x1018 && frame.data[3] == 2 && d.has(Deviation::identity_product_code_wrong)) {
-        store_u32(out, 4, 0);
-      }
-      if (index == 0x1001 && frame.data[3] == 0 && d.has(Deviation::error_register_not_set)) {
-        out.data[4] = 0;
-      }
-      if (index == 0x1003 && frame.data[3] != 0 && d.has(Deviation::emcy_history_appended)) {
-        // Oldest first: sub k shows the entry the drive keeps at sub (count + 1 - k).
-        const cia301::Entry* count = od_->find(0x1003, 0);
-        const auto n = count != nullptr ? count->as_unsigned() : 0;
-        if (frame.data[3] <= n) {
-          const auto mirrored = static_cast<std::uint8_t>(n + 1 - frame.data[3]);
-          if (const cia301::Entry* entry = od_->find(0x1003, mirrored)) {
-            store_u32(out, 4, static_cast<std::uint32_t>(entry->as_unsigned()));
-          }
-        }
-      }
-      if (d.has(Deviation::sdo_upload_size_wrong)) out.data[0] = 0x43;  // n = 0: 4 bytes
-      return out;
-    }
-    // Upload segment response (scs 0) to an upload segment request: toggle bit 4.
-    if ((command & 0xE0) == 0x00 && ccs_of(last_request_) == kCcsUploadSegment &&
-        d.has(Deviation::sdo_toggle_not_alternated)) {
-      out.data[0] = static_cast<std::uint8_t>(command & ~0x10);
-    }
-    return out;
+    // The SDO service deviations, shared with CoE (sdo_deviations.hpp).
+    const SdoAnswerView answer = answer_view(frame);
+    if (answer.kind == SdoAnswerView::Kind::other) return out;
+    const auto changed = sdo_->after(request_view(last_request_data_), answer, *od_);
+    if (!changed) return std::nullopt;
+    if (*changed == answer) return out;
+    return answer_frame(frame.id, *changed, frame);
   }
 
   // Boot-up, heartbeat, guarding responses.
@@ -568,83 +568,16 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
     }
     last_request_ = frame.data[0];
     std::copy(frame.data.begin(), frame.data.begin() + 8, last_request_data_.begin());
-    const std::uint32_t response_id = kSdoResponseBase + node_id;
-    // A mapping count (sub 00h of 1600h-17FFh / 1A00h-1BFFh) whose entries make exactly 64 bits:
-    // refused as too long (the off-by-one of pdo-mapping-64-bits-refused).
-    if (d.has(Deviation::pdo_mapping_64_bits_refused) &&
-        ccs_of(frame.data[0]) == kCcsDownloadInitiate && (frame.data[0] & 0x02) != 0 &&
-        frame.data[3] == 0 && mapping_bits(frame) == 64) {
-      (void)send(abort_frame(response_id, frame, kAbortPdoLength));
+    // The SDO service deviations, shared with CoE (sdo_deviations.hpp): answered here, or the
+    // data of an expedited download replaced (as 4 octets, e = 1, s = 1, n = 0).
+    const SdoBefore before = sdo_->before(request_view(last_request_data_), *od_);
+    if (before.answer) {
+      (void)send(answer_frame(kSdoResponseBase + node_id, *before.answer, frame));
       return std::nullopt;
     }
-    // Sub-index FFh of an ARRAY/RECORD: answered 00000007h (object code VAR, no data type).
-    // Expedited upload response: scs 2, e = 1, s = 1, n = 0 (43h), 4 data bytes.
-    if (d.has(Deviation::od_sub_ff_wrong) && ccs_of(frame.data[0]) == kCcsUploadInitiate &&
-        frame.data[3] == 0xFF) {
-      const cia301::Object* object = od_->find(index_of(frame));
-      if (object != nullptr && (object->code() == cia301::ObjectCode::array ||
-                                object->code() == cia301::ObjectCode::record)) {
-        (void)send(can::Frame::standard(
-            response_id, {0x43, frame.data[1], frame.data[2], 0xFF, 0x07, 0x00, 0x00, 0x00}));
-        return std::nullopt;
-      }
-    }
-    // 1027h sub 0 (an object the EDS lacks): answered 00h. Expedited upload response with
-    // size: scs 2, e = 1, s = 1, n = 3 (4Fh), 1 data byte.
-    if (d.has(Deviation::od_object_not_in_eds) && ccs_of(frame.data[0]) == kCcsUploadInitiate &&
-        index_of(frame) == 0x1027 && frame.data[3] == 0) {
-      (void)send(
-          can::Frame::standard(response_id, {0x4F, 0x27, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00}));
-      return std::nullopt;
-    }
-    // 6082h sub 0 := the value it holds (expedited download, bytes 4.. the value): refused.
-    if (d.has(Deviation::od_write_back_refused) && is_expedited_download(frame, 0x6082) &&
-        frame.data[3] == 0) {
-      if (const cia301::Entry* entry = od_->find(0x6082, 0)) {
-        const auto held = entry->bytes();
-        if (std::equal(held.begin(), held.end(), frame.data.begin() + 4)) {
-          (void)send(abort_frame(response_id, frame, kAbortCannotStore));
-          return std::nullopt;
-        }
-      }
-    }
-    // An RPDO mapping entry naming a communication object (1000h-1FFFh): confirmed, not mapped.
-    if (d.has(Deviation::rpdo_mapping_not_mappable_accepted) &&
-        ccs_of(frame.data[0]) == kCcsDownloadInitiate && (frame.data[0] & 0x02) != 0 &&
-        index_of(frame) >= 0x1600 && index_of(frame) <= 0x17FF && frame.data[3] >= 1 &&
-        frame.data[3] <= 0x40) {
-      const auto mapped = static_cast<std::uint16_t>(frame.data[6] | (frame.data[7] << 8));
-      if (mapped >= 0x1000 && mapped <= 0x1FFF) {
-        (void)send(download_response(response_id, frame));
-        return std::nullopt;
-      }
-    }
-    // 1003h sub 00h := 0 (the only value CiA 301 allows): confirmed, history kept.
-    if (is_expedited_download(frame, 0x1003) && frame.data[3] == 0 && frame.data[4] == 0 &&
-        d.has(Deviation::emcy_history_not_cleared)) {
-      (void)send(download_response(response_id, frame));
-      return std::nullopt;
-    }
-    // 1011h "load": confirmed, nothing restored.
-    if (is_expedited_download(frame, 0x1011) &&
-        std::equal(kLoad.begin(), kLoad.end(), frame.data.begin() + 4) &&
-        d.has(Deviation::restore_ignored)) {
-      (void)send(download_response(response_id, frame));
-      return std::nullopt;
-    }
-    // 1010h with any value: as if "save" (4 bytes, expedited) had been written.
-    if (is_expedited_download(frame, 0x1010) && d.has(Deviation::store_signature_ignored)) {
+    if (before.replaced && before.replaced->size() == 4) {
       in.data[0] = 0x23;
-      std::copy(kSave.begin(), kSave.end(), in.data.begin() + 4);
-    }
-    // 1010h/1011h sub 02h and above with any value: as if "save"/"load" had been written (only
-    // sub 01h checks its signature).
-    if (d.has(Deviation::store_group_signature_ignored) && frame.data[3] >= 2 &&
-        (is_expedited_download(frame, 0x1010) || is_expedited_download(frame, 0x1011))) {
-      const bool store = frame.data[1] == 0x10;
-      in.data[0] = 0x23;
-      std::copy(store ? kSave.begin() : kLoad.begin(), store ? kSave.end() : kLoad.end(),
-                in.data.begin() + 4);
+      std::copy(before.replaced->begin(), before.replaced->end(), in.data.begin() + 4);
     }
     return in;
   }

@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <functional>
 #include <initializer_list>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -39,6 +40,8 @@ class ObjectDictionary;
 }
 
 namespace drivecheck::reference_drive {
+
+class SdoDeviations;
 
 // Generated from deviations.inc.
 enum class Deviation : std::uint8_t {
@@ -72,6 +75,33 @@ inline constexpr std::array<DeviationInfo, kDeviationCount> kDeviations{{
 #include "reference_drive/deviations.inc"
 #undef DRIVECHECK_DEVIATION
 }};
+
+// The links a deviation acts on (deviations.inc: DRIVECHECK_DEVIATION_ONLY_ON); a row without
+// the mark acts on both.
+enum class DeviationLink : std::uint8_t { can, ethercat };
+struct DeviationOnlyOn {
+  Deviation deviation;
+  DeviationLink link;    // the one link it acts on
+  std::string_view why;  // why only there
+};
+inline constexpr DeviationOnlyOn kDeviationsOnlyOn[] = {
+#define DRIVECHECK_DEVIATION_ONLY_ON(name, link, why) {Deviation::name, DeviationLink::link, why},
+#include "reference_drive/deviations.inc"
+#undef DRIVECHECK_DEVIATION_ONLY_ON
+};
+constexpr bool acts_on(Deviation deviation, DeviationLink link) {
+  for (const DeviationOnlyOn& row : kDeviationsOnlyOn) {
+    if (row.deviation == deviation) return row.link == link;
+  }
+  return true;
+}
+// Why the deviation acts on one link only; empty when it acts on both.
+constexpr std::string_view only_on_why(Deviation deviation) {
+  for (const DeviationOnlyOn& row : kDeviationsOnlyOn) {
+    if (row.deviation == deviation) return row.why;
+  }
+  return {};
+}
 
 constexpr const DeviationInfo& info_of(Deviation deviation) {
   return kDeviations[static_cast<std::size_t>(deviation)];
@@ -194,15 +224,13 @@ class DeviationPort final : public can::Bus {
   std::uint8_t node() const;
   std::optional<std::uint32_t> emcy_cob_id() const;
   bool is_tpdo(std::uint32_t id, bool synchronous_only) const;
-  // The bits of the mapping an expedited download of a mapping count (`request`, sub 00h of
-  // 1600h-17FFh / 1A00h-1BFFh) would enable; 0 for any other request or a missing entry.
-  unsigned mapping_bits(const can::Frame& request) const;
   // The last SDO request was an expedited download of a restricted CAN-ID (CiA 301 §7.3.5) to
   // a COB-ID object (1005h, 1012h, 1014h, PDO sub 01h) and `abort` aborts that transfer.
   bool restricted_cob_id_written(const can::Frame& abort) const;
 
   can::Bus& port_;
   DeviationSet deviations_;
+  std::unique_ptr<SdoDeviations> sdo_;  // the SDO service deviations (sdo_deviations.hpp)
   const cia301::ObjectDictionary* od_ = nullptr;
   FrameHandler handler_;
   bool loopback_ = false;

@@ -209,28 +209,43 @@ std::vector<std::uint8_t> CoeSdoServer::abort(const Multiplexer& mux, SdoAbort c
   return encode(CoeSdoResponse{CoeAbort{mux, static_cast<std::uint32_t>(code)}});
 }
 
+CoeServerReply CoeSdoServer::reply(const CoeSdoRequest* request, std::vector<std::uint8_t> bytes) {
+  if (hook_ == nullptr) return {std::move(bytes), std::nullopt};
+  auto response = decode_sdo_response(bytes);
+  if (!response) return {std::move(bytes), std::nullopt};
+  auto sent = hook_->after(request, std::move(*response));
+  if (!sent) return {};
+  return {encode(*sent), std::nullopt};
+}
+
 CoeServerReply CoeSdoServer::handle(std::span<const std::uint8_t> data) {
   auto request = decode_sdo_request(data);
   if (!request) {
     if (request.error().abort) {
+      if (hook_ != nullptr) {
+        if (auto instead = hook_->before(nullptr)) return reply(nullptr, encode(*instead));
+      }
       const Multiplexer mux = busy() ? mux_ : Multiplexer{};
-      return {abort(mux, *request.error().abort), std::nullopt};
+      return reply(nullptr, abort(mux, *request.error().abort));
     }
     const bool too_short = data.size() < kCoeSdoMessageSize;
     return {std::nullopt,
             too_short ? MailboxError::size_too_short : MailboxError::service_not_supported};
   }
+  if (hook_ != nullptr) {
+    if (auto instead = hook_->before(&*request)) return reply(&*request, encode(*instead));
+  }
   return std::visit(
       [&](const auto& m) -> CoeServerReply {
         using T = std::decay_t<decltype(m)>;
         if constexpr (std::is_same_v<T, CoeDownloadInitiate>) {
-          return {on_download(m), std::nullopt};
+          return reply(&*request, on_download(m));
         } else if constexpr (std::is_same_v<T, CoeDownloadSegment>) {
-          return {on_segment(m), std::nullopt};
+          return reply(&*request, on_segment(m));
         } else if constexpr (std::is_same_v<T, CoeUploadInitiate>) {
-          return {on_upload(m), std::nullopt};
+          return reply(&*request, on_upload(m));
         } else if constexpr (std::is_same_v<T, CoeUploadSegmentRequest>) {
-          return {on_upload_segment(m), std::nullopt};
+          return reply(&*request, on_upload_segment(m));
         } else {
           reset();  // the client aborted: no reply
           return {};

@@ -80,6 +80,21 @@ struct CoeServerReply {
   std::optional<MailboxError> mailbox_error;
 };
 
+// A filter around the server, for a slave that must misbehave on purpose (the reference drive's
+// named deviations, reference_drive/ethercat/coe_deviations.hpp). It sees each request before
+// the server and each response the server gives before it is sent.
+class CoeSdoHook {
+ public:
+  virtual ~CoeSdoHook() = default;
+  // `request` (nullptr: it could not be decoded) before the server: a response given instead
+  // (the server does not see the request), or nullopt: the server handles it as the hook left
+  // it.
+  virtual std::optional<CoeSdoResponse> before(CoeSdoRequest* request) = 0;
+  // The response to `request` (the server's or before()'s) as it is sent; nullopt: none is.
+  virtual std::optional<CoeSdoResponse> after(const CoeSdoRequest* request,
+                                              CoeSdoResponse response) = 0;
+};
+
 class CoeSdoServer {
  public:
   explicit CoeSdoServer(cia301::ObjectDictionary& od, CoeSdoServerOptions options = {});
@@ -88,12 +103,15 @@ class CoeSdoServer {
   CoeServerReply handle(std::span<const std::uint8_t> data);
 
   bool busy() const { return state_ != State::idle; }
+  // The hook (must outlive the server, or be reset to nullptr first); nullptr: none.
+  void set_hook(CoeSdoHook* hook) { hook_ = hook; }
   // Forgets a transfer in progress (the slave left PREOP/SAFEOP/OP, or its mailbox was reset).
   void reset();
 
  private:
   enum class State : std::uint8_t { idle, downloading, uploading };
   std::vector<std::uint8_t> abort(const Multiplexer& mux, cia301::SdoAbort code);
+  CoeServerReply reply(const CoeSdoRequest* request, std::vector<std::uint8_t> bytes);
   std::vector<std::uint8_t> on_download(const CoeDownloadInitiate& m);
   std::vector<std::uint8_t> on_segment(const CoeDownloadSegment& m);
   std::vector<std::uint8_t> on_upload(const CoeUploadInitiate& m);
@@ -105,6 +123,7 @@ class CoeSdoServer {
 
   cia301::ObjectDictionary& od_;
   CoeSdoServerOptions options_;
+  CoeSdoHook* hook_ = nullptr;
   State state_ = State::idle;
   Multiplexer mux_;
   bool complete_access_ = false;

@@ -91,6 +91,7 @@ void default_pdos(cia301::PdoObjectOptions& pdo) {
 }
 
 constexpr std::uint16_t kSm0 = 1u << 0;
+constexpr std::uint16_t kSm1 = 1u << 1;
 constexpr std::uint16_t kSm2 = 1u << 2;
 
 }  // namespace
@@ -113,6 +114,12 @@ Expected<std::unique_ptr<EthercatDrive>, std::string> EthercatDrive::create(
 }
 
 Expected<void, std::string> EthercatDrive::build() {
+  for (Deviation d : options_.deviations.list()) {
+    if (!acts_on(d, DeviationLink::ethercat)) {
+      return Unexpected(fmt::format("deviation '{}' does not act on EtherCAT (CAN only: {})",
+                                    to_string(d), only_on_why(d)));
+    }
+  }
   ServoDriveOptions servo;
   servo.node = 1;  // no meaning on EtherCAT (the EMCY COB-ID the clock port looks for)
   servo.profile = options_.profile;
@@ -150,6 +157,8 @@ Expected<void, std::string> EthercatDrive::build() {
   ecat::CoeSdoServerOptions sdo;
   sdo.read_size = kMailboxSize;
   coe_ = std::make_unique<ecat::CoeSlave>(od, std::move(mailbox), sdo);
+  coe_deviations_ = std::make_unique<CoeDeviationHook>(od, options_.deviations);
+  if (coe_deviations_->active()) coe_->sdo().set_hook(coe_deviations_.get());
   power_on_esc();
   return {};
 }
@@ -239,6 +248,7 @@ void EthercatDrive::on_events(const ecat::EscEvents& events) {
   if ((events.sm_written & kSm0) != 0) {
     if (auto request = esc.pdi_take_mailbox(0)) coe_->on_write_mailbox(*request);
   }
+  if ((events.sm_repeat & kSm1) != 0) repeat_read_mailbox();
   if ((events.sm_written & kSm2) != 0 && slave_->al_status().state == AlState::op) {
     const ecat::SyncManagerRegisters sm2 = esc.sync_manager(2);
     scratch_.resize(sm2.length);
@@ -260,6 +270,25 @@ void EthercatDrive::feed_read_mailbox() {
   ecat::Esc& esc = slave_->esc();
   if (!esc.sync_manager(1).enabled() || esc.mailbox_full(1)) return;
   if (auto reply = coe_->take_reply()) (void)esc.pdi_put_mailbox(1, *reply);
+}
+
+// The master toggled SM1's repeat request (activate 0806h+8 bit 1): its read of the last reply
+// was lost. SM1 gets that reply again (unless it is still full: the master never read it), then
+// the repeat acknowledge (PDI control 0807h+8 bit 1) takes the request's value (ETG.1000.4
+// mailbox repeat; ESC datasheet Section II, SyncManager activate / PDI control).
+void EthercatDrive::repeat_read_mailbox() {
+  ecat::Esc& esc = slave_->esc();
+  const ecat::SyncManagerRegisters sm1 = esc.sync_manager(1);
+  if (!sm1.enabled()) return;
+  if (!esc.mailbox_full(1)) {
+    if (auto last = coe_->repeat_last()) (void)esc.pdi_put_mailbox(1, *last);
+  }
+  const bool request = (sm1.activate & ecat::sm::kActivateRepeat) != 0;
+  const auto pdi_control = static_cast<std::uint16_t>(ecat::reg::sync_manager(1) + 7);
+  const std::uint8_t value = esc.pdi_read8(pdi_control);
+  (void)esc.pdi_write8(pdi_control,
+                       static_cast<std::uint8_t>(request ? (value | ecat::sm::kPdiRepeatAck)
+                                                         : (value & ~ecat::sm::kPdiRepeatAck)));
 }
 
 void EthercatDrive::on_emcy(const cia301::Emcy& emcy) {

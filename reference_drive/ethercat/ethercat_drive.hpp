@@ -36,13 +36,19 @@
 // 1 SM-synchronous (ETG.1020 as public) or 2/3 DC: each SM2 write is the cyclic modes' SYNC
 // (DriveApplication::on_sync, as a CAN SYNC is).
 //
+// The SDO service deviations (sdo-read-only-wrong-abort, device-type-wrong, store-signature-
+// ignored, ...: reference_drive/sdo_deviations.hpp) act on the CoE SDO server through
+// coe_deviations.hpp, as DeviationPort makes them act on CAN SDO frames.
 // Named EtherCAT deviations (deviations.inc, family ethercat/...): wrong-working-counter (the
 // working counter of every LRW is put back as it came in), al-status-code-missing (0134h
 // written 0 while the error indication is set), mailbox-counter-ignored
 // (MailboxSlaveConfig::honour_counter off), sm-watchdog-ignored (the watchdog leaves OP alone).
 //
-// Not here yet: the mailbox repeat request (the ESC model gives the PDI no repeat acknowledge
-// bit), DC sync pulses, the CoE personalities' own switches beyond `coe_rules`.
+// Mailbox repeat (ETG.1000.4): when the master toggles SM1's repeat request, the last reply goes
+// into SM1 again (unless SM1 still holds it) and the repeat acknowledge (0807h+8 bit 1, written
+// by the PDI) takes the request's value.
+//
+// Not here yet: DC sync pulses, the CoE personalities' own switches beyond `coe_rules`.
 #pragma once
 
 #include <cstdint>
@@ -60,6 +66,7 @@
 #include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/deviations.hpp"
 #include "reference_drive/ethercat/clock_port.hpp"
+#include "reference_drive/ethercat/coe_deviations.hpp"
 #include "reference_drive/ethercat/process_data.hpp"
 #include "reference_drive/servo_drive.hpp"
 
@@ -120,6 +127,7 @@ class EthercatDrive final : public drivecheck::ethercat::SegmentDevice {
   void on_events(const drivecheck::ethercat::EscEvents& events);
   void on_emcy(const cia301::Emcy& emcy);
   void feed_read_mailbox();
+  void repeat_read_mailbox();  // SM1 repeat request: the last reply again, then the acknowledge
   void refresh_inputs();
   void after_esc();  // deviations on the AL status code; the watchdog timer
   void arm_watchdog_timer();
@@ -132,6 +140,7 @@ class EthercatDrive final : public drivecheck::ethercat::SegmentDevice {
   std::unique_ptr<ServoDrive> servo_;
   std::vector<std::uint8_t> sii_;
   std::unique_ptr<drivecheck::ethercat::EscSlave> slave_;
+  std::unique_ptr<CoeDeviationHook> coe_deviations_;  // outlives coe_
   std::unique_ptr<drivecheck::ethercat::CoeSlave> coe_;
   ProcessDataLayout outputs_;
   ProcessDataLayout inputs_;

@@ -100,6 +100,29 @@ TEST(DeviationTable, NamesAreUniqueKebabCaseAndEveryRowIsDescribed) {
   EXPECT_GE(fatal, 3u);
 }
 
+TEST(DeviationTable, LinkMarksAreSingleAndMatchTheFamilies) {
+  // Given the DRIVECHECK_DEVIATION_ONLY_ON marks of deviations.inc
+  // When every mark and every row is checked
+  // Then each deviation is marked at most once with a reason, the ethercat/... rows act on
+  //      EtherCAT only, and the SDO service rows act on both links (sdo_deviations.hpp)
+  std::set<Deviation> marked;
+  for (const DeviationOnlyOn& row : kDeviationsOnlyOn) {
+    EXPECT_TRUE(marked.insert(row.deviation).second) << to_string(row.deviation);
+    EXPECT_GT(row.why.size(), 5u) << to_string(row.deviation);
+  }
+  for (const DeviationInfo& info : kDeviations) {
+    if (info.family.starts_with("ethercat/")) {
+      EXPECT_FALSE(acts_on(info.deviation, DeviationLink::can)) << info.name;
+      EXPECT_TRUE(acts_on(info.deviation, DeviationLink::ethercat)) << info.name;
+    } else {
+      EXPECT_TRUE(acts_on(info.deviation, DeviationLink::can)) << info.name;
+    }
+  }
+  EXPECT_TRUE(acts_on(Deviation::sdo_read_only_wrong_abort, DeviationLink::ethercat));
+  EXPECT_TRUE(only_on_why(Deviation::sdo_read_only_wrong_abort).empty());
+  EXPECT_FALSE(acts_on(Deviation::sdo_block_sequence_ignored, DeviationLink::ethercat));
+}
+
 TEST(DeviationSetParse, NamesAndCommaListsParse) {
   // Given names as given on the command line, one of them a comma-separated list
   // When parsed

@@ -20,6 +20,7 @@
 #include "protocol/ethercat/esc.hpp"
 #include "protocol/ethercat/frame.hpp"
 #include "protocol/ethercat/mailbox.hpp"
+#include "protocol/ethercat/master.hpp"
 #include "protocol/ethercat/sii.hpp"
 #include "protocol/ethercat/sim_segment.hpp"
 #include "reference_drive/ethercat/sii_image.hpp"
@@ -590,6 +591,113 @@ TEST(EthercatDriveDeviation, SmWatchdogIgnored) {
   master.segment().run_for(150ms);
   EXPECT_EQ(master.al_status(), std::make_pair(std::uint16_t{0x0008}, std::uint16_t{0}));
   EXPECT_EQ(master.drive().servo().application().pds().state(), cia402::State::operation_enabled);
+}
+
+// ---- The SDO service deviations over CoE (sdo_deviations.hpp through coe_deviations.hpp) ----
+
+TEST(EthercatDriveDeviation, SdoServiceDeviationsActOnCoe) {
+  // Given the standard drive and drives with sdo-read-only-wrong-abort, device-type-wrong,
+  // sdo-length-not-checked and sdo-upload-size-wrong, each in PREOP
+  // When 1000h is written and read, and 6040h (2 octets) written with 4 and read
+  // Then the standard drive answers as CiA 301 says and each deviant drive as its row says
+  Master standard;
+  standard.to_preop();
+  EXPECT_EQ(standard.download(0x1000, 0, {0, 0, 0, 0}).abort, 0x06010002u);
+  EXPECT_EQ(le32(standard.upload(0x1000, 0).value), 0x00020192u);
+  EXPECT_EQ(standard.download(0x6040, 0, {0, 0, 0, 0}).abort, 0x06070012u);
+  EXPECT_EQ(standard.upload(0x6040, 0).value.size(), 2u);
+
+  Master wrong_abort(deviant(Deviation::sdo_read_only_wrong_abort));
+  wrong_abort.to_preop();
+  EXPECT_EQ(wrong_abort.download(0x1000, 0, {0, 0, 0, 0}).abort, 0x06020000u);
+  Master device_type(deviant(Deviation::device_type_wrong));
+  device_type.to_preop();
+  EXPECT_EQ(le32(device_type.upload(0x1000, 0).value), 0u);
+  Master length(deviant(Deviation::sdo_length_not_checked));
+  length.to_preop();
+  EXPECT_FALSE(length.download(0x6040, 0, {0, 0, 0, 0}).abort);
+  Master size(deviant(Deviation::sdo_upload_size_wrong));
+  size.to_preop();
+  EXPECT_EQ(size.upload(0x6040, 0).value.size(), 4u);
+}
+
+TEST(EthercatDriveDeviation, StoreSignatureIgnoredStoresAnyValueOverCoe) {
+  // Given a drive with store-signature-ignored in PREOP
+  // When 1010h:01 is written with a value that is not "save"
+  // Then the write is confirmed (it stored), where the standard drive aborts 08000020h
+  Master standard;
+  standard.to_preop();
+  EXPECT_EQ(standard.download(0x1010, 1, {1, 2, 3, 4}).abort, 0x08000020u);
+  Master deviant_drive(deviant(Deviation::store_signature_ignored));
+  deviant_drive.to_preop();
+  EXPECT_FALSE(deviant_drive.download(0x1010, 1, {1, 2, 3, 4}).abort);
+}
+
+TEST(EthercatDriveDeviation, CanOnlyDeviationIsRefused) {
+  // Given a deviation the table marks CAN only (bootup-missing)
+  // When an EtherCAT drive is created with it
+  // Then creation fails and says why, instead of running a drive that is not deviant
+  ecat::SimSegment segment;
+  auto created = EthercatDrive::create(segment, deviant(Deviation::bootup_missing));
+  ASSERT_FALSE(created);
+  EXPECT_NE(created.error().find("bootup-missing"), std::string::npos) << created.error();
+  EXPECT_NE(created.error().find("CAN only"), std::string::npos) << created.error();
+}
+
+// ---- Mailbox repeat request (ETG.1000.4: SM1 repeat request / repeat acknowledge) ----------
+
+// The drive in PREOP under the drivecheck master, on a segment that loses the next frame that
+// reads SM1 before device `lost_before` (0: before the drive, which never sees the read; 1: after
+// it, the reply left SM1); the master reads 1018h:01, then 1000h.
+void read_with_a_lost_sm1_read(std::size_t lost_before) {
+  ecat::SimSegment segment;
+  auto created = EthercatDrive::create(segment, {});
+  ASSERT_TRUE(created) << created.error();
+  EthercatDrive& drive = **created;
+  segment.attach(drive);
+  drive.power_on();
+  ecat::MasterConfig config;
+  config.scan.expected_slaves = 1;
+  ecat::Master master(segment, config);
+  const auto up = master.bring_up(ecat::AlState::preop);
+  ASSERT_TRUE(up) << up.error().message();
+  ecat::FrameFaultRule rule;
+  rule.match = [](std::span<const std::uint8_t> bytes) {
+    const auto frame = ecat::decode_frame(bytes);
+    if (!frame) return false;
+    for (const ecat::Datagram& d : frame->datagrams) {
+      if (d.command == ecat::Command::fprd && d.ado() == kMailboxInStart) return true;
+    }
+    return false;
+  };
+  rule.max_count = 1;
+  const ecat::FaultId fault = segment.drop(rule, lost_before);
+  const auto vendor = master.sdo_upload(0, {0x1018, 1});
+  EXPECT_EQ(segment.fault_hits(fault), 1u);
+  ASSERT_TRUE(vendor) << vendor.error().message();
+  EXPECT_EQ(le32(*vendor), drive.dictionary().find(0x1018, 1)->as_unsigned());
+  EXPECT_EQ(master.mailbox(0)->repeat_requests(), 1u);
+  // And the next exchange goes on normally.
+  const auto device_type = master.sdo_upload(0, {0x1000, 0});
+  ASSERT_TRUE(device_type) << device_type.error().message();
+  EXPECT_EQ(le32(*device_type), 0x00020192u);
+}
+
+TEST(EthercatDriveMailbox, LostReplyIsSentAgainOnTheRepeatRequest) {
+  // Given the drive in PREOP and a segment that loses the next SM1 read after the drive passed
+  //       it (the reply left SM1 and never reached the master)
+  // When the master reads 1018h:01
+  // Then the value arrives through one repeat request: the drive put its last reply into SM1
+  //      again and toggled the repeat acknowledge (0807h bit 1) to the request
+  read_with_a_lost_sm1_read(1);
+}
+
+TEST(EthercatDriveMailbox, RepeatWhileTheReplyIsStillInSm1OnlyAcknowledges) {
+  // Given the drive in PREOP and a segment that loses the next SM1 read before the drive (SM1
+  //       still holds the reply)
+  // When the master reads 1018h:01
+  // Then one repeat request is acknowledged and the reply still in SM1 is read, once
+  read_with_a_lost_sm1_read(0);
 }
 
 }  // namespace
