@@ -111,7 +111,7 @@ class Fuzzer {
 };
 
 std::optional<EthercatAnomaly> Fuzzer::pass_time(Duration duration) {
-  const TimePoint deadline = now() + duration;
+  const TimePoint deadline = std::min(now() + duration, end());
   while (now() < deadline) {
     if (cycling_state(master().held_state())) {
       if (auto cycle = master().cycle(); !cycle) return classify(cycle.error(), "process data");
@@ -158,7 +158,7 @@ Expected<Collected, EthercatAnomaly> Fuzzer::collect(Duration quiet,
     }
     const bool waiting_for_reply =
         need_by && got.sdo_replies + got.errors + got.others == 0 && now() < *need_by;
-    if (!waiting_for_reply && now() - last >= quiet) return got;
+    if ((!waiting_for_reply && now() - last >= quiet) || now() >= end()) return got;
     if (auto a = pass_time(options_.cycle_period)) return Unexpected(std::move(*a));
   }
 }
@@ -238,6 +238,11 @@ CaseResult Fuzzer::run_case(const EthercatCase& c, std::span<const std::size_t> 
     return result;
   }
   result.anomaly = oracle();
+  // The oracle's waits end with the run: a case it could not watch to the end is not judged.
+  if (out_of_time()) {
+    result.anomaly.reset();
+    result.cut_short = true;
+  }
   return result;
 }
 
