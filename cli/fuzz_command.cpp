@@ -10,7 +10,8 @@
 // EtherCAT master (protocol/ethercat/master.hpp) on a simulated segment with the reference drive
 // as an emulated slave (ethercat:sim, simulated time), or on an AF_PACKET link (ethercat:IF);
 // reproducers are pcaps (anomaly-<n>-<kind>.pcap, Wireshark decodes them) and a text listing of
-// the steps. --replay, --node, --babble-limit and --sdo-timeout are for CAN.
+// the steps, which --replay FILE.txt sends again (exit 1 if its anomaly reproduces). --node,
+// --babble-limit and --sdo-timeout are for CAN.
 //
 // --bus sim: the embedded reference drive (cli/embedded_drive.hpp) on the simulated bus in
 // this process, in simulated time (a 60 s run takes about a second); --profile gives it that
@@ -374,10 +375,30 @@ void fuzz_ethercat(const FuzzOptions& options) {
   if (!sim && !options.deviations.empty())
     usage_error("fuzz",
                 "--deviation injects faults into the embedded drive: only with --bus ethercat:sim");
-  if (!options.replay.empty())
-    usage_error("fuzz",
-                "--replay takes the candump reproducers of CAN runs; an EtherCAT "
-                "reproducer is a pcap (open it in Wireshark; its steps are in the .txt)");
+  // Replay: the steps of a text reproducer (anomaly-<n>-<kind>[.min].txt; the pcap beside it is
+  // for reading), checked against the safety rules like generated steps.
+  std::optional<fuzz_live::EthercatReproducer> reproducer;
+  if (!options.replay.empty()) {
+    std::ifstream in(options.replay, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    if (!in) usage_error("fuzz", fmt::format("cannot read {}", options.replay));
+    auto parsed = fuzz_live::parse_ethercat_reproducer(text.str(), options.replay);
+    if (!parsed) {
+      fmt::print(stderr, "{}\n", parsed.error());
+      exit_with(kExitUsage);
+      return;
+    }
+    for (std::size_t i = 0; i < parsed->c.steps.size(); ++i) {
+      if (!fuzz_live::is_allowed_mailbox(parsed->c.steps[i], options.allow_motion)) {
+        usage_error("fuzz", fmt::format("{}: step {} is not sent: a guarded write (1010h/1011h, "
+                                        "1F50h+, PDO/SM configuration, 6040h without "
+                                        "--allow-motion) or a mailbox type other than CoE",
+                                        options.replay, i + 1));
+      }
+    }
+    reproducer = std::move(*parsed);
+  }
   const auto duration = parse_duration(options.duration);
   if (!duration) usage_error("fuzz", duration.error());
   const VectorDirs dirs = vector_dirs(options.vectors);
@@ -444,6 +465,35 @@ void fuzz_ethercat(const FuzzOptions& options) {
       return;
     }
     target = std::move(raw_target);
+  }
+
+  if (reproducer) {
+    const auto result = fuzz_live::replay_ethercat_case(*target, reproducer->c, fuzz_options);
+    for (const auto& note : result.notes)
+      fmt::print("note: {}\n", note);
+    if (!result.device_answered) {
+      fmt::print(stderr, "drivecheck fuzz: the EtherCAT slave does not answer on {}\n",
+                 options.bus);
+      exit_with(kExitDutLost);
+      return;
+    }
+    const bool reproduced =
+        result.anomaly && (!reproducer->anomaly || result.anomaly->kind == *reproducer->anomaly);
+    fmt::print("replayed {} step(s) of {} in {}: {}\n", reproducer->c.steps.size(), options.replay,
+               ethercat::al_state_name(reproducer->c.state),
+               result.anomaly ? fmt::format("{}: {}", fuzz_live::to_string(result.anomaly->kind),
+                                            result.anomaly->detail)
+                              : std::string("no anomaly"));
+    if (reproducer->anomaly) {
+      fmt::print("the reproducer's anomaly ({}) {}\n", fuzz_live::to_string(*reproducer->anomaly),
+                 reproduced ? "reproduces" : "does not reproduce");
+    }
+    if (g_interrupted.load()) {
+      exit_with(kExitInterrupted);
+      return;
+    }
+    exit_with(reproduced ? kExitFail : kExitPass);
+    return;
   }
 
   std::error_code error;

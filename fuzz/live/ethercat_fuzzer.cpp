@@ -6,6 +6,7 @@
 #include <fstream>
 #include <numeric>
 #include <set>
+#include <sstream>
 
 #include "fuzz/live/minimiser.hpp"
 #include "protocol/ethercat/coe.hpp"
@@ -68,6 +69,7 @@ class Fuzzer {
       : target_(target), options_(options) {}
 
   EthercatFuzzSummary run();
+  EthercatReplayResult replay(const EthercatCase& c);
 
  private:
   ethercat::Master& master() { return target_.master(); }
@@ -486,7 +488,149 @@ EthercatFuzzSummary Fuzzer::run() {
   return summary_;
 }
 
+EthercatReplayResult Fuzzer::replay(const EthercatCase& c) {
+  EthercatReplayResult result;
+  install_tap();
+  start_ = now();
+  if (master().slaves().empty() || master().mailbox(0) == nullptr) return result;
+  auto first = master().sdo_upload(0, {0x1000, 0});
+  if (!first || first->size() != 4) return result;
+  result.device_answered = true;
+  std::vector<std::size_t> all(c.steps.size());
+  std::iota(all.begin(), all.end(), std::size_t{0});
+  const CaseResult r = run_case(c, all);
+  if (r.cut_short) result.notes.push_back("the replay was cut short: not judged");
+  result.anomaly = r.anomaly;
+  (void)master().request_state(AlState::preop);
+  return result;
+}
+
+std::optional<std::uint8_t> hex_octet(std::string_view text) {
+  if (text.size() != 2) return std::nullopt;
+  unsigned value = 0;
+  for (const char ch : text) {
+    value <<= 4;
+    if (ch >= '0' && ch <= '9') {
+      value |= static_cast<unsigned>(ch - '0');
+    } else if (ch >= 'A' && ch <= 'F') {
+      value |= static_cast<unsigned>(ch - 'A' + 10);
+    } else if (ch >= 'a' && ch <= 'f') {
+      value |= static_cast<unsigned>(ch - 'a' + 10);
+    } else {
+      return std::nullopt;
+    }
+  }
+  return static_cast<std::uint8_t>(value);
+}
+
+// "Cnt next Type 3 Length 10 Channel 0 Priority 0: ... | 00 20 40 ..."
+std::optional<MailboxStep> parse_step(std::string_view line) {
+  const auto bar = line.rfind(" |");
+  const auto colon = line.find(':');
+  if (bar == std::string_view::npos || colon == std::string_view::npos || colon > bar)
+    return std::nullopt;
+  std::istringstream fields{std::string(line.substr(0, colon))};
+  std::string cnt, mode, type_word, length_word, channel_word, priority_word;
+  unsigned type = 0, length = 0, channel = 0, priority = 0;
+  if (!(fields >> cnt >> mode >> type_word >> type >> length_word >> length >> channel_word >>
+        channel >> priority_word >> priority) ||
+      cnt != "Cnt" || type_word != "Type" || length_word != "Length" || channel_word != "Channel" ||
+      priority_word != "Priority" || type > 15 || length > 0xFFFF || channel > 63 || priority > 3)
+    return std::nullopt;
+  MailboxStep step;
+  if (mode == "next") {
+    step.counter = CounterMode::next;
+  } else if (mode == "repeat") {
+    step.counter = CounterMode::repeat;
+  } else if (mode == "zero") {
+    step.counter = CounterMode::zero;
+  } else if (mode == "skip") {
+    step.counter = CounterMode::skip;
+  } else {
+    return std::nullopt;
+  }
+  step.type = static_cast<std::uint8_t>(type);
+  step.channel = static_cast<std::uint8_t>(channel);
+  step.priority = static_cast<std::uint8_t>(priority);
+  std::istringstream octets{std::string(line.substr(bar + 2))};
+  std::string octet;
+  while (octets >> octet) {
+    const auto value = hex_octet(octet);
+    if (!value) return std::nullopt;
+    step.data.push_back(*value);
+  }
+  if (length != step.data.size()) step.length = static_cast<std::uint16_t>(length);
+  return step;
+}
+
 }  // namespace
+
+std::optional<EthercatAnomalyKind> ethercat_anomaly_kind_from_string(std::string_view text) {
+  for (const auto kind :
+       {EthercatAnomalyKind::device_silent, EthercatAnomalyKind::working_counter,
+        EthercatAnomalyKind::al_state_lost, EthercatAnomalyKind::al_error_without_code,
+        EthercatAnomalyKind::al_error, EthercatAnomalyKind::mailbox_repeat_executed,
+        EthercatAnomalyKind::coe_no_answer, EthercatAnomalyKind::coe_ping_refused}) {
+    if (to_string(kind) == text) return kind;
+  }
+  return std::nullopt;
+}
+
+Expected<EthercatReproducer, std::string> parse_ethercat_reproducer(std::string_view text,
+                                                                    const std::string& name) {
+  EthercatReproducer out;
+  bool have_case = false;
+  std::size_t number = 0;
+  std::size_t start = 0;
+  while (start < text.size()) {
+    const auto end = text.find('\n', start);
+    std::string_view line = text.substr(start, end == std::string_view::npos ? end : end - start);
+    start = end == std::string_view::npos ? text.size() : end + 1;
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (line.empty()) continue;
+    if (line.rfind("# anomaly: ", 0) == 0) {
+      const auto rest = line.substr(11);
+      out.anomaly = ethercat_anomaly_kind_from_string(rest.substr(0, rest.find(':')));
+      continue;
+    }
+    if (line.rfind("# case ", 0) == 0) {
+      const auto in = line.find(") in ");
+      if (in == std::string_view::npos)
+        return Unexpected(fmt::format("{}:{}: a '# case' line without its AL state", name, number));
+      auto state = line.substr(in + 5);
+      state = state.substr(0, state.find(','));
+      std::optional<AlState> parsed;
+      for (const AlState s : {AlState::init, AlState::preop, AlState::safeop, AlState::op})
+        if (ethercat::al_state_name(s) == state) parsed = s;
+      if (!parsed || *parsed == AlState::init)
+        return Unexpected(
+            fmt::format("{}:{}: AL state '{}' is not PREOP, SAFEOP or OP", name, number, state));
+      out.c.state = *parsed;
+      have_case = true;
+      continue;
+    }
+    if (line.front() == '#') continue;
+    auto step = parse_step(line);
+    if (!step)
+      return Unexpected(fmt::format(
+          "{}:{}: not a step ('Cnt MODE Type T Length L Channel C Priority P: ... | octets')", name,
+          number));
+    out.c.steps.push_back(std::move(*step));
+  }
+  if (!have_case)
+    return Unexpected(
+        fmt::format("{}: no '# case N (kind) in STATE' line: not an EtherCAT "
+                    "reproducer",
+                    name));
+  return out;
+}
+
+EthercatReplayResult replay_ethercat_case(EthercatTarget& target, const EthercatCase& c,
+                                          const EthercatFuzzerOptions& options) {
+  Fuzzer fuzzer(target, options);
+  return fuzzer.replay(c);
+}
 
 std::string_view to_string(EthercatAnomalyKind kind) {
   switch (kind) {

@@ -58,6 +58,7 @@
 
 #include "fuzz/live/ethercat_cases.hpp"
 #include "fuzz/live/tap_link.hpp"
+#include "protocol/common/expected.hpp"
 #include "protocol/ethercat/master.hpp"
 
 namespace drivecheck::fuzz_live {
@@ -151,5 +152,25 @@ struct EthercatFuzzSummary {
 
 EthercatFuzzSummary run_ethercat_fuzzer(EthercatTarget& target,
                                         const EthercatFuzzerOptions& options);
+
+std::optional<EthercatAnomalyKind> ethercat_anomaly_kind_from_string(std::string_view text);
+
+// A text reproducer (anomaly-<n>-<kind>[.min].txt) read back: the case (its AL state from the
+// "# case" line, one step per line) and the anomaly its header names. Errors name file:line.
+struct EthercatReproducer {
+  EthercatCase c;
+  std::optional<EthercatAnomalyKind> anomaly;
+};
+Expected<EthercatReproducer, std::string> parse_ethercat_reproducer(std::string_view text,
+                                                                    const std::string& name);
+
+struct EthercatReplayResult {
+  bool device_answered = false;  // the SDO upload of 1000h answered before the replay
+  std::optional<EthercatAnomaly> anomaly;
+  std::vector<std::string> notes;
+};
+// Runs the case once against the target (state, steps, oracle) as the fuzzer does.
+EthercatReplayResult replay_ethercat_case(EthercatTarget& target, const EthercatCase& c,
+                                          const EthercatFuzzerOptions& options);
 
 }  // namespace drivecheck::fuzz_live

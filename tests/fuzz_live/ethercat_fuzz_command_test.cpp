@@ -96,6 +96,41 @@ TEST(FuzzCommandEthercat, FindsARepeatedMailboxRequestExecutedAgain) {
   ASSERT_EQ(steps.size(), 2U) << anomaly.dump(2);
   EXPECT_EQ(steps[0].get<std::string>().rfind("Cnt next", 0), 0U) << steps[0];
   EXPECT_EQ(steps[1].get<std::string>().rfind("Cnt repeat", 0), 0U) << steps[1];
+
+  // The text reproducer replays to the same anomaly on a fresh drive with the deviation, and to
+  // nothing on the conformant drive.
+  const std::string text = anomaly["reproducer_text"];
+  const auto dir = fresh_dir("replay");
+  const CommandRun again = drivecheck(
+      fmt::format("fuzz --bus ethercat:sim --deviation mailbox-counter-ignored --replay {}", text),
+      dir);
+  EXPECT_EQ(again.exit_code, 1) << again.output;
+  EXPECT_NE(again.output.find("reproduces"), std::string::npos) << again.output;
+  const CommandRun clean =
+      drivecheck(fmt::format("fuzz --bus ethercat:sim --replay {}", text), dir);
+  EXPECT_EQ(clean.exit_code, 0) << clean.output;
+}
+
+TEST(FuzzCommandEthercat, ReplayRefusesGuardedWritesAndBadLines) {
+  // Given a reproducer that writes 1010h:01 (store parameters), and one with a line that is no
+  // step
+  // When drivecheck fuzz --replay reads them
+  // Then exit 2 naming the step, and file:line
+  const auto dir = fresh_dir("replay-guard");
+  const auto store = dir / "store.txt";
+  std::ofstream(store) << "# case 1 (coe-download) in PREOP, seed 1, on ethercat:sim\n"
+                          "Cnt next Type 3 Length 10 Channel 0 Priority 0: x | "
+                          "00 20 23 10 10 01 73 61 76 65\n";
+  const CommandRun guarded =
+      drivecheck(fmt::format("fuzz --bus ethercat:sim --replay {}", store.string()), dir);
+  EXPECT_EQ(guarded.exit_code, 2) << guarded.output;
+  EXPECT_NE(guarded.output.find("step 1 is not sent"), std::string::npos) << guarded.output;
+  const auto bad = dir / "bad.txt";
+  std::ofstream(bad) << "# case 1 (coe-upload) in OP\nnot a step\n";
+  const CommandRun malformed =
+      drivecheck(fmt::format("fuzz --bus ethercat:sim --replay {}", bad.string()), dir);
+  EXPECT_EQ(malformed.exit_code, 2) << malformed.output;
+  EXPECT_NE(malformed.output.find("bad.txt:2:"), std::string::npos) << malformed.output;
 }
 
 TEST(FuzzCommandEthercat, FindsAWrongWorkingCounter) {
