@@ -76,8 +76,15 @@ class Fuzzer {
   ethercat::MasterMailbox& mailbox() { return *target_.master().mailbox(0); }
   TimePoint now() { return target_.link().now(); }
   bool interrupted() const { return options_.interrupted && options_.interrupted->load(); }
-  bool out_of_time() { return now() - start_ >= options_.duration; }
-  TimePoint end() const { return start_ + options_.duration; }
+  // Link time used since the run started, across power cycles (a new simulated segment starts
+  // its clock again at 0): minimisation tries count against --duration too.
+  Duration elapsed() { return used_ + (now() - start_); }
+  bool out_of_time() { return elapsed() >= options_.duration; }
+  TimePoint end() { return now() + (options_.duration - elapsed()); }
+  void restart_clock() {
+    used_ = Duration{0};
+    start_ = now();
+  }
   void progress(const std::string& line) const {
     if (options_.progress) options_.progress(line);
   }
@@ -95,9 +102,11 @@ class Fuzzer {
   std::optional<EthercatAnomaly> oracle();
   bool recover();
   bool power_cycle() {
-    if (!target_.power_cycle()) return false;
-    install_tap();
-    return true;
+    used_ += now() - start_;
+    const bool cycled = target_.power_cycle();
+    start_ = now();
+    if (cycled) install_tap();
+    return cycled;
   }
   std::filesystem::path write_pcap(const std::string& stem);
   std::filesystem::path write_text(const std::string& stem, const EthercatCase& c,
@@ -107,7 +116,8 @@ class Fuzzer {
   EthercatTarget& target_;
   const EthercatFuzzerOptions& options_;
   EthercatFuzzSummary summary_;
-  TimePoint start_{};
+  TimePoint start_{};  // on the current link
+  Duration used_{0};   // on the links before it
   bool recording_ = false;
   std::vector<ethercat::TimedFrame> frames_;
 };
@@ -365,7 +375,8 @@ void Fuzzer::minimise_into(EthercatAnomalyRecord& record, const EthercatCase& c,
   const CaseResult r = run_case(c, m.kept);
   recording_ = false;
   if (!r.anomaly || r.anomaly->kind != kind) {
-    record.minimisation_note = "the minimised case did not show the anomaly again";
+    record.minimisation_note = r.cut_short ? "the end of --duration came during minimisation"
+                                           : "the minimised case did not show the anomaly again";
     return;
   }
   record.minimised = true;
@@ -380,7 +391,7 @@ void Fuzzer::minimise_into(EthercatAnomalyRecord& record, const EthercatCase& c,
 
 EthercatFuzzSummary Fuzzer::run() {
   install_tap();
-  start_ = now();
+  restart_clock();
   if (master().slaves().empty() || master().mailbox(0) == nullptr) {
     summary_.outcome = EthercatFuzzOutcome::device_lost_at_start;
     summary_.notes.push_back("slave 0 has no mailbox (SII mailbox size 0): nothing to fuzz");
@@ -419,7 +430,7 @@ EthercatFuzzSummary Fuzzer::run() {
   for (const AlState s : generator_options.states)
     summary_.states.push_back(ethercat::al_state_name(s));
   const EthercatCaseGenerator generator(generator_options, options_.objects);
-  start_ = now();
+  restart_clock();
 
   std::set<EthercatAnomalyKind> minimised_kinds;
   for (std::uint64_t number = 1;; ++number) {
@@ -479,7 +490,7 @@ EthercatFuzzSummary Fuzzer::run() {
       break;
     }
   }
-  summary_.elapsed = now() - start_;
+  summary_.elapsed = elapsed();
   if (summary_.outcome != EthercatFuzzOutcome::interrupted)
     summary_.outcome =
         summary_.anomalies.empty() ? EthercatFuzzOutcome::clean : EthercatFuzzOutcome::anomalies;
@@ -491,7 +502,7 @@ EthercatFuzzSummary Fuzzer::run() {
 EthercatReplayResult Fuzzer::replay(const EthercatCase& c) {
   EthercatReplayResult result;
   install_tap();
-  start_ = now();
+  restart_clock();
   if (master().slaves().empty() || master().mailbox(0) == nullptr) return result;
   auto first = master().sdo_upload(0, {0x1000, 0});
   if (!first || first->size() != 4) return result;
