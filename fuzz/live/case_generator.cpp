@@ -439,10 +439,7 @@ class Builder {
   }
 
   bool allowed_write(std::uint16_t index) const {
-    if (index == 0x1010 || index == 0x1011) return false;
-    if (index >= 0x1F50 && index <= 0x1F5F) return false;
-    if (index == 0x6040 && !options_.allow_motion) return false;
-    return true;
+    return is_allowed_write(index, options_.allow_motion);
   }
 
  private:
@@ -470,14 +467,19 @@ std::uint64_t Prng::next() {
   return z ^ (z >> 31);
 }
 
+bool is_allowed_write(std::uint16_t index, bool allow_motion) {
+  if (index == 0x1010 || index == 0x1011) return false;  // store / restore parameters
+  if (index >= 0x1F50 && index <= 0x1F5F) return false;  // program download and control
+  if (index == 0x6040 && !allow_motion) return false;    // controlword
+  return true;
+}
+
 bool is_allowed_frame(const can::Frame& frame, std::uint8_t node, bool allow_motion) {
   if (frame.is_extended() || frame.is_error()) return false;
   if (frame.id == kSdoRequestBase + node && !frame.is_remote() && is_download_initiate(frame) &&
       frame.length() >= 3) {
     const auto index = static_cast<std::uint16_t>(frame.data[1] | (frame.data[2] << 8));
-    if (index == 0x1010 || index == 0x1011) return false;  // store / restore parameters
-    if (index >= 0x1F50 && index <= 0x1F5F) return false;  // program download and control
-    if (index == 0x6040 && !allow_motion) return false;    // controlword
+    if (!is_allowed_write(index, allow_motion)) return false;
   }
   // PDO identifiers (default RPDOs 200h..57Fh carry the controlword on a CiA 402 drive).
   if (!allow_motion && frame.id >= 0x180 && frame.id <= 0x57F) return false;

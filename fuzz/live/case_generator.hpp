@@ -84,6 +84,12 @@ struct GeneratorOptions {
   can::Duration gap = std::chrono::milliseconds(5);  // default delay between steps
 };
 
+// Whether the harness may write (SDO download, any transport) to object `index`: never
+// store/restore (1010h/1011h) or program control (1F50h..1F5Fh), the controlword (6040h) only
+// with allow_motion. The one place of these rules (CAN: is_allowed_frame; EtherCAT CoE:
+// ethercat_cases.hpp).
+bool is_allowed_write(std::uint16_t index, bool allow_motion);
+
 // Whether the harness may send `frame` to node `node` (the safety rules above).
 bool is_allowed_frame(const can::Frame& frame, std::uint8_t node, bool allow_motion);
 

@@ -48,6 +48,24 @@ Expected<void, MasterError> MasterMailbox::send(MailboxType type,
                         station_);
   }
   const std::vector<std::uint8_t> buffer = master_.request(type, data, since_epoch(port_.now()));
+  return write_sm0(buffer);
+}
+
+Expected<void, MasterError> MasterMailbox::send_raw(std::span<const std::uint8_t> buffer) {
+  if (auto ok = configured(); !ok) return ok;
+  if (buffer.size() > out_->length) {
+    return master_error(MasterErrc::mailbox_error,
+                        fmt::format("station {:04X}h: a buffer of {} octets does not fit the "
+                                    "write mailbox of {} octets",
+                                    station_, buffer.size(), out_->length),
+                        station_);
+  }
+  std::vector<std::uint8_t> padded(buffer.begin(), buffer.end());
+  padded.resize(out_->length, 0);
+  return write_sm0(padded);
+}
+
+Expected<void, MasterError> MasterMailbox::write_sm0(const std::vector<std::uint8_t>& buffer) {
   const TimePoint deadline = port_.now() + options_.timeout;
   for (;;) {
     auto back = port_.exchange(Datagram::physical(Command::fpwr, 0, station_, out_->start, buffer));

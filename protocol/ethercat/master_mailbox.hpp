@@ -54,6 +54,12 @@ class MasterMailbox {
   MasterMailbox(MasterPort& port, const SlaveLayout& layout, MailboxPollOptions options = {});
 
   Expected<void, MasterError> send(MailboxType type, std::span<const std::uint8_t> data);
+  // Writes `buffer` into SM0 exactly as given (header, counter and all; padded with zeros to
+  // the SM0 length, at most that long): the raw access a conformance tool or a fuzzer needs to
+  // send malformed mailboxes. The same FPWR and full-mailbox polling as send(). The counter in
+  // the buffer is the caller's business: take it from protocol().request() (then mutate the
+  // bytes) to keep the master's sequence and the slave's apart from collisions.
+  Expected<void, MasterError> send_raw(std::span<const std::uint8_t> buffer);
   // The next message from SM1 until `deadline` (nullopt then). Duplicates are skipped.
   Expected<std::optional<MailboxIn>, MasterError> receive(TimePoint deadline);
   // One poll of SM1: a message, or nullopt when it is empty.
@@ -73,6 +79,8 @@ class MasterMailbox {
 
  private:
   Expected<void, MasterError> repeat_request();
+  // FPWR of a whole SM0 buffer, polled while SM0 is full: the one place that writes SM0.
+  Expected<void, MasterError> write_sm0(const std::vector<std::uint8_t>& buffer);
   Expected<void, MasterError> configured() const;
   Expected<void, MasterError> run_sdo(CoeSdoClient& client, std::vector<std::uint8_t> request,
                                       Multiplexer mux);

@@ -385,6 +385,27 @@ TEST(MasterSdo, MailboxErrorReplyIsReadWithItsCode) {
   EXPECT_EQ(*(*reply)->error, 0x0002);
 }
 
+TEST(MasterSdo, RawMailboxIsWrittenExactlyAsGiven) {
+  // Given a slave in PREOP with a 128-octet write mailbox
+  MasterRig rig(1);
+  Master master = rig.make_master();
+  ASSERT_TRUE(master.bring_up(AlState::preop));
+  // When the master writes a raw buffer whose header Length (200) lies past SM0, and a buffer
+  // longer than SM0
+  const Bytes lying{0xC8, 0x00, 0x00, 0x00, 0x00, 0x13, 0x00, 0x20, 0x40, 0x00, 0x10, 0x00};
+  ASSERT_TRUE(master.mailbox(0)->send_raw(lying));
+  const auto reply = master.mailbox(0)->receive(master.port().now() + 10ms);
+  const auto too_long = master.mailbox(0)->send_raw(Bytes(129, 0));
+  // Then the slave saw the lying Length (ERR 0008h invalid size: the header was not rebuilt),
+  // and the long buffer is refused before anything is sent
+  ASSERT_TRUE(reply) << reply.error().message();
+  ASSERT_TRUE(*reply);
+  ASSERT_TRUE((*reply)->error);
+  EXPECT_EQ(*(*reply)->error, 0x0008);
+  ASSERT_FALSE(too_long);
+  EXPECT_EQ(too_long.error().code, MasterErrc::mailbox_error);
+}
+
 TEST(MasterSdo, GarbageInTheReadMailboxIsAClearError) {
   // Given a slave in PREOP whose read mailbox holds a header claiming FFFFh octets
   MasterRig rig(1);
