@@ -133,10 +133,13 @@ std::vector<ObjectDefinition> coe_object_definitions(const CoeObjectsConfig& con
 }
 
 Expected<void, std::string> install_coe_object_rules(cia301::ObjectDictionary& od,
-                                                     std::function<bool()> configurable) {
-  auto in_state = [configurable](const cia301::ObjectDictionary&, const cia301::Entry&,
-                                 std::span<const std::uint8_t>) -> Expected<void, SdoAbort> {
-    if (!configurable()) return Unexpected(SdoAbort::cannot_transfer_device_state);
+                                                     std::function<bool()> configurable,
+                                                     CoeObjectRuleOptions options) {
+  const bool state_rule = options.configuration_only_when_configurable;
+  auto in_state = [configurable, state_rule](
+                      const cia301::ObjectDictionary&, const cia301::Entry&,
+                      std::span<const std::uint8_t>) -> Expected<void, SdoAbort> {
+    if (state_rule && !configurable()) return Unexpected(SdoAbort::cannot_transfer_device_state);
     return {};
   };
   for (const auto& [index, range] :
@@ -144,7 +147,9 @@ Expected<void, std::string> install_coe_object_rules(cia301::ObjectDictionary& o
     cia301::Object* object = od.find(index);
     if (object == nullptr) return Unexpected(fmt::format("{:04X}h is missing", index));
     for (cia301::Entry& entry : object->entries()) {
-      if (entry.sub_index() == 0) {
+      if (!options.assignment_evaluated) {
+        guard(entry, in_state);
+      } else if (entry.sub_index() == 0) {
         guard(entry,
               [in_state, range = range, index = index](
                   const cia301::ObjectDictionary& d, const cia301::Entry& e,

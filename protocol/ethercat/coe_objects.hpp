@@ -33,8 +33,9 @@
 //     count that would assign an entry holding such an index → 06090030h
 //   - a sync mode that 1C32h/1C33h does not take, or whose bits sub 04 does not have → 06090030h;
 //     a cycle time below a non-zero minimum cycle time (sub 05) → 06090032h
-// A manual may relax them (Festo 000 L1960: "the data of the objects below is not evaluated
-// further by the firmware"): the personality then does not install them.
+// A manual may relax them, each on its own (CoeObjectRuleOptions): Festo's 1C12h/1C13h are
+// stored as written, "not evaluated further by the firmware" (000 §4.6.2 L1931), while its PDO
+// configuration is still "only in the Pre-Operational status" (000 §4.6.1 L1774, §4.9 L2161).
 #pragma once
 
 #include <cstdint>
@@ -94,9 +95,19 @@ struct CoeObjectsConfig {
 // 1C00h, 1C12h, 1C13h, 1C32h, 1C33h as definitions for ObjectDictionary::add_object.
 std::vector<cia301::ObjectDefinition> coe_object_definitions(const CoeObjectsConfig& config);
 
+struct CoeObjectRuleOptions {
+  // 1C12h/1C13h, 1600h+/1A00h+, 1C32h/1C33h:01/02 written only while configurable()
+  // (08000022h otherwise). false: in any state.
+  bool configuration_only_when_configurable = true;
+  // The content of 1C12h/1C13h checked (sub 0 = 0 before sub 1..n, the mapping indices, the
+  // count). false: any value is stored (only the state rule above applies).
+  bool assignment_evaluated = true;
+};
+
 // Installs the rules of the file comment as write validators, in front of any validator an
 // entry has. `configurable` says whether the slave is in PREOP. Errors: an object missing.
 Expected<void, std::string> install_coe_object_rules(cia301::ObjectDictionary& od,
-                                                     std::function<bool()> configurable);
+                                                     std::function<bool()> configurable,
+                                                     CoeObjectRuleOptions options = {});
 
 }  // namespace drivecheck::ethercat

@@ -617,39 +617,43 @@ std::uint32_t abort_code(const Reader& r, const YAML::Node& node, std::string_vi
   r.fail(node, fmt::format("{}: '{}' is no abort code name of sdo_abort_codes.inc", what, text));
 }
 
+// A list of object indices and [first, last] ranges (personality.absent_objects,
+// coe.absent_objects); the objects every CANopen device has may not be in it.
+std::vector<ObjectRange> object_ranges(const Reader& r, const YAML::Node& node,
+                                       std::string_view what) {
+  require_sequence(r, node, what);
+  std::vector<ObjectRange> out;
+  for (const YAML::Node& item : node) {
+    ObjectRange range;
+    if (item.IsSequence()) {
+      if (item.size() != 2) r.fail(item, fmt::format("{}: a range is [first, last]", what));
+      range.first = static_cast<std::uint16_t>(integer(r, item[0], what, 0x1000, 0xFFFF));
+      range.last = static_cast<std::uint16_t>(integer(r, item[1], what, 0x1000, 0xFFFF));
+      if (range.last < range.first) {
+        r.fail(item, fmt::format("{}: a range's last index is below its first", what));
+      }
+    } else {
+      range.first = static_cast<std::uint16_t>(integer(r, item, what, 0x1000, 0xFFFF));
+      range.last = range.first;
+    }
+    for (std::uint16_t mandatory :
+         {std::uint16_t{0x1000}, std::uint16_t{0x1001}, std::uint16_t{0x1018}}) {
+      if (mandatory >= range.first && mandatory <= range.last) {
+        r.fail(item, fmt::format("{}: {:04X}h is mandatory for every CANopen device (CiA 301 "
+                                 "§7.5.1)",
+                                 what, mandatory));
+      }
+    }
+    out.push_back(range);
+  }
+  return out;
+}
+
 // The personality keys of issue 17's alternative personalities (personality.hpp).
 void read_choice_keys(const Reader& r, const MapView& map, Personality& p) {
   if (auto v = map.get("cia402")) p.cia402 = boolean(r, *v, "personality.cia402");
   if (auto v = map.get("absent_objects")) {
-    require_sequence(r, *v, "personality.absent_objects");
-    for (const YAML::Node& item : *v) {
-      ObjectRange range;
-      if (item.IsSequence()) {
-        if (item.size() != 2) {
-          r.fail(item, "personality.absent_objects: a range is [first, last]");
-        }
-        range.first = static_cast<std::uint16_t>(
-            integer(r, item[0], "personality.absent_objects", 0x1000, 0xFFFF));
-        range.last = static_cast<std::uint16_t>(
-            integer(r, item[1], "personality.absent_objects", 0x1000, 0xFFFF));
-        if (range.last < range.first) {
-          r.fail(item, "personality.absent_objects: a range's last index is below its first");
-        }
-      } else {
-        range.first = static_cast<std::uint16_t>(
-            integer(r, item, "personality.absent_objects", 0x1000, 0xFFFF));
-        range.last = range.first;
-      }
-      for (std::uint16_t mandatory :
-           {std::uint16_t{0x1000}, std::uint16_t{0x1001}, std::uint16_t{0x1018}}) {
-        if (mandatory >= range.first && mandatory <= range.last) {
-          r.fail(item, fmt::format("personality.absent_objects: {:04X}h is mandatory for every "
-                                   "CANopen device (CiA 301 §7.5.1)",
-                                   mandatory));
-        }
-      }
-      p.absent_objects.push_back(range);
-    }
+    p.absent_objects = object_ranges(r, *v, "personality.absent_objects");
   }
   if (auto v = map.get("abort_codes")) {
     if (!v->IsMap()) r.fail(*v, "personality.abort_codes must be a map {standard code: code}");
@@ -1044,12 +1048,41 @@ std::vector<Item> unique_items(std::vector<Located<Item>> located, std::string_v
   return items;
 }
 
+// coe: the drive's CoE rules (drive_profile.hpp CoeRules).
+CoeRules read_coe(const Reader& r, const YAML::Node& node) {
+  const MapView map(r, node, "coe",
+                    {"max_sdo_size", "absent_objects", "pdo_assignment_evaluated",
+                     "pdo_configuration_in", "source"});
+  CoeRules c;
+  if (auto v = map.get("max_sdo_size")) {
+    c.max_sdo_size = static_cast<std::uint32_t>(integer(r, *v, "coe.max_sdo_size", 1, 0xFFFFFFFF));
+  }
+  if (auto v = map.get("absent_objects")) {
+    c.absent_objects = object_ranges(r, *v, "coe.absent_objects");
+  }
+  if (auto v = map.get("pdo_assignment_evaluated")) {
+    c.pdo_assignment_evaluated = boolean(r, *v, "coe.pdo_assignment_evaluated");
+  }
+  if (auto v = map.get("pdo_configuration_in")) {
+    const std::string text = scalar(r, *v, "coe.pdo_configuration_in");
+    if (text == to_string(PdoConfigurationIn::preop)) {
+      c.pdo_configuration_in = PdoConfigurationIn::preop;
+    } else if (text == to_string(PdoConfigurationIn::any)) {
+      c.pdo_configuration_in = PdoConfigurationIn::any;
+    } else {
+      r.fail(*v, fmt::format("coe.pdo_configuration_in: '{}' is not one of preop, any", text));
+    }
+  }
+  c.sources = sources(r, map.require("source", "coe"), "coe.source");
+  return c;
+}
+
 DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOptions& options) {
   if (!root.IsDefined() || root.IsNull()) r.fail_at(0, "the profile is empty");
   const MapView map(r, root, "profile",
                     {"name", "title", "manual", "identity", "features", "detect", "modes",
                      "homing_methods", "option_codes", "timing", "objects", "emcy_codes",
-                     "pdo_defaults", "deviations", "commissioning", "personality"});
+                     "pdo_defaults", "deviations", "commissioning", "coe", "personality"});
   DriveProfile p;
   const YAML::Node name_node = map.require("name", "profile");
   p.name = scalar(r, name_node, "name");
@@ -1184,6 +1217,7 @@ DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOp
     }
   }
   if (auto v = map.get("commissioning")) p.commissioning = read_commissioning(r, *v);
+  if (auto v = map.get("coe")) p.coe = read_coe(r, *v);
   if (auto v = map.get("personality")) {
     p.personality = read_personality(r, *v);
     // The transition the personality's hardware enable holds is the profile's feature too.
@@ -1583,6 +1617,23 @@ std::optional<can::Duration> DriveProfile::timing_value(std::string_view key) co
   return std::nullopt;
 }
 
+std::string_view to_string(PdoConfigurationIn in) {
+  switch (in) {
+    case PdoConfigurationIn::preop:
+      return "preop";
+    case PdoConfigurationIn::any:
+      return "any";
+  }
+  return "?";
+}
+
+bool CoeRules::is_absent(std::uint16_t index) const {
+  for (const ObjectRange& range : absent_objects) {
+    if (index >= range.first && index <= range.last) return true;
+  }
+  return false;
+}
+
 bool Commissioning::applies_to(std::string_view vector_id) const {
   if (writes.empty()) return false;
   const auto match = [&](const std::string& glob) { return glob_match(glob, vector_id); };
@@ -1926,6 +1977,25 @@ std::string to_yaml(const DriveProfile& p) {
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;
+    out << YAML::EndMap;
+  }
+
+  if (p.coe != CoeRules{}) {
+    const CoeRules& c = p.coe;
+    out << YAML::Key << "coe" << YAML::Value << YAML::BeginMap;
+    if (c.max_sdo_size) out << YAML::Key << "max_sdo_size" << YAML::Value << *c.max_sdo_size;
+    if (!c.absent_objects.empty()) {
+      out << YAML::Key << "absent_objects" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+      for (const ObjectRange& range : c.absent_objects) {
+        out << YAML::Flow << YAML::BeginSeq << hex(range.first, 4) << hex(range.last, 4)
+            << YAML::EndSeq;
+      }
+      out << YAML::EndSeq;
+    }
+    out << YAML::Key << "pdo_assignment_evaluated" << YAML::Value << c.pdo_assignment_evaluated;
+    out << YAML::Key << "pdo_configuration_in" << YAML::Value
+        << std::string(to_string(c.pdo_configuration_in));
+    emit_sources(out, c.sources);
     out << YAML::EndMap;
   }
 

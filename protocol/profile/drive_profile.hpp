@@ -25,8 +25,13 @@
 //   pdo_defaults: [...] or "file.yaml"     the default PDO configuration (below)
 //   deviations: [...]                      (below); ids unique
 //   commissioning: {...}                   SDO writes the engine makes after setup (below)
+//   coe: {...}                             the drive's own CoE rules (below, CoeRules)
 //   personality: {...}                     personality.hpp / reference_drive/personality.hpp
 //
+// coe: {max_sdo_size (octets 1..4294967295), absent_objects: [index or [first, last], ...]
+//   (0x1000..0xFFFF, not 1000h/1001h/1018h), pdo_assignment_evaluated (bool),
+//   pdo_configuration_in (preop | any), source (text or list, required)}; every key but source
+//   optional, defaults as the standard drive (no limit, none absent, evaluated, preop).
 // objects[i]: {index, sub (default 0), type (CiA 301 name, e.g. UNSIGNED16), access (ro wo rw
 //   rwr rww const), pdo (bool, default false), default, min, max (integers; `default` may be a
 //   string for string types), name, source}; index+sub unique.
@@ -198,6 +203,30 @@ struct Commissioning {
   friend bool operator==(const Commissioning&, const Commissioning&) = default;
 };
 
+// What the drive's CANopen over EtherCAT does differently from the same drive on CAN and from
+// ETG.1000.6's rules (profile key `coe:`; vectors/FORMAT.md "CoE rules"). The reference drive
+// behind its emulated EtherCAT slave applies them (reference_drive/ethercat/coe_rules.hpp); on
+// CAN they mean nothing. Defaults: the standard drive.
+enum class PdoConfigurationIn : std::uint8_t {
+  preop,  // 1C12h/1C13h, 1600h+/1A00h+ and 1C32h/1C33h written only in PREOP (else 08000022h)
+  any,    // written in any state
+};
+std::string_view to_string(PdoConfigurationIn in);
+struct CoeRules {
+  // The most octets one SDO transfer carries over CoE (Festo: 4); more: aborted. nullopt: none.
+  std::optional<std::uint32_t> max_sdo_size;
+  // Objects of the drive's dictionary that do not exist over CoE (06020000h), e.g. Festo's
+  // 1008h-100Ah.
+  std::vector<ObjectRange> absent_objects;
+  // false: 1C12h/1C13h take any value (in the states pdo_configuration_in allows) and are not
+  // checked against the mapping objects (Festo 000 L1931 "not evaluated further").
+  bool pdo_assignment_evaluated = true;
+  PdoConfigurationIn pdo_configuration_in = PdoConfigurationIn::preop;
+  std::vector<std::string> sources;  // required when the section is given
+  bool is_absent(std::uint16_t index) const;
+  friend bool operator==(const CoeRules&, const CoeRules&) = default;
+};
+
 struct DriveProfile {
   std::string name;
   std::string title;
@@ -214,6 +243,7 @@ struct DriveProfile {
   std::vector<PdoDefault> pdo_defaults;
   std::vector<Deviation> deviations;
   Commissioning commissioning;
+  CoeRules coe;
   Personality personality;
 
   // The file it was loaded from (empty for parsed text; not serialised, not compared).
@@ -236,7 +266,7 @@ struct DriveProfile {
            a.modes == b.modes && a.homing_methods == b.homing_methods &&
            a.option_codes == b.option_codes && a.timing == b.timing && a.objects == b.objects &&
            a.emcy_codes == b.emcy_codes && a.pdo_defaults == b.pdo_defaults &&
-           a.deviations == b.deviations && a.commissioning == b.commissioning &&
+           a.deviations == b.deviations && a.commissioning == b.commissioning && a.coe == b.coe &&
            a.personality == b.personality;
   }
 };

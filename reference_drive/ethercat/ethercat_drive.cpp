@@ -138,14 +138,22 @@ Expected<void, std::string> EthercatDrive::build() {
   port_.set_dictionary(&od);
   port_.set_emcy_handler([this](const cia301::Emcy& emcy) { on_emcy(emcy); });
 
-  if (options_.coe_rules) {
-    auto rules = ecat::install_coe_object_rules(
-        od, [this] { return slave_ != nullptr && slave_->al_status().state == AlState::preop; });
-    if (!rules) return Unexpected(rules.error());
-  }
+  const profile::CoeRules coe_rules =
+      options_.coe ? *options_.coe
+                   : (options_.profile != nullptr ? options_.profile->coe : profile::CoeRules{});
+  ecat::CoeObjectRuleOptions rule_options;
+  rule_options.configuration_only_when_configurable =
+      coe_rules.pdo_configuration_in == profile::PdoConfigurationIn::preop;
+  rule_options.assignment_evaluated = coe_rules.pdo_assignment_evaluated;
+  auto rules = ecat::install_coe_object_rules(
+      od, [this] { return slave_ != nullptr && slave_->al_status().state == AlState::preop; },
+      rule_options);
+  if (!rules) return Unexpected(rules.error());
   DriveSiiOptions sii_options;
-  sii_options.pdo_assignment = options_.coe_rules;
-  sii_options.pdo_configuration = options_.coe_rules;
+  // The SII's CoE details say what a master may configure: an assignment that is not
+  // evaluated is not offered; the mappings are (Festo 000 L1770-1774: 1600h-1603h/1A00h-1A03h
+  // are configured as on CANopen, in PREOP).
+  sii_options.pdo_assignment = coe_rules.pdo_assignment_evaluated;
   auto sii = drive_sii_bytes(od, sii_options);
   if (!sii) return Unexpected(sii.error());
   sii_ = std::move(*sii);
@@ -158,7 +166,14 @@ Expected<void, std::string> EthercatDrive::build() {
   sdo.read_size = kMailboxSize;
   coe_ = std::make_unique<ecat::CoeSlave>(od, std::move(mailbox), sdo);
   coe_deviations_ = std::make_unique<CoeDeviationHook>(od, options_.deviations);
-  if (coe_deviations_->active()) coe_->sdo().set_hook(coe_deviations_.get());
+  ecat::CoeSdoHook* deviations = coe_deviations_->active() ? coe_deviations_.get() : nullptr;
+  coe_rules_ =
+      std::make_unique<CoeRulesHook>(coe_rules, deviations, [this] { coe_->sdo().reset(); });
+  if (coe_rules_->active()) {
+    coe_->sdo().set_hook(coe_rules_.get());
+  } else if (deviations != nullptr) {
+    coe_->sdo().set_hook(deviations);
+  }
   power_on_esc();
   return {};
 }

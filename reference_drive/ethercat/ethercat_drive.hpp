@@ -8,8 +8,11 @@
 //                  dictionary's access rules, aborts from the one table), SDO information,
 //                  emergencies; SM0 written -> request, SM1 free -> next reply
 //   CoE objects    1C00h, 1C12h, 1C13h, 1C32h, 1C33h added with the application's objects;
-//                  their rules (PDO assignment and mapping only in PREOP, ...) unless the
-//                  personality says they are not evaluated (Festo 000 L1960)
+//                  their rules (PDO assignment and mapping only in PREOP, the assignment's
+//                  content) as the profile's `coe:` says (coe.pdo_configuration_in,
+//                  coe.pdo_assignment_evaluated; Festo 000 L1931: not evaluated)
+//   CoE rules      the profile's coe.absent_objects and coe.max_sdo_size on the SDO server
+//                  (coe_rules.hpp), in front of the SDO service deviations
 //   process data   process_data.hpp: SM2 (RxPDOs) written by the master -> mapped objects, in OP
 //                  only (SAFEOP: "ignores new setpoint values", Festo 000 §4.7 L2058);
 //                  mapped objects -> SM3 (TxPDOs) in SAFEOP and OP, before each frame passes
@@ -48,7 +51,9 @@
 // into SM1 again (unless SM1 still holds it) and the repeat acknowledge (0807h+8 bit 1, written
 // by the PDI) takes the request's value.
 //
-// Not here yet: DC sync pulses, the CoE personalities' own switches beyond `coe_rules`.
+// Not here yet: DC sync pulses; Festo's process data from the CANopen PDO configuration
+// instead of 1C12h/1C13h (000 L1933); the SDO information service still lists the objects
+// coe.absent_objects removes.
 #pragma once
 
 #include <cstdint>
@@ -67,6 +72,7 @@
 #include "reference_drive/deviations.hpp"
 #include "reference_drive/ethercat/clock_port.hpp"
 #include "reference_drive/ethercat/coe_deviations.hpp"
+#include "reference_drive/ethercat/coe_rules.hpp"
 #include "reference_drive/ethercat/process_data.hpp"
 #include "reference_drive/servo_drive.hpp"
 
@@ -78,9 +84,8 @@ struct EthercatDriveOptions {
   DeviationSet deviations;
   cia301::ParameterStorage* storage = nullptr;  // must outlive the drive; nullptr: memory
   std::uint32_t serial_number = 1;              // 1018h:04
-  // The rules of coe_objects.hpp on 1C12h/1C13h/1600h+/1A00h+/1C32h/1C33h. false: written
-  // whatever the state, not checked (Festo CMMP-AS, 000 §4.6.2 L1960 "not evaluated further").
-  bool coe_rules = true;
+  // The drive's CoE rules; nullopt: the profile's `coe:` (the standard drive: the defaults).
+  std::optional<profile::CoeRules> coe;
 };
 
 class CoeObjectsApplication;
@@ -140,7 +145,8 @@ class EthercatDrive final : public drivecheck::ethercat::SegmentDevice {
   std::unique_ptr<ServoDrive> servo_;
   std::vector<std::uint8_t> sii_;
   std::unique_ptr<drivecheck::ethercat::EscSlave> slave_;
-  std::unique_ptr<CoeDeviationHook> coe_deviations_;  // outlives coe_
+  std::unique_ptr<CoeDeviationHook> coe_deviations_;  // outlives coe_ and coe_rules_
+  std::unique_ptr<CoeRulesHook> coe_rules_;           // outlives coe_
   std::unique_ptr<drivecheck::ethercat::CoeSlave> coe_;
   ProcessDataLayout outputs_;
   ProcessDataLayout inputs_;

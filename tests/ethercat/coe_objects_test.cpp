@@ -144,5 +144,42 @@ TEST(CoeSyncModeTable, IsTheEtgList) {
   EXPECT_FALSE(find_sync_mode(4));
 }
 
+TEST(CoeObjectRuleOptionsTest, EachRuleSwitchesOnItsOwn) {
+  // Given dictionaries with the CoE objects and the rules installed without the assignment's
+  //       content check, and without the state rule
+  // When 1C12h:01 is written while the count is 1, in and out of PREOP
+  // Then without the content check: taken in PREOP, 08000022h outside (the state rule holds);
+  //      without the state rule: 06010003h in either state (the content check holds)
+  for (const bool content : {false, true}) {
+    cia301::ObjectDictionary od;
+    ASSERT_TRUE(od.add_object(
+        {0x1600,
+         "mapping",
+         ObjectCode::record,
+         {EntryDefinition::unsigned_entry(0, "count", DataType::unsigned8, AccessType::rw, 0)}}));
+    for (auto& def : coe_object_definitions(CoeObjectsConfig{}))
+      ASSERT_TRUE(od.add_object(std::move(def)));
+    bool preop = true;
+    CoeObjectRuleOptions options;
+    options.assignment_evaluated = content;
+    options.configuration_only_when_configurable = !content;
+    ASSERT_TRUE(install_coe_object_rules(
+        od, [&preop] { return preop; }, options));
+    auto write = [&od](std::uint16_t index, std::uint8_t sub, Bytes data) -> std::uint32_t {
+      CoeSdoServer server(od);
+      const auto size = static_cast<std::uint32_t>(data.size());
+      const auto reply = server.handle(
+          encode(CoeSdoRequest{CoeDownloadInitiate{{index, sub}, false, true, true, size, data}}));
+      const auto r = decode_sdo_response(*reply.coe);
+      if (const auto* a = std::get_if<CoeAbort>(&*r)) return a->code;
+      return 0;
+    };
+    EXPECT_EQ(write(0x1C12, 1, {0x00, 0x16}), content ? 0x06010003u : 0u);
+    preop = false;
+    EXPECT_EQ(write(0x1C12, 1, {0x00, 0x16}), content ? 0x06010003u : 0x08000022u);
+    EXPECT_EQ(write(0x1600, 0, {0}), content ? 0u : 0x08000022u);
+  }
+}
+
 }  // namespace
 }  // namespace drivecheck::ethercat

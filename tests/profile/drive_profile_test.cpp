@@ -611,6 +611,65 @@ TEST(DriveProfilePersonality, PermittedChoiceKeysRefuseNonsense) {
   }
 }
 
+TEST(DriveProfileCoe, RulesParseAndRoundTrip) {
+  // Given a coe: section with every key / When parsed and serialised / Then typed and equal
+  // after the round trip, and a profile without one has the standard drive's rules
+  auto p =
+      parse(with("coe:\n"
+                 "  max_sdo_size: 4\n"
+                 "  absent_objects: [[0x1008, 0x100A], 0x6089]\n"
+                 "  pdo_assignment_evaluated: false\n"
+                 "  pdo_configuration_in: any\n"
+                 "  source: [\"000_33c1d912b8b6010a.txt §4.8 L2157\"]\n"));
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  const CoeRules& c = p->coe;
+  EXPECT_EQ(c.max_sdo_size, 4u);
+  EXPECT_EQ(c.absent_objects, (std::vector<ObjectRange>{{0x1008, 0x100A}, {0x6089, 0x6089}}));
+  EXPECT_TRUE(c.is_absent(0x1009));
+  EXPECT_TRUE(c.is_absent(0x6089));
+  EXPECT_FALSE(c.is_absent(0x100B));
+  EXPECT_FALSE(c.pdo_assignment_evaluated);
+  EXPECT_EQ(c.pdo_configuration_in, PdoConfigurationIn::any);
+  EXPECT_EQ(c.sources, std::vector<std::string>{"000_33c1d912b8b6010a.txt §4.8 L2157"});
+  auto again = parse(to_yaml(*p));
+  ASSERT_TRUE(again.has_value()) << again.error().to_string() << "\n" << to_yaml(*p);
+  EXPECT_EQ(again->coe, c);
+  auto standard = parse(kMinimal);
+  ASSERT_TRUE(standard.has_value());
+  EXPECT_EQ(standard->coe, CoeRules{});
+  EXPECT_FALSE(standard->coe.max_sdo_size);
+  EXPECT_TRUE(standard->coe.pdo_assignment_evaluated);
+  EXPECT_EQ(standard->coe.pdo_configuration_in, PdoConfigurationIn::preop);
+}
+
+TEST(DriveProfileCoe, BadRulesNameTheirLine) {
+  // Given a coe: section with an unknown key, a value out of range, a mandatory object made
+  // absent, a reversed range, an unknown state, a non-boolean, no source / When parsed / Then
+  // an error at the offending line (the minimal profile has 6 lines: coe: is line 7)
+  struct Case {
+    std::string_view text;
+    int line;
+    std::string_view says;
+  };
+  for (const Case& bad : {
+           Case{"coe:\n  source: x\n  max_sdo_bytes: 4\n", 9, "unknown key 'max_sdo_bytes'"},
+           Case{"coe:\n  source: x\n  max_sdo_size: 0\n", 9, "coe.max_sdo_size"},
+           Case{"coe:\n  source: x\n  absent_objects: [0x1018]\n", 9, "mandatory"},
+           Case{"coe:\n  source: x\n  absent_objects: [[0x100A, 0x1008]]\n", 9, "below"},
+           Case{"coe:\n  source: x\n  absent_objects: [0x0FFF]\n", 9, "absent_objects"},
+           Case{"coe:\n  source: x\n  pdo_configuration_in: safeop\n", 9, "preop, any"},
+           Case{"coe:\n  source: x\n  pdo_assignment_evaluated: perhaps\n", 9,
+                "pdo_assignment_evaluated"},
+           Case{"coe:\n  max_sdo_size: 4\n", 8, "missing required key 'source'"},
+           Case{"coe: [4]\n", 7, "coe must be a map"},
+       }) {
+    const TextError error = error_of(with(bad.text));
+    EXPECT_EQ(error.file, "test-drive.yaml") << bad.text;
+    EXPECT_EQ(error.line, bad.line) << bad.text << error.to_string();
+    EXPECT_NE(error.message.find(bad.says), std::string::npos) << error.to_string();
+  }
+}
+
 TEST(DriveProfilePersonality, ErrorNumberCode) {
   // Given an IRTSA error number / When encoded / Then n * 256 + 80h
   EXPECT_EQ(error_number_code(5), 0x0580);

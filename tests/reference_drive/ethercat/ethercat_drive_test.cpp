@@ -23,6 +23,7 @@
 #include "protocol/ethercat/master.hpp"
 #include "protocol/ethercat/sii.hpp"
 #include "protocol/ethercat/sim_segment.hpp"
+#include "protocol/profile/drive_profile.hpp"
 #include "reference_drive/ethercat/sii_image.hpp"
 
 namespace drivecheck::reference_drive::ethercat {
@@ -698,6 +699,105 @@ TEST(EthercatDriveMailbox, RepeatWhileTheReplyIsStillInSm1OnlyAcknowledges) {
   // When the master reads 1018h:01
   // Then one repeat request is acknowledged and the reply still in SM1 is read, once
   read_with_a_lost_sm1_read(0);
+}
+
+// ---- The profile's CoE rules (coe:, reference_drive/ethercat/coe_rules.hpp) ----------------
+
+EthercatDriveOptions with_coe(profile::CoeRules rules) {
+  EthercatDriveOptions options;
+  options.coe = std::move(rules);
+  return options;
+}
+
+TEST(EthercatDriveCoeRules, AbsentObjectsAnswer06020000h) {
+  // Given the standard drive, and one whose coe.absent_objects is [1008h, 100Ah], in PREOP
+  // When 1008h and 100Ah are uploaded and 1009h downloaded over CoE
+  // Then the standard drive answers them, the other aborts 06020000h; 1000h still reads
+  Master standard;
+  standard.to_preop();
+  EXPECT_FALSE(standard.upload(0x1008, 0).abort);
+  EXPECT_FALSE(standard.upload(0x100A, 0).abort);
+  profile::CoeRules rules;
+  rules.absent_objects = {{0x1008, 0x100A}};
+  Master festo(with_coe(rules));
+  festo.to_preop();
+  EXPECT_EQ(festo.upload(0x1008, 0).abort, 0x06020000u);
+  EXPECT_EQ(festo.upload(0x100A, 0).abort, 0x06020000u);
+  EXPECT_EQ(festo.download(0x1009, 0, {0x41}).abort, 0x06020000u);
+  EXPECT_FALSE(festo.upload(0x1000, 0).abort);
+}
+
+TEST(EthercatDriveCoeRules, TransfersAboveMaxSdoSizeAreAborted) {
+  // Given the standard drive, and one with coe.max_sdo_size 4, in PREOP
+  // When 1008h (a string longer than 4 octets) is uploaded, 6 octets are downloaded to 1008h
+  //      (normal transfer), then 1000h (4 octets) and 6041h (2) are read
+  // Then the standard drive answers the upload; the other aborts it 06010000h and the download
+  //      06070012h (before the dictionary sees it: the standard drive says 06010002h, read
+  //      only), and its 4- and 2-octet transfers still work after the aborts
+  Master standard;
+  standard.to_preop();
+  const auto name = standard.upload(0x1008, 0);
+  ASSERT_FALSE(name.abort);
+  ASSERT_GT(name.value.size(), 4u);
+  EXPECT_EQ(standard.download(0x1008, 0, {1, 2, 3, 4, 5, 6}).abort, 0x06010002u);
+  profile::CoeRules rules;
+  rules.max_sdo_size = 4;
+  Master festo(with_coe(rules));
+  festo.to_preop();
+  EXPECT_EQ(festo.upload(0x1008, 0).abort, 0x06010000u);
+  EXPECT_FALSE(festo.drive().coe().sdo().busy());  // no segmented upload left behind
+  EXPECT_EQ(festo.download(0x1008, 0, {1, 2, 3, 4, 5, 6}).abort, 0x06070012u);
+  const auto device_type = festo.upload(0x1000, 0);
+  ASSERT_FALSE(device_type.abort);
+  EXPECT_EQ(le32(device_type.value), 0x00020192u);
+  EXPECT_EQ(festo.upload(0x6041, 0).value.size(), 2u);
+  EXPECT_FALSE(festo.download(0x6083, 0, {0x10, 0x27, 0, 0}).abort);
+}
+
+TEST(EthercatDriveCoeRules, AssignmentNotEvaluatedKeepsThePreopRule) {
+  // Given the standard drive, and one with coe.pdo_assignment_evaluated false, in PREOP
+  // When 1C12h:01 is written while 1C12h:00 is 1, then SAFEOP is entered and 1C12h:00 and
+  //      1600h:00 are written
+  // Then the standard drive aborts the first write 06010003h (SI0 must be 0); the other takes
+  //      it, yet still refuses both writes in SAFEOP with 08000022h (PDO configuration only in
+  //      PREOP, Festo 000 L1774); with pdo_configuration_in any it takes them in SAFEOP
+  Master standard;
+  standard.to_preop();
+  EXPECT_EQ(standard.download(0x1C12, 1, u16(0x1600)).abort, 0x06010003u);
+  profile::CoeRules rules;
+  rules.pdo_assignment_evaluated = false;
+  Master festo(with_coe(rules));
+  festo.to_preop();
+  EXPECT_FALSE(festo.download(0x1C12, 1, u16(0x1600)).abort);
+  EXPECT_FALSE(festo.download(0x1C12, 0, {7}).abort);  // 7 > 4 entries: not evaluated
+  EXPECT_EQ(standard.download(0x1C12, 0, {7}).abort, 0x06090031u);
+  ASSERT_FALSE(festo.download(0x1C12, 0, {1}).abort);
+  ASSERT_EQ(festo.to_safeop(6, 6), std::make_pair(std::uint16_t{0x0004}, std::uint16_t{0}));
+  EXPECT_EQ(festo.download(0x1C12, 0, {1}).abort, 0x08000022u);
+  EXPECT_EQ(festo.download(0x1600, 0, {2}).abort, 0x08000022u);
+
+  rules.pdo_configuration_in = profile::PdoConfigurationIn::any;
+  Master anywhere(with_coe(rules));
+  anywhere.to_preop();
+  ASSERT_EQ(anywhere.to_safeop(6, 6), std::make_pair(std::uint16_t{0x0004}, std::uint16_t{0}));
+  EXPECT_FALSE(anywhere.download(0x1C12, 0, {1}).abort);
+  EXPECT_FALSE(anywhere.download(0x1600, 0, {2}).abort);
+}
+
+TEST(EthercatDriveCoeRules, FestoProfileTakesItsCoeSection) {
+  // Given the drive created with the shipped festo-cmmp profile (no coe override), in PREOP
+  // When 1008h is uploaded, and 1C12h:01 written while 1C12h:00 is not 0
+  // Then 06020000h, and accepted: the profile's coe: section reached the drive
+  auto festo_profile = profile::find_profile(
+      "festo-cmmp", std::filesystem::path(DRIVECHECK_SOURCE_DIR) / "vectors/drives");
+  ASSERT_TRUE(festo_profile) << festo_profile.error().to_string();
+  EthercatDriveOptions options;
+  options.profile = &*festo_profile;
+  Master festo(std::move(options));
+  festo.to_preop();
+  EXPECT_EQ(festo.upload(0x1008, 0).abort, 0x06020000u);
+  ASSERT_NE(festo.drive().dictionary().find(0x1C12, 0)->as_unsigned(), 0u);
+  EXPECT_FALSE(festo.download(0x1C12, 1, u16(0x1600)).abort);
 }
 
 }  // namespace
