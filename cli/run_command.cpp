@@ -48,8 +48,8 @@
 #include "protocol/cia306/eds.hpp"
 #include "protocol/cia306/eds_lint.hpp"
 #include "protocol/ethercat/master.hpp"
-#include "protocol/ethercat/raw_link.hpp"
 #include "protocol/ethercat/pcap.hpp"
+#include "protocol/ethercat/raw_link.hpp"
 #include "protocol/ethercat/sim_segment.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
@@ -225,8 +225,9 @@ void run(const RunOptions& options) {
                 "--trace writes a candump log of CAN frames; on --bus ethercat use --pcap "
                 "FILE.pcap (`drivecheck decode FILE.pcap` prints it as text)");
   if (ethercat_if && !options.pcap.empty())
-    usage_error("run", "--pcap is written for --bus ethercat:sim only (no capture of a real "
-                       "EtherCAT link yet: use tshark/dumpcap on the interface)");
+    usage_error("run",
+                "--pcap is written for --bus ethercat:sim only (no capture of a real "
+                "EtherCAT link yet: use tshark/dumpcap on the interface)");
   auto order = conformance::parse_vector_order(options.order);
   if (!order) usage_error("run", order.error());
   // `shuffle` alone: a seed drawn here, recorded in the reports so that the run can be repeated.
