@@ -175,9 +175,13 @@ SdoOutcome EthercatPort::download(VectorRun& run, const SdoRequest& request,
                                   std::span<const std::uint8_t> data) {
   SdoOutcome outcome;
   if (!before_transfer(run, outcome)) return outcome;
+  // Isolation (isolation.hpp) learns what the vector wrote from here: there are no SDO frames
+  // on this link for it to read.
+  run.note_download_request(request.mux, data.size());
   auto done = master_.sdo_download(0, request.mux, data);
   if (done) {
     outcome.ok = true;
+    run.note_confirmed_download(request.mux);
     // The outputs carry the object too: the next cycle writes the same value.
     if (master_.locate(0, request.mux) && data.size() <= 8) {
       std::uint64_t v = 0;
