@@ -3,10 +3,14 @@
 // The reference drive as an emulated EtherCAT slave on the simulated segment, with no power
 // cycle at reset node (as over veth, where the drive is another process): AL INIT then PREOP
 // keeps the dictionary, so only the restore can put a written object back.
+// Also the complete access vector (vectors/ethercat/coe.yaml) against the same slave and against
+// a port that drops the complete access bit (a slave that ignores it).
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include "conformance/engine.hpp"
@@ -22,7 +26,7 @@ namespace {
 
 profile::DriveProfile make_profile() {
   auto parsed = profile::parse_profile(
-      "name: t\ntitle: T\nfeatures: [sdo.segmented]\n",
+      "name: t\ntitle: T\nfeatures: [sdo.segmented, coe.complete-access]\n",
       {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
   EXPECT_TRUE(parsed) << parsed.error().to_string();
   return *parsed;
@@ -117,6 +121,71 @@ TEST_F(EthercatIsolationTest, WithoutIsolationTheWrittenObjectLeaks) {
   ASSERT_EQ(result.vectors.size(), 2U);
   EXPECT_EQ(result.vectors[1].verdict, Verdict::fail);
   EXPECT_EQ(window(), 1234U);
+}
+
+// A slave that ignores the complete access bit: every transfer as if the bit were clear.
+class IgnoresCompleteAccess final : public DutPort {
+ public:
+  explicit IgnoresCompleteAccess(EthercatPort& inner) : inner_(inner) {}
+  LinkKind link() const override { return inner_.link(); }
+  SdoOutcome upload(VectorRun& run, const SdoRequest& request) override {
+    return inner_.upload(run, plain(request));
+  }
+  SdoOutcome download(VectorRun& run, const SdoRequest& request,
+                      std::span<const std::uint8_t> data) override {
+    return inner_.download(run, plain(request), data);
+  }
+  std::string reset(bool node) override { return inner_.reset(node); }
+  std::string enter_state(cia301::NmtState state) override { return inner_.enter_state(state); }
+  VectorResult* set_evidence_sink(VectorResult* sink) override {
+    return inner_.set_evidence_sink(sink);
+  }
+
+ private:
+  static SdoRequest plain(SdoRequest request) {
+    if (request.transfer == Transfer::complete_access) request.transfer = Transfer::automatic;
+    return request;
+  }
+  EthercatPort& inner_;
+};
+
+// The vector of vectors/ethercat/coe.yaml with this id.
+std::vector<Vector> coe_vector(const std::string& id) {
+  std::ifstream in(std::string(DRIVECHECK_VECTORS_DIR) + "/ethercat/coe.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::vector<Vector> out;
+  for (auto& vector : parse(text.str())) {
+    if (vector.id == id) out.push_back(std::move(vector));
+  }
+  EXPECT_EQ(out.size(), 1U) << id;
+  return out;
+}
+
+TEST_F(EthercatIsolationTest, CompleteAccessVectorPassesOnTheEmulatedSlave) {
+  // Given the complete access vector and the emulated slave, which implements it
+  const auto vectors = coe_vector("ethercat/coe/complete-access/upload-1c12");
+  // When it runs on EtherCAT
+  Engine engine(*clock_, *port_, profile_, {});
+  const RunResult result = engine.run(vectors);
+  // Then it passes
+  ASSERT_EQ(result.vectors.size(), 1U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::pass) << result.vectors[0].message;
+}
+
+TEST_F(EthercatIsolationTest, CompleteAccessVectorFailsWhenTheBitIsIgnored) {
+  // Given the complete access vector and a slave that answers it as a plain SDO upload
+  const auto vectors = coe_vector("ethercat/coe/complete-access/upload-1c12");
+  IgnoresCompleteAccess broken(*port_);
+  // When it runs on EtherCAT
+  Engine engine(*clock_, broken, profile_, {});
+  const RunResult result = engine.run(vectors);
+  // Then it fails (a should-level vector: a warning) at step 4, where sub-index 0 came alone
+  ASSERT_EQ(result.vectors.size(), 1U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::fail) << result.vectors[0].message;
+  EXPECT_TRUE(result.vectors[0].warning);
+  EXPECT_NE(result.vectors[0].message.find("step 4"), std::string::npos)
+      << result.vectors[0].message;
 }
 
 }  // namespace
