@@ -15,6 +15,7 @@ cia301::SdoTransferMode mode_of(Transfer transfer) {
       return cia301::SdoTransferMode::block;
     case Transfer::automatic:
     case Transfer::expedited:
+    case Transfer::complete_access:  // EtherCAT only: such a vector is not applicable on CAN
       return cia301::SdoTransferMode::automatic;
   }
   return cia301::SdoTransferMode::automatic;

@@ -159,7 +159,7 @@ bool EthercatPort::before_transfer(VectorRun& run, SdoOutcome& outcome) {
 SdoOutcome EthercatPort::upload(VectorRun& run, const SdoRequest& request) {
   SdoOutcome outcome;
   if (!before_transfer(run, outcome)) return outcome;
-  auto value = master_.sdo_upload(0, request.mux);
+  auto value = master_.sdo_upload(0, request.mux, request.transfer == Transfer::complete_access);
   if (value) {
     outcome.ok = true;
     outcome.data = std::move(*value);
@@ -175,11 +175,16 @@ SdoOutcome EthercatPort::download(VectorRun& run, const SdoRequest& request,
                                   std::span<const std::uint8_t> data) {
   SdoOutcome outcome;
   if (!before_transfer(run, outcome)) return outcome;
-  auto done = master_.sdo_download(0, request.mux, data);
+  // Isolation (isolation.hpp) learns what the vector wrote from here: there are no SDO frames
+  // on this link for it to read.
+  run.note_download_request(request.mux, data.size());
+  const bool complete = request.transfer == Transfer::complete_access;
+  auto done = master_.sdo_download(0, request.mux, data, complete);
   if (done) {
     outcome.ok = true;
+    run.note_confirmed_download(request.mux);
     // The outputs carry the object too: the next cycle writes the same value.
-    if (master_.locate(0, request.mux) && data.size() <= 8) {
+    if (!complete && master_.locate(0, request.mux) && data.size() <= 8) {
       std::uint64_t v = 0;
       for (std::size_t i = 0; i < data.size(); ++i)
         v |= std::uint64_t{data[i]} << (8 * i);

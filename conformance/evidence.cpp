@@ -63,33 +63,37 @@ std::optional<can::TimedFrame> VectorRun::pump(can::TimePoint deadline) {
         last_statusword_ = static_cast<std::uint16_t>(pdo_sample.value);
     }
     if (frame->own) {
-      if (tracking_writes_) {
-        if (const auto request = sdo_download_request(frame->frame, node());
-            request && request->expedited_data) {
-          request_sizes_[ObjectRef{request->mux.index, request->mux.sub_index}] =
-              request->expedited_data->size();
-        }
+      if (const auto request = sdo_download_request(frame->frame, node()); request) {
+        note_download_request(request->mux, request->expedited_data
+                                                ? std::optional(request->expedited_data->size())
+                                                : std::nullopt);
       }
       on_echo(frame->timestamp);
       if (!in_time || until_echo_) return std::nullopt;
       continue;
     }
     // Isolation: what the DUT confirmed writing while the vector's steps ran.
-    if (tracking_writes_) {
-      if (const auto ref = confirmed_download(frame->frame, node())) {
-        if (ref->index == 0x1010) {
-          stored_.insert(ref->sub);
-        } else if (ref->index == 0x1011) {
-          restored_defaults_ = true;
-        } else {
-          written_.insert(*ref);
-        }
-      }
-    }
+    if (const auto ref = confirmed_download(frame->frame, node()))
+      note_confirmed_download({ref->index, ref->sub});
     ++dut_frames_;
     received_.push_back(*frame);
     if (!in_time) return std::nullopt;
     return frame;
+  }
+}
+
+void VectorRun::note_download_request(cia301::Multiplexer mux, std::optional<std::size_t> size) {
+  if (tracking_writes_ && size) request_sizes_[ObjectRef{mux.index, mux.sub_index}] = *size;
+}
+
+void VectorRun::note_confirmed_download(cia301::Multiplexer mux) {
+  if (!tracking_writes_) return;
+  if (mux.index == 0x1010) {
+    stored_.insert(mux.sub_index);
+  } else if (mux.index == 0x1011) {
+    restored_defaults_ = true;
+  } else {
+    written_.insert(ObjectRef{mux.index, mux.sub_index});
   }
 }
 

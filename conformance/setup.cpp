@@ -483,10 +483,18 @@ void VectorRun::restore() {
   deadline_ = now() + resolve({{}, "sdo_response"}) * (8 * (snapshot_.size() + 2)) +
               std::chrono::seconds(5) * stored_.size();
   // SDO is served in Pre-operational whatever NMT state the vector left (the next vector's
-  // setup commands its own state).
-  cia301::NmtMaster master;
-  if (auto ec = send_nmt(master.command(cia301::NmtCommand::enter_pre_operational, node())); !ec)
-    wait_until(now() + std::chrono::milliseconds(1));
+  // setup commands its own state); on a link without NMT frames, in its counterpart (EtherCAT:
+  // PREOP, where the mailbox is served and no process data overwrites what is put back).
+  if (context_.port.link() == LinkKind::can) {
+    cia301::NmtMaster master;
+    if (auto ec = send_nmt(master.command(cia301::NmtCommand::enter_pre_operational, node())); !ec)
+      wait_until(now() + std::chrono::milliseconds(1));
+  } else if (auto error = context_.port.enter_state(cia301::NmtState::pre_operational);
+             !error.empty()) {
+    note(fmt::format("vector {}: restore: {} not reached by the {} link: {}", vector_.id,
+                     cia301::to_string(cia301::NmtState::pre_operational),
+                     to_string(context_.port.link()), error));
+  }
   RestoreInput input;
   input.before = snapshot_;
   input.written = written;

@@ -71,7 +71,9 @@ struct NodeSpec {
   friend bool operator==(const NodeSpec&, const NodeSpec&) = default;
 };
 
-enum class Transfer : std::uint8_t { automatic, expedited, segmented, block };
+// complete_access: CoE SDO with the complete access bit (ETG.1000.6), EtherCAT only: sub-index
+// 0 or 1 and every entry of the object in one transfer.
+enum class Transfer : std::uint8_t { automatic, expedited, segmented, block, complete_access };
 
 // The abort codes an expectation accepts (vectors/FORMAT.md "Accepted abort sets"): a named
 // set of protocol/cia301/sdo_abort_sets.inc (`abort: write-read-only`), or a literal list

@@ -61,6 +61,12 @@ std::string Vector::ethercat_only_step() const {
           std::holds_alternative<PauseProcessDataStep>(action) ||
           std::holds_alternative<MailboxRepeatStep>(action))
         return fmt::format("{} step {} ({})", where, i + 1, action_name(action));
+      const auto* write = std::get_if<SdoWriteStep>(&action);
+      const auto* read = std::get_if<SdoReadStep>(&action);
+      if ((write != nullptr && write->transfer == Transfer::complete_access) ||
+          (read != nullptr && read->transfer == Transfer::complete_access))
+        return fmt::format("{} step {} ({} with complete access)", where, i + 1,
+                           action_name(action));
     }
     return {};
   };
@@ -633,7 +639,9 @@ class Parser {
     if (*text == "expedited") return Transfer::expedited;
     if (*text == "segmented") return Transfer::segmented;
     if (*text == "block") return Transfer::block;
-    error(node, fmt::format("transfer: '{}' is not expedited, segmented or block", *text));
+    if (*text == "complete-access") return Transfer::complete_access;
+    error(node, fmt::format("transfer: '{}' is not expedited, segmented, block or complete-access",
+                            *text));
     return Transfer::automatic;
   }
 

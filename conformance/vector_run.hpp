@@ -184,6 +184,13 @@ class VectorRun {
   bool dut_spoke() const { return dut_frames_ > 0; }
   // A DUT port that carries no CAN frames (EtherCAT) counts the DUT's answers here.
   void note_dut_answer() { ++dut_frames_; }
+  // Isolation (isolation.hpp) on every link: an SDO download the harness asked for (`size`:
+  // its length when the DUT gets the value whole, expedited on CAN, any CoE download), and one
+  // the DUT confirmed. On CAN pump() calls these from the frames (a `send:` step's raw SDO
+  // included); a DUT port without CAN frames (EtherCAT) calls them for each download it makes.
+  // Noted only while the vector's writes are tracked (snapshot to restore).
+  void note_download_request(cia301::Multiplexer mux, std::optional<std::size_t> size);
+  void note_confirmed_download(cia301::Multiplexer mux);
   std::size_t current_step() const { return step_index_; }
 
  private:

@@ -108,6 +108,8 @@ std::optional<std::string> transfer_keyword(Transfer transfer) {
       return "segmented";
     case Transfer::block:
       return "block";
+    case Transfer::complete_access:
+      return "complete-access";
   }
   return fmt::format("{}", static_cast<int>(transfer));
 }

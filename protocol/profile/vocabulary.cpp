@@ -31,10 +31,11 @@ struct FeatureRow {
   std::string_view name;
   bool detectable;
 };
-constexpr std::array<FeatureRow, 37> kFeatureRows{{
+constexpr std::array<FeatureRow, 38> kFeatureRows{{
     {"sdo.segmented", true},
     {"sdo.block", true},
     {"sdo.expedited", false},
+    {"coe.complete-access", false},  // CoE SDO complete access (ETG.1000.6), EtherCAT only
     {"nmt.guarding", true},
     {"heartbeat.producer", true},
     {"heartbeat.consumer", true},

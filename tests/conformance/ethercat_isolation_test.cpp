@@ -1,0 +1,192 @@
+// Isolation on EtherCAT (FORMAT.md "Isolation"): the engine learns what a vector wrote from the
+// DUT port (CoE downloads: there are no SDO frames to read), so the restore works as on CAN.
+// The reference drive as an emulated EtherCAT slave on the simulated segment, with no power
+// cycle at reset node (as over veth, where the drive is another process): AL INIT then PREOP
+// keeps the dictionary, so only the restore can put a written object back.
+// Also the complete access vector (vectors/ethercat/coe.yaml) against the same slave and against
+// a port that drops the complete access bit (a slave that ignores it).
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "conformance/engine.hpp"
+#include "conformance/ethercat_port.hpp"
+#include "conformance/vector_file.hpp"
+#include "protocol/cia301/data_type.hpp"
+#include "protocol/ethercat/master.hpp"
+#include "protocol/ethercat/sim_segment.hpp"
+#include "reference_drive/ethercat/ethercat_drive.hpp"
+
+namespace drivecheck::conformance {
+namespace {
+
+profile::DriveProfile make_profile() {
+  auto parsed = profile::parse_profile(
+      "name: t\ntitle: T\nfeatures: [sdo.segmented, coe.complete-access]\n",
+      {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
+  EXPECT_TRUE(parsed) << parsed.error().to_string();
+  return *parsed;
+}
+
+std::vector<Vector> parse(const std::string& text) {
+  const auto set = parse_vectors(text, "t.yaml");
+  EXPECT_TRUE(set.ok()) << (set.errors.empty() ? "" : set.errors.front().to_string());
+  return set.vectors;
+}
+
+// The emulated slave, a master brought up to PREOP, the engine's port and clock: no power cycle.
+class EthercatIsolationTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto created = reference_drive::ethercat::EthercatDrive::create(segment_);
+    ASSERT_TRUE(created) << created.error();
+    drive_ = std::move(*created);
+    segment_.attach(*drive_);
+    drive_->power_on();
+    ethercat::MasterConfig config;
+    config.scan.expected_slaves = 1;
+    master_ = std::make_unique<ethercat::Master>(segment_, config);
+    ASSERT_TRUE(master_->bring_up(ethercat::AlState::preop));
+    port_ = std::make_unique<EthercatPort>(*master_);
+    clock_ = std::make_unique<EthercatClock>(segment_, *port_);
+  }
+  void TearDown() override { segment_.detach_all(); }
+
+  // 6065h (following error window) as the master reads it now.
+  std::uint32_t window() {
+    auto value = master_->sdo_upload(0, {0x6065, 0});
+    EXPECT_TRUE(value);
+    if (!value) return 0;
+    return static_cast<std::uint32_t>(cia301::load_unsigned(*value));
+  }
+
+  // A vector that writes 6065h := 1234 and then fails, and one (reset node first) that reads it.
+  std::string two_vectors(std::uint32_t before) {
+    return fmt::format(
+        "- id: t/writes\n  title: t\n  source: \"CiA 301 §1\"\n  transports: [ethercat]\n"
+        "  setup: reset-node\n  steps:\n"
+        "    - sdo_write: {{index: 0x6065, sub: 0, value: 1234, size: 4}}\n"
+        "    - sdo_read: {{index: 0x6065, sub: 0}}\n      expect: {{value: 1}}\n"
+        "- id: t/reads\n  title: t\n  source: \"CiA 301 §1\"\n  transports: [ethercat]\n"
+        "  setup: reset-node\n  steps:\n"
+        "    - sdo_read: {{index: 0x6065, sub: 0}}\n      expect: {{value: {}}}\n",
+        before);
+  }
+
+  ethercat::SimSegment segment_;
+  std::unique_ptr<reference_drive::ethercat::EthercatDrive> drive_;
+  std::unique_ptr<ethercat::Master> master_;
+  std::unique_ptr<EthercatPort> port_;
+  std::unique_ptr<EthercatClock> clock_;
+  profile::DriveProfile profile_ = make_profile();
+};
+
+TEST_F(EthercatIsolationTest, WrittenObjectIsPutBackOverCoe) {
+  // Given the drive's 6065h before, and a vector that writes it over CoE and then fails
+  const std::uint32_t before = window();
+  ASSERT_NE(before, 1234U);
+  const auto vectors = parse(two_vectors(before));
+  // When both run on EtherCAT, where a reset node cannot power-cycle the drive
+  Engine engine(*clock_, *port_, profile_, {});
+  const RunResult result = engine.run(vectors);
+  // Then the first fails at its read, the engine put 6065h back (a passing restore check that
+  // names it), the second reads the value before, and the drive holds it after the run
+  ASSERT_EQ(result.vectors.size(), 2U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::fail) << result.vectors[0].message;
+  bool restored = false;
+  for (const auto& check : result.vectors[0].checks) {
+    restored |= check.ok && check.action == "restore" &&
+                check.actual.find("6065h sub 0 := ") != std::string::npos;
+  }
+  EXPECT_TRUE(restored);
+  EXPECT_EQ(result.vectors[1].verdict, Verdict::pass) << result.vectors[1].message;
+  EXPECT_EQ(window(), before);
+  EXPECT_TRUE(result.harness_notes.empty());
+}
+
+TEST_F(EthercatIsolationTest, WithoutIsolationTheWrittenObjectLeaks) {
+  // Given the same two vectors (the check that the test above can fail)
+  const std::uint32_t before = window();
+  const auto vectors = parse(two_vectors(before));
+  // When both run without isolation
+  EngineOptions options;
+  options.isolation = false;
+  Engine engine(*clock_, *port_, profile_, options);
+  const RunResult result = engine.run(vectors);
+  // Then the second vector reads the first one's value: the reset did not bring 6065h back
+  ASSERT_EQ(result.vectors.size(), 2U);
+  EXPECT_EQ(result.vectors[1].verdict, Verdict::fail);
+  EXPECT_EQ(window(), 1234U);
+}
+
+// A slave that ignores the complete access bit: every transfer as if the bit were clear.
+class IgnoresCompleteAccess final : public DutPort {
+ public:
+  explicit IgnoresCompleteAccess(EthercatPort& inner) : inner_(inner) {}
+  LinkKind link() const override { return inner_.link(); }
+  SdoOutcome upload(VectorRun& run, const SdoRequest& request) override {
+    return inner_.upload(run, plain(request));
+  }
+  SdoOutcome download(VectorRun& run, const SdoRequest& request,
+                      std::span<const std::uint8_t> data) override {
+    return inner_.download(run, plain(request), data);
+  }
+  std::string reset(bool node) override { return inner_.reset(node); }
+  std::string enter_state(cia301::NmtState state) override { return inner_.enter_state(state); }
+  VectorResult* set_evidence_sink(VectorResult* sink) override {
+    return inner_.set_evidence_sink(sink);
+  }
+
+ private:
+  static SdoRequest plain(SdoRequest request) {
+    if (request.transfer == Transfer::complete_access) request.transfer = Transfer::automatic;
+    return request;
+  }
+  EthercatPort& inner_;
+};
+
+// The vector of vectors/ethercat/coe.yaml with this id.
+std::vector<Vector> coe_vector(const std::string& id) {
+  std::ifstream in(std::string(DRIVECHECK_VECTORS_DIR) + "/ethercat/coe.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::vector<Vector> out;
+  for (auto& vector : parse(text.str())) {
+    if (vector.id == id) out.push_back(std::move(vector));
+  }
+  EXPECT_EQ(out.size(), 1U) << id;
+  return out;
+}
+
+TEST_F(EthercatIsolationTest, CompleteAccessVectorPassesOnTheEmulatedSlave) {
+  // Given the complete access vector and the emulated slave, which implements it
+  const auto vectors = coe_vector("ethercat/coe/complete-access/upload-1c12");
+  // When it runs on EtherCAT
+  Engine engine(*clock_, *port_, profile_, {});
+  const RunResult result = engine.run(vectors);
+  // Then it passes
+  ASSERT_EQ(result.vectors.size(), 1U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::pass) << result.vectors[0].message;
+}
+
+TEST_F(EthercatIsolationTest, CompleteAccessVectorFailsWhenTheBitIsIgnored) {
+  // Given the complete access vector and a slave that answers it as a plain SDO upload
+  const auto vectors = coe_vector("ethercat/coe/complete-access/upload-1c12");
+  IgnoresCompleteAccess broken(*port_);
+  // When it runs on EtherCAT
+  Engine engine(*clock_, broken, profile_, {});
+  const RunResult result = engine.run(vectors);
+  // Then it fails (a should-level vector: a warning) at step 4, where sub-index 0 came alone
+  ASSERT_EQ(result.vectors.size(), 1U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::fail) << result.vectors[0].message;
+  EXPECT_TRUE(result.vectors[0].warning);
+  EXPECT_NE(result.vectors[0].message.find("step 4"), std::string::npos)
+      << result.vectors[0].message;
+}
+
+}  // namespace
+}  // namespace drivecheck::conformance
