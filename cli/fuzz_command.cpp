@@ -179,6 +179,35 @@ std::vector<fuzz_live::FuzzObject> objects_of(const cia301::ObjectDictionary& od
   return objects;
 }
 
+// The objects to fuzz: the EDS given, else the profile's list; the standard profile has none,
+// and on the simulated bus (CAN or EtherCAT) the reference drive's own EDS describes exactly that
+// drive. nullopt: the EDS could not be read (its errors are printed).
+std::optional<std::vector<fuzz_live::FuzzObject>> fuzz_objects(const FuzzOptions& options,
+                                                               const profile::DriveProfile& profile,
+                                                               bool sim, std::uint8_t node) {
+  std::string eds_file = options.eds;
+  if (eds_file.empty() && sim && profile.objects.empty() && profile.name == "cia402-reference")
+    eds_file = reference_drive_eds().string();
+  if (eds_file.empty()) return objects_of(profile);
+  auto eds = cia306::read_eds_file(eds_file);
+  if (!eds) {
+    fmt::print(stderr, "{}\n", eds.error().to_string());
+    return std::nullopt;
+  }
+  auto od = cia306::to_object_dictionary(eds->eds, node, eds_file);
+  if (!od) {
+    for (const auto& d : od.error())
+      fmt::print(stderr, "{}\n", d.to_string());
+    usage_error("fuzz", fmt::format("{} does not give an object dictionary", eds_file));
+  }
+  return objects_of(*od);
+}
+
+void print_progress(std::string_view line) {
+  fmt::print("{}\n", line);
+  std::fflush(stdout);
+}
+
 double seconds(can::Duration duration) {
   return std::chrono::duration<double>(duration).count();
 }
@@ -417,32 +446,13 @@ void fuzz_ethercat(const FuzzOptions& options) {
   fuzz_options.minimise = !options.no_minimise;
   fuzz_options.out_dir = options.out;
   fuzz_options.interrupted = &g_interrupted;
-  fuzz_options.progress = [](std::string_view line) {
-    fmt::print("{}\n", line);
-    std::fflush(stdout);
-  };
-  // The objects, as on CAN: the EDS given, else the profile's list, else (the standard profile
-  // on the simulated segment) the reference drive's own EDS.
-  std::string eds_file = options.eds;
-  if (eds_file.empty() && sim && profile->objects.empty() && profile->name == "cia402-reference")
-    eds_file = reference_drive_eds().string();
-  if (!eds_file.empty()) {
-    auto eds = cia306::read_eds_file(eds_file);
-    if (!eds) {
-      fmt::print(stderr, "{}\n", eds.error().to_string());
-      exit_with(kExitUsage);
-      return;
-    }
-    auto od = cia306::to_object_dictionary(eds->eds, 1, eds_file);
-    if (!od) {
-      for (const auto& d : od.error())
-        fmt::print(stderr, "{}\n", d.to_string());
-      usage_error("fuzz", fmt::format("{} does not give an object dictionary", eds_file));
-    }
-    fuzz_options.objects = objects_of(*od);
-  } else {
-    fuzz_options.objects = objects_of(*profile);
+  fuzz_options.progress = print_progress;
+  auto objects = fuzz_objects(options, *profile, sim, 1);
+  if (!objects) {
+    exit_with(kExitUsage);
+    return;
   }
+  fuzz_options.objects = std::move(*objects);
 
   std::unique_ptr<fuzz_live::EthercatTarget> target;
   std::string personality;
@@ -591,32 +601,13 @@ void fuzz(const FuzzOptions& options) {
   fuzz_options.minimise = !options.no_minimise;
   fuzz_options.out_dir = options.out;
   fuzz_options.interrupted = &g_interrupted;
-  fuzz_options.progress = [](std::string_view line) {
-    fmt::print("{}\n", line);
-    std::fflush(stdout);
-  };
-  // The objects: the EDS given, else the profile's list; the standard profile has none, and on
-  // the simulated bus the reference drive's own EDS describes exactly that drive.
-  std::string eds_file = options.eds;
-  if (eds_file.empty() && sim && profile->objects.empty() && profile->name == "cia402-reference")
-    eds_file = reference_drive_eds().string();
-  if (!eds_file.empty()) {
-    auto eds = cia306::read_eds_file(eds_file);
-    if (!eds) {
-      fmt::print(stderr, "{}\n", eds.error().to_string());
-      exit_with(kExitUsage);
-      return;
-    }
-    auto od = cia306::to_object_dictionary(eds->eds, node, eds_file);
-    if (!od) {
-      for (const auto& d : od.error())
-        fmt::print(stderr, "{}\n", d.to_string());
-      usage_error("fuzz", fmt::format("{} does not give an object dictionary", eds_file));
-    }
-    fuzz_options.objects = objects_of(*od);
-  } else {
-    fuzz_options.objects = objects_of(*profile);
+  fuzz_options.progress = print_progress;
+  auto objects = fuzz_objects(options, *profile, sim, node);
+  if (!objects) {
+    exit_with(kExitUsage);
+    return;
   }
+  fuzz_options.objects = std::move(*objects);
 
   // Replay: the reproducer's harness frames against a fresh device.
   std::vector<can::LogRecord> records;

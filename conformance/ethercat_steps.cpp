@@ -9,6 +9,7 @@
 
 #include "conformance/ethercat_port.hpp"
 #include "conformance/vector_run.hpp"
+#include "protocol/cia301/data_type.hpp"
 #include "protocol/cia301/sdo_codec.hpp"
 #include "protocol/ethercat/al_state_machine.hpp"
 #include "protocol/profile/vocabulary.hpp"
@@ -58,11 +59,10 @@ Observation observed(const ethercat::AlReading& reading) {
   return seen;
 }
 
+// Little-endian bytes of `value`, `size` long.
 std::vector<std::uint8_t> le_bytes(std::int64_t value, std::size_t size) {
   std::vector<std::uint8_t> bytes(size);
-  const auto raw = static_cast<std::uint64_t>(value);
-  for (std::size_t i = 0; i < size; ++i)
-    bytes[i] = static_cast<std::uint8_t>(raw >> (8 * i));
+  cia301::store_unsigned(static_cast<std::uint64_t>(value), bytes);
   return bytes;
 }
 

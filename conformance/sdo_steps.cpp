@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "conformance/vector_run.hpp"
+#include "protocol/cia301/data_type.hpp"
 #include "protocol/cia301/nmt_master.hpp"
 #include "protocol/cia301/object_dictionary.hpp"
 #include "protocol/cia301/sdo_client.hpp"
@@ -16,9 +17,7 @@ namespace {
 // Little-endian bytes of `value`, `size` long.
 std::vector<std::uint8_t> le_bytes(std::int64_t value, std::size_t size) {
   std::vector<std::uint8_t> bytes(size);
-  const auto raw = static_cast<std::uint64_t>(value);
-  for (std::size_t i = 0; i < size; ++i)
-    bytes[i] = static_cast<std::uint8_t>(raw >> (8 * i));
+  cia301::store_unsigned(static_cast<std::uint64_t>(value), bytes);
   return bytes;
 }
 
