@@ -208,6 +208,23 @@ void print_progress(std::string_view line) {
   std::fflush(stdout);
 }
 
+// The end of a replay (CAN or EtherCAT): whether the reproducer's own anomaly came back, and
+// the exit code (1 when it reproduces).
+template <typename AnomalyKind>
+void finish_replay(const std::optional<AnomalyKind>& expected, bool reproduced) {
+  if (expected) {
+    fmt::print("the reproducer's anomaly ({}) {}\n", fuzz_live::to_string(*expected),
+               reproduced ? "reproduces" : "does not reproduce");
+  }
+  exit_with(g_interrupted.load() ? kExitInterrupted : reproduced ? kExitFail : kExitPass);
+}
+
+void create_output_folder(const std::string& folder) {
+  std::error_code error;
+  std::filesystem::create_directories(folder, error);
+  if (error) usage_error("fuzz", fmt::format("cannot create {}: {}", folder, error.message()));
+}
+
 double seconds(can::Duration duration) {
   return std::chrono::duration<double>(duration).count();
 }
@@ -494,21 +511,11 @@ void fuzz_ethercat(const FuzzOptions& options) {
                result.anomaly ? fmt::format("{}: {}", fuzz_live::to_string(result.anomaly->kind),
                                             result.anomaly->detail)
                               : std::string("no anomaly"));
-    if (reproducer->anomaly) {
-      fmt::print("the reproducer's anomaly ({}) {}\n", fuzz_live::to_string(*reproducer->anomaly),
-                 reproduced ? "reproduces" : "does not reproduce");
-    }
-    if (g_interrupted.load()) {
-      exit_with(kExitInterrupted);
-      return;
-    }
-    exit_with(reproduced ? kExitFail : kExitPass);
+    finish_replay(reproducer->anomaly, reproduced);
     return;
   }
 
-  std::error_code error;
-  std::filesystem::create_directories(options.out, error);
-  if (error) usage_error("fuzz", fmt::format("cannot create {}: {}", options.out, error.message()));
+  create_output_folder(options.out);
   const std::string started = utc_now();
   fmt::print("drivecheck fuzz: EtherCAT slave 0 on {}, seed {}, {}{}\n", options.bus, options.seed,
              options.duration,
@@ -659,21 +666,11 @@ void fuzz(const FuzzOptions& options) {
                result.anomaly ? fmt::format("{}: {}", fuzz_live::to_string(result.anomaly->kind),
                                             result.anomaly->detail)
                               : std::string("no anomaly"));
-    if (expected) {
-      fmt::print("the reproducer's anomaly ({}) {}\n", fuzz_live::to_string(*expected),
-                 reproduced ? "reproduces" : "does not reproduce");
-    }
-    if (g_interrupted.load()) {
-      exit_with(kExitInterrupted);
-      return;
-    }
-    exit_with(reproduced ? kExitFail : kExitPass);
+    finish_replay(expected, reproduced);
     return;
   }
 
-  std::error_code error;
-  std::filesystem::create_directories(options.out, error);
-  if (error) usage_error("fuzz", fmt::format("cannot create {}: {}", options.out, error.message()));
+  create_output_folder(options.out);
   const std::string started = utc_now();
   fmt::print("drivecheck fuzz: node {} on {}, seed {}, {}{}\n", options.node, options.bus,
              options.seed, options.duration,
