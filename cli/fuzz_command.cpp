@@ -219,6 +219,17 @@ void finish_replay(const std::optional<AnomalyKind>& expected, bool reproduced) 
   exit_with(g_interrupted.load() ? kExitInterrupted : reproduced ? kExitFail : kExitPass);
 }
 
+// OUT/summary.json, written atomically; false (and why, on stderr) when it could not be.
+bool write_summary(const std::string& folder, const std::string& json) {
+  const auto path = std::filesystem::path(folder) / "summary.json";
+  if (auto done = reports::write_file_atomically(path, json); !done) {
+    fmt::print(stderr, "drivecheck fuzz: {}\n", done.error());
+    return false;
+  }
+  fmt::print("summary: {}\n", path.string());
+  return true;
+}
+
 void create_output_folder(const std::string& folder) {
   std::error_code error;
   std::filesystem::create_directories(folder, error);
@@ -540,16 +551,8 @@ void fuzz_ethercat(const FuzzOptions& options) {
   }
   for (const auto& note : summary.notes)
     fmt::print("note: {}\n", note);
-  const auto summary_path = std::filesystem::path(options.out) / "summary.json";
-  bool written = true;
-  if (auto done = reports::write_file_atomically(
-          summary_path, ethercat_summary_json(options, summary, started, personality));
-      !done) {
-    fmt::print(stderr, "drivecheck fuzz: {}\n", done.error());
-    written = false;
-  } else {
-    fmt::print("summary: {}\n", summary_path.string());
-  }
+  const bool written =
+      write_summary(options.out, ethercat_summary_json(options, summary, started, personality));
   switch (summary.outcome) {
     case fuzz_live::EthercatFuzzOutcome::device_lost_at_start:
       fmt::print(stderr, "drivecheck fuzz: the EtherCAT slave does not answer on {}\n",
@@ -691,16 +694,8 @@ void fuzz(const FuzzOptions& options) {
   }
   for (const auto& note : summary.notes)
     fmt::print("note: {}\n", note);
-  const auto summary_path = std::filesystem::path(options.out) / "summary.json";
-  bool written = true;
-  if (auto done = reports::write_file_atomically(
-          summary_path, summary_json(options, summary, started, personality));
-      !done) {
-    fmt::print(stderr, "drivecheck fuzz: {}\n", done.error());
-    written = false;
-  } else {
-    fmt::print("summary: {}\n", summary_path.string());
-  }
+  const bool written =
+      write_summary(options.out, summary_json(options, summary, started, personality));
 
   switch (summary.outcome) {
     case fuzz_live::FuzzOutcome::device_lost_at_start:

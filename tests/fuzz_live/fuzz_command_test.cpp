@@ -12,37 +12,16 @@
 #include <sstream>
 #include <string>
 
+#include "tests/fuzz_live/fuzz_cli.hpp"
+
 namespace {
 
-struct CommandRun {
-  int exit_code = -1;
-  std::string output;
-};
-
-CommandRun drivecheck(const std::string& arguments, const std::filesystem::path& dir) {
-  const auto output = dir / "output.txt";
-  const std::string command =
-      fmt::format("{} {} > {} 2>&1", DRIVECHECK_EXE, arguments, output.string());
-  const int status = std::system(command.c_str());
-  CommandRun run;
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(output);
-  std::stringstream text;
-  text << in.rdbuf();
-  run.output = text.str();
-  return run;
-}
+using drivecheck::fuzz_cli::CommandRun;
+using drivecheck::fuzz_cli::drivecheck;
+using drivecheck::fuzz_cli::summary;
 
 std::filesystem::path fresh_dir(const std::string& name) {
-  const auto dir = std::filesystem::path(::testing::TempDir()) / ("fuzz_cli_" + name);
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
-nlohmann::json summary(const std::filesystem::path& dir) {
-  std::ifstream in(dir / "summary.json");
-  return nlohmann::json::parse(in, nullptr, false);
+  return drivecheck::fuzz_cli::fresh_dir("fuzz_cli_", name);
 }
 
 // Fuzzes the drive with `deviation` and checks the report, the reproducer and its replay.
