@@ -111,6 +111,7 @@ void PowerDriveSystem::step(can::TimePoint now) {
     moved = true;
   }
   fault_event_ = false;
+  skip_reaction_ = false;
   if (!moved) moved = try_automatic(now);
   if (!moved) moved = try_enable_loss(now);
   // Deviation fault-reset-on-level: bit 7 high counts as a new edge at every step.
@@ -359,7 +360,7 @@ void PowerDriveSystem::start_fault_reaction() {
   halted_ = false;
   reaction_complete_ = false;
   const std::int16_t option = option_code(OptionCode::fault_reaction);
-  if (!torque_on_ || option <= 0) {
+  if (!torque_on_ || option <= 0 || skip_reaction_) {
     // The drive function is off already, or 0: disable it (the motor runs free).
     if (torque_on_) axis_.disable_power();
     torque_on_ = false;
@@ -423,6 +424,7 @@ void PowerDriveSystem::on_communication_loss() {
       // has its connection back).
       raise_fault(faults::kCommunication);
       clear_fault_cause(faults::kCommunication.code);
+      skip_reaction_ = has(Deviation::connection_fault_skips_reaction);
       break;
     case 2:
       forced_ = kDisableVoltageCommand;

@@ -408,6 +408,7 @@ class PowerDriveSystem {
   std::vector<std::uint16_t> causes_;    // fault causes present
   std::vector<std::uint16_t> reported_;  // reported, not acknowledged
   bool fault_event_ = false;             // a fault occurred since the last step
+  bool skip_reaction_ = false;           // deviation connection-fault-skips-reaction
   std::uint16_t error_code_ = 0;
   std::optional<TransitionRecord> last_;
 };
