@@ -141,6 +141,8 @@ std::string EthercatPort::reset(bool node) {
   }
   next_cycle_ = master_.port().link().now();
   emergencies_.clear();
+  raw_open_ = false;  // INIT stops the slave's mailbox: no reply of before can come
+  raw_replies_.clear();
   if (!done) return done.error().message();
   return {};
 }
@@ -153,6 +155,7 @@ bool EthercatPort::before_transfer(VectorRun& run, SdoOutcome& outcome) {
   }
   // A process data cycle that is due runs first, so the SM watchdog stays fed.
   if (cyclic() && master_.port().link().now() >= next_cycle_) pass_time(next_cycle_);
+  settle_raw(run.resolve({{}, "sdo_response"}));
   return true;
 }
 
@@ -200,10 +203,103 @@ SdoOutcome EthercatPort::download(VectorRun& run, const SdoRequest& request,
 
 void EthercatPort::collect_emergencies(bool poll) {
   if (master_.slaves().empty()) return;
-  if (poll) (void)master_.poll_mailbox(0);  // a broken mailbox shows in the next SDO
+  if (poll && raw_open_) {
+    // A raw request's reply may be in the read mailbox: keep it (poll_mailbox drops it).
+    std::string error;
+    while (poll_raw(error)) {
+    }
+  } else if (poll) {
+    (void)master_.poll_mailbox(0);  // a broken mailbox shows in the next SDO
+  }
   const auto at = master_.port().now();
   for (auto& message : master_.take_emergencies(0))
     emergencies_.push_back({at, std::move(message), false});
+}
+
+// ---- raw SDO ----
+
+std::string EthercatPort::send_raw_sdo(std::span<const std::uint8_t> sdo) {
+  auto* mailbox = master_.mailbox(0);
+  if (mailbox == nullptr) return "slave 0 has no mailbox";
+  // A reply to an earlier raw request still on its way is kept, not taken for this one's.
+  std::string error;
+  while (poll_raw(error)) {
+  }
+  std::vector<std::uint8_t> data(ethercat::kCoeHeaderSize);
+  ethercat::CoeHeader header;
+  header.service = static_cast<std::uint8_t>(ethercat::CoeService::sdo_request);
+  ethercat::encode_coe_header(header, std::span<std::uint8_t, 2>(data.data(), 2));
+  data.insert(data.end(), sdo.begin(), sdo.end());
+  if (auto sent = mailbox->send(ethercat::MailboxType::coe, data); !sent)
+    return sent.error().message();
+  raw_open_ = true;
+  return {};
+}
+
+bool EthercatPort::poll_raw(std::string& error) {
+  auto* mailbox = master_.mailbox(0);
+  if (mailbox == nullptr) {
+    error = "slave 0 has no mailbox";
+    return false;
+  }
+  auto message = mailbox->poll();
+  if (!message) {
+    error = message.error().message();
+    return false;
+  }
+  if (!*message) return false;
+  auto& in = **message;
+  if (!in.error && in.header.type == static_cast<std::uint8_t>(ethercat::MailboxType::coe) &&
+      ethercat::peek_coe_service(in.data) ==
+          static_cast<std::uint8_t>(ethercat::CoeService::emergency)) {
+    if (auto emergency = ethercat::decode_emergency(in.data))
+      mailbox->emergencies().push_back(std::move(*emergency));
+    collect_emergencies(false);  // stamped now
+    return true;
+  }
+  raw_replies_.push_back({master_.port().now(), in.header.type, std::move(in.data), in.error});
+  raw_open_ = false;
+  mailbox->protocol().reply_matched();
+  return true;
+}
+
+std::optional<EthercatPort::RawReply> EthercatPort::receive_raw(can::TimePoint deadline,
+                                                                std::string& error) {
+  auto& link = master_.port().link();
+  can::Duration interval = std::chrono::microseconds(20);
+  for (;;) {
+    if (!raw_replies_.empty()) {
+      RawReply reply = std::move(raw_replies_.front());
+      raw_replies_.pop_front();
+      return reply;
+    }
+    if (!poll_raw(error) && !error.empty()) return std::nullopt;
+    if (!raw_replies_.empty()) continue;
+    if (link.now() >= deadline) return std::nullopt;
+    const auto before = link.now();
+    pass_time(std::min(deadline, link.now() + interval));
+    if (link.now() == before) return std::nullopt;  // stop()
+    interval = std::min<can::Duration>(interval * 2, std::chrono::milliseconds(1));
+  }
+}
+
+void EthercatPort::settle_raw(can::Duration timeout) {
+  if (!raw_open_) return;
+  auto& link = master_.port().link();
+  const auto deadline = link.now() + timeout;
+  std::string error;
+  while (raw_open_ && link.now() < deadline) {
+    if (poll_raw(error)) continue;
+    if (!error.empty()) break;
+    const auto before = link.now();
+    pass_time(std::min(deadline, link.now() + std::chrono::microseconds(100)));
+    if (link.now() == before) break;  // stop()
+  }
+  // No reply (or a broken mailbox, which the next transfer reports): the master goes on.
+  if (raw_open_) {
+    raw_open_ = false;
+    if (auto* mailbox = master_.mailbox(0)) mailbox->protocol().reply_matched();
+  }
 }
 
 // ---- raw access for the EtherCAT-only steps ----

@@ -12,9 +12,12 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "conformance/datagram_evidence.hpp"
 #include "conformance/dut_port.hpp"
@@ -121,8 +124,33 @@ class EthercatPort final : public DutPort {
   void collect_emergencies(bool poll);
   std::vector<Emergency>& emergencies() { return emergencies_; }
 
+  // ---- raw SDO (sdo_request / expect_sdo_response, conformance/raw_sdo_steps.cpp) ----
+  // `sdo` (the 8 octets of a CiA 301 SDO request) as one CoE SDO request: CoE header number 0,
+  // service SDO request (ETG.1000.6), then the octets, in the write mailbox with the master's
+  // next counter. "" or why not.
+  std::string send_raw_sdo(std::span<const std::uint8_t> sdo);
+  // A message the slave put into its read mailbox after a raw request (emergencies go to
+  // emergencies() instead), stamped when the master read it.
+  struct RawReply {
+    can::TimePoint at{};
+    std::uint8_t type = 0;               // mailbox type (ethercat::MailboxType, 3: CoE)
+    std::vector<std::uint8_t> data;      // the mailbox data: CoE header, then the SDO octets
+    std::optional<std::uint16_t> error;  // an ERR reply: its detail
+  };
+  // The next such message until `deadline` (nullopt then, or on a broken read mailbox:
+  // `error` says why): those already read first, then the read mailbox polled (every 20 us at
+  // first, up to every 1 ms), time passing as usual (the process data cycle keeps running).
+  std::optional<RawReply> receive_raw(can::TimePoint deadline, std::string& error);
+
  private:
   bool cyclic() const;
+  // One read of the read mailbox: an emergency is queued for expect_emcy, any other message
+  // for receive_raw() (and ends the wait for a raw reply). False when it was empty.
+  bool poll_raw(std::string& error);
+  // Before a transfer through the master: a raw request still waiting for its reply gets up to
+  // `timeout` for it (kept for receive_raw()), so the master's SDO client never reads it as the
+  // answer to its own request.
+  void settle_raw(can::Duration timeout);
   // Before an SDO transfer: false (and `outcome` says why) when the vector's time is up;
   // otherwise runs the process data cycle that is due.
   bool before_transfer(VectorRun& run, SdoOutcome& outcome);
@@ -134,6 +162,8 @@ class EthercatPort final : public DutPort {
   std::function<void()> power_cycle_;
   can::TimePoint paused_until_{};
   std::vector<Emergency> emergencies_;
+  bool raw_open_ = false;  // a raw request was sent and nothing came back yet
+  std::deque<RawReply> raw_replies_;
   DatagramEvidence evidence_;
 };
 

@@ -367,7 +367,7 @@ StepStatus VectorRun::run_steps() {
         ++step_from_;
     }
     resume_from_.reset();
-    const bool reacts = std::holds_alternative<ExpectFrameStep>(step.action) ||
+    const bool reacts = frame_expected(step) != nullptr ||
                         std::holds_alternative<ExpectEmcyStep>(step.action) ||
                         std::holds_alternative<ExpectHeartbeatStep>(step.action);
     if (previous_request && reacts) {
@@ -385,8 +385,7 @@ StepStatus VectorRun::run_steps() {
     if (context_.interrupted.load()) return harness_error(action_, "interrupted by the user");
     // A step that ends with a send ends when it handed the frame over (the harness may be
     // descheduled right after); any other step ends now.
-    const bool sends = std::holds_alternative<SendStep>(step.action) ||
-                       std::holds_alternative<NmtStep>(step.action);
+    const bool sends = frame_sent(step) != nullptr || std::holds_alternative<NmtStep>(step.action);
     previous_end = sends && last_send_call_ >= step_started_ ? last_send_call_ : now();
     if (vector_timed_out())
       return fail(action_,

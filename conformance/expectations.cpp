@@ -30,6 +30,17 @@ std::string cob_text(const CobIdSpec& cob, std::uint8_t node) {
 
 }  // namespace
 
+std::optional<std::uint32_t> refused_abort(const ExpectFrameStep& e, const can::Frame& frame,
+                                           std::uint8_t node) {
+  if (!e.abort || !e.pattern.matches(frame, node)) return std::nullopt;
+  // The pattern is an SDO abort with the code as don't-care (loader): the set decides.
+  const auto payload = frame.payload();
+  const auto code = static_cast<std::uint32_t>(payload[4] | payload[5] << 8 | payload[6] << 16 |
+                                               static_cast<std::uint32_t>(payload[7]) << 24);
+  if (e.abort->accepts(code)) return std::nullopt;
+  return code;
+}
+
 void VectorRun::set_mark(const std::string& name, can::TimePoint at, std::size_t index) {
   marks_[name] = Mark{at, index};
 }
@@ -103,62 +114,62 @@ StepStatus VectorRun::poll_statusword(std::string action, std::uint16_t mask, st
                     observed);
 }
 
+StepStatus VectorRun::expect_frame(const ExpectFrameStep& e, const std::string& name) {
+  const auto within = resolve(e.within);
+  const auto from = watch_start(e.since);
+  const auto base = e.since.empty() ? request_time() : marks_.at(e.since).at;
+  std::vector<std::string> patterns{e.pattern.text};
+  for (const auto& alternative : e.alternatives)
+    patterns.push_back(alternative.text);
+  auto expected = fmt::format("a frame matching {} within {}", fmt::join(patterns, " or "),
+                              profile::format_duration(within));
+  if (e.abort) expected += fmt::format(", {}", e.abort->describe());
+  const auto hit = watch(from, base + within, [&](const can::Frame& f) {
+    return e.pattern.matches(f, node()) || std::any_of(e.alternatives.begin(), e.alternatives.end(),
+                                                       [&](const FrameSpec& alternative) {
+                                                         return alternative.matches(f, node());
+                                                       });
+  });
+  if (!hit) {
+    // Nothing matched; an SDO abort the DUT's server sent meanwhile is the typed observation.
+    Observation observed = nothing();
+    for (std::size_t i = from; i < received_.size(); ++i) {
+      const auto& f = received_[i].frame;
+      if (!f.is_extended() && !f.is_remote() && f.id == 0x580U + node() && f.length() == 8 &&
+          f.data[0] == 0x80)
+        observed.abort = static_cast<std::uint32_t>(f.data[4] | f.data[5] << 8 | f.data[6] << 16 |
+                                                    static_cast<std::uint32_t>(f.data[7]) << 24);
+    }
+    return fail_timed(name, expected,
+                      fmt::format("nothing matching within {}; {}",
+                                  profile::format_duration(within), recent_frames(from)),
+                      observed);
+  }
+  const auto& frame = received_[*hit];
+  if (const auto code = refused_abort(e, frame.frame, node())) {
+    Observation observed;
+    observed.abort = *code;
+    return fail(
+        name, expected,
+        fmt::format("{} after {}: abort {}", frame.frame, ms(frame.timestamp - base),
+                    cia301::make_error_code(static_cast<cia301::SdoAbort>(*code)).message()),
+        observed);
+  }
+  if (!e.mark.empty()) set_mark(e.mark, frame.timestamp, *hit + 1);
+  check(name, expected, fmt::format("{} after {}", frame.frame, ms(frame.timestamp - base)), true);
+  return StepStatus::ok;
+}
+
 StepStatus VectorRun::run_expectation(const Step& step) {
   const auto& action = step.action;
   const std::string name(action_name(action));
   // Bus time when the previous step ended: a late harness does not shift the windows.
   const auto start = step_started_;
-  if (const auto* e = std::get_if<ExpectFrameStep>(&action)) {
-    const auto within = resolve(e->within);
-    const auto from = watch_start(e->since);
-    const auto base = e->since.empty() ? request_time() : marks_.at(e->since).at;
-    std::vector<std::string> patterns{e->pattern.text};
-    for (const auto& alternative : e->alternatives)
-      patterns.push_back(alternative.text);
-    auto expected = fmt::format("a frame matching {} within {}", fmt::join(patterns, " or "),
-                                profile::format_duration(within));
-    if (e->abort) expected += fmt::format(", {}", e->abort->describe());
-    const auto hit = watch(from, base + within, [&](const can::Frame& f) {
-      return e->pattern.matches(f, node()) ||
-             std::any_of(
-                 e->alternatives.begin(), e->alternatives.end(),
-                 [&](const FrameSpec& alternative) { return alternative.matches(f, node()); });
-    });
-    if (!hit) {
-      // Nothing matched; an SDO abort the DUT's server sent meanwhile is the typed observation.
-      Observation observed = nothing();
-      for (std::size_t i = from; i < received_.size(); ++i) {
-        const auto& f = received_[i].frame;
-        if (!f.is_extended() && !f.is_remote() && f.id == 0x580U + node() && f.length() == 8 &&
-            f.data[0] == 0x80)
-          observed.abort = static_cast<std::uint32_t>(f.data[4] | f.data[5] << 8 | f.data[6] << 16 |
-                                                      static_cast<std::uint32_t>(f.data[7]) << 24);
-      }
-      return fail_timed(name, expected,
-                        fmt::format("nothing matching within {}; {}",
-                                    profile::format_duration(within), recent_frames(from)),
-                        observed);
-    }
-    const auto& frame = received_[*hit];
-    if (e->abort && e->pattern.matches(frame.frame, node())) {
-      // The pattern is an SDO abort with the code as don't-care (loader): the set decides.
-      const auto payload = frame.frame.payload();
-      const auto code = static_cast<std::uint32_t>(payload[4] | payload[5] << 8 | payload[6] << 16 |
-                                                   static_cast<std::uint32_t>(payload[7]) << 24);
-      if (!e->abort->accepts(code)) {
-        Observation observed;
-        observed.abort = code;
-        return fail(
-            name, expected,
-            fmt::format("{} after {}: abort {}", frame.frame, ms(frame.timestamp - base),
-                        cia301::make_error_code(static_cast<cia301::SdoAbort>(code)).message()),
-            observed);
-      }
-    }
-    if (!e->mark.empty()) set_mark(e->mark, frame.timestamp, *hit + 1);
-    check(name, expected, fmt::format("{} after {}", frame.frame, ms(frame.timestamp - base)),
-          true);
-    return StepStatus::ok;
+  if (const auto* e = std::get_if<ExpectFrameStep>(&action)) return expect_frame(*e, name);
+  if (const auto* e = std::get_if<ExpectSdoResponseStep>(&action)) {
+    // On CAN the response is the frame 580h+N: the expect_frame it stands for.
+    if (context_.port.link() == LinkKind::can) return expect_frame(e->expect, name);
+    return expect_coe_sdo_response(e->expect, name);
   }
   if (const auto* e = std::get_if<ExpectSilenceStep>(&action)) {
     const auto duration = resolve(e->duration);

@@ -84,7 +84,7 @@ void for_each_written(const Vector& vector, std::uint8_t node, Visit&& visit) {
               write->value ? std::optional<Bytes>{} : std::optional<Bytes>{write->data});
       } else if (const auto* repeat = std::get_if<MailboxRepeatStep>(&step.action)) {
         visit(ObjectRef{repeat->index, repeat->sub}, std::optional<Bytes>{});
-      } else if (const auto* send = std::get_if<SendStep>(&step.action)) {
+      } else if (const auto* send = frame_sent(step)) {  // send, sdo_request
         if (const auto request = sdo_download_request(send->frame.to_frame(node), node))
           visit(ObjectRef{request->mux.index, request->mux.sub_index}, request->expedited_data);
       }

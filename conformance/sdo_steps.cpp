@@ -90,7 +90,11 @@ StepStatus VectorRun::write_controlword(std::uint16_t value, std::string action)
 StepStatus VectorRun::run_stimulus(const Step& step) {
   const auto& action = step.action;
   const std::string name(action_name(action));
-  if (const auto* send_step = std::get_if<SendStep>(&action)) {
+  if (const auto* request = std::get_if<SdoRequestStep>(&action)) {
+    // On CAN the request is the frame 600h+N: sent as the `send` it stands for (below).
+    if (context_.port.link() != LinkKind::can) return send_coe_sdo_request(request->send, name);
+  }
+  if (const auto* send_step = frame_sent(step)) {
     const auto frame = send_step->frame.to_frame(node());
     const bool nmt = frame.id == 0 && !frame.is_extended() && !frame.is_remote();
     // The step asks for the frame when the previous step ended; its echo tells when it went

@@ -265,6 +265,24 @@ struct ExpectPeriodicStep {
   friend bool operator==(const ExpectPeriodicStep&, const ExpectPeriodicStep&) = default;
 };
 
+// ---- raw SDO on every link (FORMAT.md "Raw SDO steps") ----
+
+// `sdo_request: "<8 octets>"`: one SDO request exactly as CiA 301 §7.2.4.3 lays it out
+// (command, index, sub-index, 4 data octets). On CAN it is the frame 600h+N with these octets
+// (`send` is the CAN form, kept here); on EtherCAT a CoE SDO request (ETG.1000.6: the CoE
+// header, number 0 and service 2, then the same 8 octets) in the write mailbox.
+struct SdoRequestStep {
+  SendStep send;  // 600+N#<octets>
+  friend bool operator==(const SdoRequestStep&, const SdoRequestStep&) = default;
+};
+// `expect_sdo_response: "<8-octet pattern>"` (`..` don't care) with the modifiers of
+// expect_frame (within, abort, clause, or, mark): on CAN the expect_frame of 580h+N with that
+// pattern (kept here, and run by the same code); on EtherCAT a CoE SDO response (service 3)
+// from the read mailbox whose first 8 octets after the CoE header match, by the same matcher.
+struct ExpectSdoResponseStep {
+  ExpectFrameStep expect;  // 580+N#<pattern>; `since:` is refused by the loader
+  friend bool operator==(const ExpectSdoResponseStep&, const ExpectSdoResponseStep&) = default;
+};
 // ---- EtherCAT only (FORMAT.md "EtherCAT steps"): a vector with one is `transports:
 // [ethercat]` in effect (not applicable on CAN, verdict.hpp) ----
 
@@ -325,7 +343,8 @@ using Action =
                  SimulateStep, MarkStep, ExpectFrameStep, ExpectSilenceStep, ExpectBootupStep,
                  ExpectHeartbeatStep, ExpectEmcyStep, ExpectStateStep, ExpectStatuswordStep,
                  PollStep, MeasureStep, ExpectPeriodicStep, BusOffStep, AlRequestStep, ExpectAlStep,
-                 ProcessDataStep, PauseProcessDataStep, MailboxRepeatStep>;
+                 ProcessDataStep, PauseProcessDataStep, MailboxRepeatStep, SdoRequestStep,
+                 ExpectSdoResponseStep>;
 
 // The action key of each alternative, in variant order ("send", "nmt", ...).
 std::string_view action_name(const Action& action);
@@ -339,6 +358,11 @@ struct Step {
   // aggregate initialisations {action, note, line} keep their meaning.
   std::string clause;
 };
+
+// The CAN form of a step: the SendStep of a `send` or an `sdo_request`, the ExpectFrameStep of
+// an `expect_frame` or an `expect_sdo_response` (nullptr otherwise).
+const SendStep* frame_sent(const Step& step);
+const ExpectFrameStep* frame_expected(const Step& step);
 
 // A parsed source citation.
 struct Source {

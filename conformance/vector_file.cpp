@@ -16,6 +16,7 @@
 
 #include "conformance/device_values.hpp"
 #include "protocol/cia301/sdo_abort_sets.hpp"
+#include "protocol/cia301/sdo_codec.hpp"
 #include "protocol/ethercat/al_state_machine.hpp"
 #include "protocol/profile/vocabulary.hpp"
 
@@ -47,8 +48,23 @@ std::string_view action_name(const Action& action) {
                                                                              "expect_al",
                                                                              "process_data",
                                                                              "pause_process_data",
-                                                                             "mailbox_repeat"};
+                                                                             "mailbox_repeat",
+                                                                             "sdo_request",
+                                                                             "expect_sdo_response"};
   return kNames[action.index()];
+}
+
+const SendStep* frame_sent(const Step& step) {
+  if (const auto* send = std::get_if<SendStep>(&step.action)) return send;
+  if (const auto* request = std::get_if<SdoRequestStep>(&step.action)) return &request->send;
+  return nullptr;
+}
+
+const ExpectFrameStep* frame_expected(const Step& step) {
+  if (const auto* frame = std::get_if<ExpectFrameStep>(&step.action)) return frame;
+  if (const auto* response = std::get_if<ExpectSdoResponseStep>(&step.action))
+    return &response->expect;
+  return nullptr;
 }
 
 std::string Vector::ethercat_only_step() const {
@@ -304,6 +320,31 @@ Expected<FrameSpec, std::string> parse_frame_spec(std::string_view text, bool pa
   return spec;
 }
 
+// The 8 octets of an SDO message (sdo_request, expect_sdo_response: FORMAT.md "Raw SDO
+// steps") as the CAN frame that carries them: `cob`#octets (600+N or 580+N), `text` that frame
+// as written.
+Expected<FrameSpec, std::string> parse_sdo_octets(std::string_view text, bool pattern,
+                                                  std::uint32_t cob) {
+  if (text.find('#') != std::string_view::npos || text.find('*') != std::string_view::npos)
+    return Unexpected(fmt::format(
+        "'{}': the 8 octets of an SDO message, without COB-ID or '*' (the link decides: "
+        "{:X}h+N on CAN, a CoE SDO mailbox on EtherCAT)",
+        text, cob));
+  auto bytes = parse_byte_pattern(text, pattern);
+  if (!bytes) return Unexpected(fmt::format("'{}': {}", text, bytes.error()));
+  if (bytes->size() != 8)
+    return Unexpected(
+        fmt::format("'{}': {} octets; an SDO message has exactly 8 (CiA 301 "
+                    "§7.2.4.3: command, index, sub-index, 4 data octets)",
+                    text, bytes->size()));
+  FrameSpec spec;
+  spec.text = fmt::format("{:X}+N#{}", cob, text);
+  spec.cob = CobIdSpec{cob, true, false};
+  spec.bytes = std::move(*bytes);
+  spec.dlc = 8;
+  return spec;
+}
+
 Expected<Source, std::string> parse_source(std::string_view text) {
   Source source;
   source.text = std::string(text);
@@ -387,6 +428,8 @@ const std::vector<StepSyntax>& step_syntax() {
       {"process_data", {}},
       {"pause_process_data", {}},
       {"mailbox_repeat", {}},
+      {"sdo_request", {}},
+      {"expect_sdo_response", {"within", "mark", "abort", "clause", "or"}},
   };
   return kSyntax;
 }
@@ -813,6 +856,64 @@ class Parser {
     return expect;
   }
 
+  // expect_frame and expect_sdo_response: a pattern (`parse` reads it and the `or:` ones) with
+  // abort:, or:, clause:, within:, since:, mark:.
+  template <typename Parse>
+  std::optional<ExpectFrameStep> parse_expect_frame(std::string_view action,
+                                                    const YAML::Node& value,
+                                                    const YAML::Node& step_map, Parse&& parse) {
+    const auto modifier = [&step_map](std::string_view key) { return step_map[std::string(key)]; };
+    ExpectFrameStep step;
+    const std::string what(action);
+    auto text = scalar(value, what);
+    if (!text) return std::nullopt;
+    auto pattern = parse(*text);
+    if (!pattern) {
+      error(value, fmt::format("{}: {}", what, pattern.error()));
+      return std::nullopt;
+    }
+    step.pattern = std::move(*pattern);
+    if (const auto node = modifier("abort")) {
+      step.abort = abort_expect(node, nullptr, what + " abort");
+      const auto& bytes = step.pattern.bytes;
+      const bool abort_pattern =
+          !step.pattern.remote && bytes.size() == 8 && bytes[0] && *bytes[0] == 0x80 &&
+          std::all_of(bytes.begin() + 4, bytes.end(), [](const auto& b) { return !b.has_value(); });
+      if (!abort_pattern)
+        error(value, fmt::format("{}: with abort: the pattern must be an SDO abort "
+                                 "with its code as don't-care (80......{}), not '{}'",
+                                 what, "........", step.pattern.text));
+    }
+    if (const auto node = modifier("or")) {
+      if (!node.IsSequence() || node.size() == 0) {
+        error(node, fmt::format("{} or: expected a list of patterns", what));
+      } else {
+        for (const auto& item : node) {
+          auto alt_text = scalar(item, what + " or");
+          if (!alt_text) continue;
+          auto alt = parse(*alt_text);
+          if (!alt) {
+            error(item, fmt::format("{} or: {}", what, alt.error()));
+            continue;
+          }
+          step.alternatives.push_back(std::move(*alt));
+        }
+      }
+    }
+    if (const auto node = modifier("clause")) {
+      if (auto clause_text = scalar(node, "clause")) {
+        if (clause_text->empty()) error(node, "clause: empty");
+        step.clause = *clause_text;
+        if (step.abort) step.abort->clause = *clause_text;
+      }
+    }
+    if (const auto node = modifier("within"))
+      step.within = duration(node, "within").value_or(step.within);
+    if (const auto node = modifier("since")) step.since = mark_reference(node, "since");
+    if (const auto node = modifier("mark")) step.mark = mark_definition(node);
+    return step;
+  }
+
   std::optional<Action> parse_action(std::string_view action, const YAML::Node& value,
                                      const YAML::Node& step_map) {
     const auto modifier = [&step_map](std::string_view key) { return step_map[std::string(key)]; };
@@ -1063,55 +1164,28 @@ class Parser {
       return MarkStep{mark};
     }
     if (action == "expect_frame") {
-      ExpectFrameStep step;
-      auto text = scalar(value, "expect_frame");
+      auto step = parse_expect_frame(action, value, step_map, [](std::string_view text) {
+        return parse_frame_spec(text, true);
+      });
+      if (!step) return std::nullopt;
+      return *step;
+    }
+    if (action == "sdo_request") {
+      auto text = scalar(value, "sdo_request");
       if (!text) return std::nullopt;
-      auto pattern = parse_frame_spec(*text, true);
-      if (!pattern) {
-        error(value, fmt::format("expect_frame: {}", pattern.error()));
+      auto frame = parse_sdo_octets(*text, false, cia301::kSdoRequestBase);
+      if (!frame) {
+        error(value, fmt::format("sdo_request: {}", frame.error()));
         return std::nullopt;
       }
-      step.pattern = std::move(*pattern);
-      if (const auto node = modifier("abort")) {
-        step.abort = abort_expect(node, nullptr, "expect_frame abort");
-        const auto& bytes = step.pattern.bytes;
-        const bool abort_pattern = !step.pattern.remote && bytes.size() == 8 && bytes[0] &&
-                                   *bytes[0] == 0x80 &&
-                                   std::all_of(bytes.begin() + 4, bytes.end(),
-                                               [](const auto& b) { return !b.has_value(); });
-        if (!abort_pattern)
-          error(value, fmt::format("expect_frame: with abort: the pattern must be an SDO abort "
-                                   "with its code as don't-care (80......{}), not '{}'",
-                                   "........", step.pattern.text));
-      }
-      if (const auto node = modifier("or")) {
-        if (!node.IsSequence() || node.size() == 0) {
-          error(node, "expect_frame or: expected a list of frame patterns");
-        } else {
-          for (const auto& item : node) {
-            auto alt_text = scalar(item, "expect_frame or");
-            if (!alt_text) continue;
-            auto alt = parse_frame_spec(*alt_text, true);
-            if (!alt) {
-              error(item, fmt::format("expect_frame or: {}", alt.error()));
-              continue;
-            }
-            step.alternatives.push_back(std::move(*alt));
-          }
-        }
-      }
-      if (const auto node = modifier("clause")) {
-        if (auto clause_text = scalar(node, "clause")) {
-          if (clause_text->empty()) error(node, "clause: empty");
-          step.clause = *clause_text;
-          if (step.abort) step.abort->clause = *clause_text;
-        }
-      }
-      if (const auto node = modifier("within"))
-        step.within = duration(node, "within").value_or(step.within);
-      if (const auto node = modifier("since")) step.since = mark_reference(node, "since");
-      if (const auto node = modifier("mark")) step.mark = mark_definition(node);
-      return step;
+      return SdoRequestStep{SendStep{std::move(*frame)}};
+    }
+    if (action == "expect_sdo_response") {
+      auto step = parse_expect_frame(action, value, step_map, [](std::string_view text) {
+        return parse_sdo_octets(text, true, cia301::kSdoResponseBase);
+      });
+      if (!step) return std::nullopt;
+      return ExpectSdoResponseStep{std::move(*step)};
     }
     if (action == "expect_silence") {
       ExpectSilenceStep step;
@@ -1411,7 +1485,9 @@ class Parser {
     if (const auto note = node["note"]) step.note = scalar(note, "note").value_or("");
     if (const auto clause = node["clause"]) {
       step.clause = scalar(clause, "clause").value_or("");
-      if (step.clause.empty() && syntax->action != "expect_frame") error(clause, "clause: empty");
+      if (step.clause.empty() && syntax->action != "expect_frame" &&
+          syntax->action != "expect_sdo_response")
+        error(clause, "clause: empty");
     }
     auto action = parse_action(syntax->action, action_value, node);
     if (!action) return std::nullopt;

@@ -63,6 +63,10 @@ Expected<DurationSpec, std::string> parse_duration_spec(std::string_view text);
 Expected<Source, std::string> parse_source(std::string_view text);
 // Parses a frame (`patterns`: `..` bytes and a trailing `*` allowed).
 Expected<FrameSpec, std::string> parse_frame_spec(std::string_view text, bool pattern);
+// Parses the 8 octets of an SDO message (sdo_request; with `pattern`, `..` allowed:
+// expect_sdo_response) into the CAN frame that carries them on `cob` + N (600h, 580h).
+Expected<FrameSpec, std::string> parse_sdo_octets(std::string_view text, bool pattern,
+                                                  std::uint32_t cob);
 // Parses a COB-ID: `080`, `600+N`.
 Expected<CobIdSpec, std::string> parse_cob_id(std::string_view text);
 

@@ -71,7 +71,7 @@ std::vector<Touch> touches(const Vector& vector) {
     } else if (std::holds_alternative<ExpectStateStep>(step.action) ||
                std::holds_alternative<ExpectStatuswordStep>(step.action)) {
       found.push_back({0x6041, 0, step.line, "statusword poll"});
-    } else if (const auto* send = std::get_if<SendStep>(&step.action)) {
+    } else if (const auto* send = frame_sent(step)) {
       // An SDO request to the DUT's default server (CiA 301 §7.2.4.3): initiate download
       // (ccs 1), initiate upload (ccs 2), block upload (ccs 5, cs 0), block download (ccs 6,
       // cs 0) carry the multiplexer in bytes 1..3.
@@ -313,7 +313,8 @@ std::string check_abort_expectation(const Step& step) {
       return "sdo_read expect: a literal list of abort codes needs clause: (the clause that "
              "gives exactly these codes); or name a set of sdo_abort_sets.inc";
   }
-  if (const auto* frame = std::get_if<ExpectFrameStep>(&step.action)) {
+  if (const auto* frame = frame_expected(step)) {
+    const std::string what(action_name(step.action));
     const auto fixed_code = [](const FrameSpec& pattern) {
       const auto& bytes = pattern.bytes;
       const bool abort_frame = is_sdo_response_cob(pattern.cob) && !pattern.remote &&
@@ -323,15 +324,15 @@ std::string check_abort_expectation(const Step& step) {
     };
     if (!frame->abort && frame->clause.empty() && fixed_code(frame->pattern))
       return fmt::format(
-          "expect_frame '{}' is an SDO abort with a fixed code: give abort: <set> (with the "
+          "{} '{}' is an SDO abort with a fixed code: give abort: <set> (with the "
           "code bytes as ..) or clause: naming the clause that gives exactly this code",
-          frame->pattern.text);
+          what, frame->pattern.text);
     for (const auto& alternative : frame->alternatives) {
       if (frame->clause.empty() && fixed_code(alternative))
         return fmt::format(
-            "expect_frame or: '{}' is an SDO abort with a fixed code: make it "
+            "{} or: '{}' is an SDO abort with a fixed code: make it "
             "the main pattern with abort: <set>, or give clause:",
-            alternative.text);
+            what, alternative.text);
     }
   }
   return {};
@@ -363,6 +364,8 @@ std::vector<std::string> check_timing_bounds(const Vector& vector, const Step& s
                       std::is_same_v<T, ExpectStatuswordStep> || std::is_same_v<T, PollStep> ||
                       std::is_same_v<T, AlRequestStep> || std::is_same_v<T, ExpectAlStep>) {
           add("within", a.within);
+        } else if constexpr (std::is_same_v<T, ExpectSdoResponseStep>) {
+          add("within", a.expect.within);
         } else if constexpr (std::is_same_v<T, ExpectHeartbeatStep>) {
           if (a.within) add("within", *a.within);
         } else if constexpr (std::is_same_v<T, ExpectSilenceStep>) {

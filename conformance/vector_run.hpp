@@ -77,6 +77,12 @@ enum class StepStatus : std::uint8_t { ok, failed, harness_error, not_applicable
 // Whether the action is one of the EtherCAT-only steps (ethercat_steps.cpp).
 bool is_ethercat_step(const Action& action);
 
+// With `abort:`, a frame that matched the main pattern but carries an abort code outside the
+// set: that code (the step fails with it); nullopt when the frame meets the expectation. Both
+// expect_frame and expect_sdo_response (on either link) judge a matched frame by it.
+std::optional<std::uint32_t> refused_abort(const ExpectFrameStep& e, const can::Frame& frame,
+                                           std::uint8_t node);
+
 class VectorRun {
  public:
   VectorRun(EngineContext& context, const Vector& vector, VectorResult& result);
@@ -140,9 +146,19 @@ class VectorRun {
 
   // ---- expectations.cpp ----
   StepStatus run_expectation(const Step& step);
+  // An expect_frame (also the CAN form of expect_sdo_response), reported under `name`.
+  StepStatus expect_frame(const ExpectFrameStep& e, const std::string& name);
   // A 402 state or statusword pattern polled through 6041h until `deadline`.
   StepStatus poll_statusword(std::string action, std::uint16_t mask, std::uint16_t value,
                              std::string expected, can::TimePoint deadline);
+
+  // ---- raw_sdo_steps.cpp: sdo_request / expect_sdo_response on EtherCAT (CoE) ----
+  // The 8 octets as a CoE SDO request in the write mailbox (isolation learns a download from
+  // them as on CAN from the frame).
+  StepStatus send_coe_sdo_request(const SendStep& request, const std::string& name);
+  // A CoE SDO response whose first 8 octets after the CoE header match `e`'s pattern (or an
+  // `or:` one), by the CAN frame 580h+N they would be: the same matcher and abort judgement.
+  StepStatus expect_coe_sdo_response(const ExpectFrameStep& e, const std::string& name);
 
   // ---- ethercat_steps.cpp ----
   // The EtherCAT-only steps (is_ethercat_step), through the EtherCAT DUT port.

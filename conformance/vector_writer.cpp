@@ -223,8 +223,8 @@ class Writer {
   void step(const Step& step) {
     out_ << YAML::BeginMap;
     std::visit([this](const auto& action) { this->action(action); }, step.action);
-    // expect_frame writes its clause: with the action.
-    if (!step.clause.empty() && !std::holds_alternative<ExpectFrameStep>(step.action)) {
+    // expect_frame and expect_sdo_response write their clause: with the action.
+    if (!step.clause.empty() && frame_expected(step) == nullptr) {
       key("clause");
       quoted(step.clause);
     }
@@ -463,15 +463,30 @@ class Writer {
     key("mark");
     quoted(s.name);
   }
-  void action(const ExpectFrameStep& s) {
-    key("expect_frame");
-    quoted(s.pattern.text);
+  void action(const ExpectFrameStep& s) { expect_frame("expect_frame", s, pattern_text); }
+  void action(const SdoRequestStep& s) {
+    key("sdo_request");
+    quoted(sdo_octets_text(s.send.frame));
+  }
+  void action(const ExpectSdoResponseStep& s) {
+    expect_frame("expect_sdo_response", s.expect, sdo_octets_text);
+  }
+  static std::string pattern_text(const FrameSpec& frame) { return frame.text; }
+  // The octets of sdo_request / expect_sdo_response as written: the CAN frame's text after '#'.
+  static std::string sdo_octets_text(const FrameSpec& frame) {
+    const auto hash = frame.text.find('#');
+    return hash == std::string::npos ? frame.text : frame.text.substr(hash + 1);
+  }
+  template <typename Text>
+  void expect_frame(std::string_view action_key, const ExpectFrameStep& s, Text&& text) {
+    key(action_key);
+    quoted(text(s.pattern));
     if (s.abort) abort(*s.abort);
     if (!s.alternatives.empty()) {
       key("or");
       out_ << YAML::Flow << YAML::BeginSeq;
       for (const FrameSpec& alternative : s.alternatives)
-        quoted(alternative.text);
+        quoted(text(alternative));
       out_ << YAML::EndSeq;
     }
     if (!s.clause.empty()) {

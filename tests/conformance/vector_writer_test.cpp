@@ -133,6 +133,12 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
     - pause_process_data: watchdog
     - pause_process_data: 150ms
     - mailbox_repeat: {index: 0x6083, sub: 0, size: 4, value: -1, repeat: 4294967295}
+    - sdo_request: "40 18 10 00 00 00 00 00"
+    - expect_sdo_response: "80181000........"
+      abort: any
+      or: ["4F181000........"]
+      mark: answered
+      within: $timing.sdo_response
   finally:
     - sdo_write: {index: 0x6060, sub: 0, value: $mode_seen}
       note: "clean-up that runs after a failed step too"
