@@ -420,6 +420,17 @@ void ReferenceDrive::on_reset(cia301::ResetKind kind) {
       apply_stored(cia301::kStoreCommunication);
     }
     application_reset_ = false;
+    // Deviation: RPDO1-4's default COB-IDs without the node-ID (where they hold the default).
+    if (has(Deviation::pdo_rpdo_default_cob_id_without_node_id)) {
+      for (std::uint16_t index = 0x1400; index <= 0x1403; ++index) {
+        cia301::Entry* entry = od_->find(index, 1);
+        if (entry == nullptr) continue;
+        auto bytes = entry->default_bytes(node_id());
+        if (bytes.empty() || !std::ranges::equal(bytes, entry->bytes())) continue;
+        bytes[0] = static_cast<std::uint8_t>(bytes[0] - node_id());  // 200h + N - N, no borrow
+        (void)entry->assign_bytes(bytes);
+      }
+    }
     sync_sdo_channels();
     // The bus-off recovery EMCY belongs to the communication that was just reset.
     if (!config_.on_bus_off) services_->clear_error(kRecoveredFromBusOff);
