@@ -106,6 +106,25 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
       if (cia301::Entry* entry = od_->find(index, 0)) entry->set_store_group(cia301::kStoreNone);
     }
   }
+  // Deviation: 1020h belongs to no group, so neither a store nor a reset nor a restore touches it.
+  if (has(Deviation::store_verify_configuration_not_saved)) {
+    if (cia301::Object* verify = od_->find(kVerifyConfigurationIndex)) {
+      for (cia301::Entry& entry : verify->entries()) {
+        if (entry.sub_index() != 0) entry.set_store_group(cia301::kStoreNone);
+      }
+    }
+  }
+  // Deviation: the further SDO server records (1201h..) belong to no group: no reset sets them.
+  if (has(Deviation::sdo_server_cob_ids_kept_over_reset)) {
+    for (unsigned i = 1; i <= config_.dictionary.extra_sdo_servers; ++i) {
+      if (cia301::Object* record =
+              od_->find(static_cast<std::uint16_t>(kSdoServerParameterIndex + i))) {
+        for (cia301::Entry& entry : record->entries()) {
+          if (entry.sub_index() != 0) entry.set_store_group(cia301::kStoreNone);
+        }
+      }
+    }
+  }
   // Deviation: the consumer heartbeat times belong to no group, so no reset (nor store) touches
   // them.
   if (has(Deviation::nmt_reset_keeps_heartbeat_consumers)) {
@@ -401,6 +420,17 @@ void ReferenceDrive::on_reset(cia301::ResetKind kind) {
       apply_stored(cia301::kStoreCommunication);
     }
     application_reset_ = false;
+    // Deviation: RPDO1-4's default COB-IDs without the node-ID (where they hold the default).
+    if (has(Deviation::pdo_rpdo_default_cob_id_without_node_id)) {
+      for (std::uint16_t index = 0x1400; index <= 0x1403; ++index) {
+        cia301::Entry* entry = od_->find(index, 1);
+        if (entry == nullptr) continue;
+        auto bytes = entry->default_bytes(node_id());
+        if (bytes.empty() || !std::ranges::equal(bytes, entry->bytes())) continue;
+        bytes[0] = static_cast<std::uint8_t>(bytes[0] - node_id());  // 200h + N - N, no borrow
+        (void)entry->assign_bytes(bytes);
+      }
+    }
     sync_sdo_channels();
     // The bus-off recovery EMCY belongs to the communication that was just reset.
     if (!config_.on_bus_off) services_->clear_error(kRecoveredFromBusOff);

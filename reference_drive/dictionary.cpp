@@ -91,6 +91,18 @@ Expected<cia301::ObjectDictionary, std::string> build_dictionary(const Dictionar
     return Unexpected(ok.error());
   }
 
+  if (options.verify_configuration) {
+    if (auto ok = add(od, {kVerifyConfigurationIndex,
+                           "Verify configuration",
+                           ObjectCode::array,
+                           {u8(0, "Highest sub-index supported", 2),
+                            u32(1, "Configuration date", 0, AccessType::rw),
+                            u32(2, "Configuration time", 0, AccessType::rw)}});
+        !ok) {
+      return Unexpected(ok.error());
+    }
+  }
+
   EntryDefinition request = u32(1, "COB-ID client to server (rx)", cia301::kSdoRequestBase);
   request.default_adds_node_id = true;
   EntryDefinition response = u32(2, "COB-ID server to client (tx)", cia301::kSdoResponseBase);

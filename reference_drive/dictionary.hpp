@@ -15,6 +15,11 @@
 //   1014h  COB-ID EMCY; 1015h inhibit time EMCY                                 EMCY producer
 //   1016h  consumer heartbeat time (4 entries); 1017h producer heartbeat time   heartbeat
 //   1018h  identity, RECORD ro: 01h vendor-ID, 02h product code, 03h revision, 04h serial
+//   1020h  verify configuration, ARRAY of UNSIGNED32 rw (CiA 301 §7.5.2.23): 01h configuration
+//          date (days since 1 January 1984), 02h configuration time (ms after midnight), both
+//          default 0; a configuration tool writes them before it stores (1010h), so that they
+//          come back with the stored configuration after a reset. Communication parameters
+//          (store group 1000h-1FFFh). DictionaryOptions::verify_configuration       here
 //   1029h  error behaviour                                                      NMT slave
 //   1200h  SDO server parameter, RECORD: 01h COB-ID client->server ($NODEID+600h) ro,
 //          02h COB-ID server->client ($NODEID+580h) ro                          here
@@ -40,6 +45,7 @@ inline constexpr std::uint16_t kDeviceNameIndex = 0x1008;
 inline constexpr std::uint16_t kHardwareVersionIndex = 0x1009;
 inline constexpr std::uint16_t kSoftwareVersionIndex = 0x100A;
 inline constexpr std::uint16_t kIdentityIndex = 0x1018;
+inline constexpr std::uint16_t kVerifyConfigurationIndex = 0x1020;
 inline constexpr std::uint16_t kSdoServerParameterIndex = 0x1200;
 
 // CiA 402 servo drive: bits 15..0 device profile 402 (0192h), bits 23..16 type 02h (servo).
@@ -70,6 +76,9 @@ struct DictionaryOptions {
   // written; sub 03h as sdo_node_id_sub says. 0..127; 0: the default channel 1200h only.
   std::uint8_t extra_sdo_servers = 0;
   cia301::SdoNodeIdSub sdo_node_id_sub = cia301::SdoNodeIdSub::client;
+  // 1020h verify configuration (optional in CiA 301; the standard drive stores parameters, and
+  // a device that does has it for its configuration tool). false: absent.
+  bool verify_configuration = true;
 };
 
 // The CiA 301 part of the dictionary. Error: a node-ID outside 1..127 (or an inconsistent

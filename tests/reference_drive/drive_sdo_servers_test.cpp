@@ -108,6 +108,19 @@ TEST(DriveSdoServers, ResetCommunicationPutsTheChannelBackOff) {
   EXPECT_EQ(rig.exchange("67F#4000100000000000", 50ms), Frames{});
 }
 
+TEST(DriveSdoServers, KeptOverResetDeviationLeavesTheCobIdsAsWritten) {
+  // Given the deviation sdo-server-cob-ids-kept-over-reset and the second channel valid on 67Fh
+  // When the drive gets reset communication
+  // Then 1201h sub 01h still reads the written COB-ID (valid, 67Fh)
+  DriveConfig config = with_servers(1, cia301::SdoNodeIdSub::client);
+  config.deviations.add(Deviation::sdo_server_cob_ids_kept_over_reset);
+  DriveRig rig(5, config);
+  open_second_channel(rig);
+  rig.nmt(0x82);
+  rig.run(10ms);
+  EXPECT_EQ(rig.read(0x1201, 1).value & 0x800007FFu, 0x67Fu);
+}
+
 TEST(DriveSdoServers, StoppedServesNoChannel) {
   // Given the second channel valid and the drive stopped
   // When a request comes on 67Fh

@@ -156,6 +156,39 @@ TEST(StoreRestore, RestoreDefaultsTakesEffectAfterTheNextReset) {
   EXPECT_TRUE(rig.storage().stored().empty());
 }
 
+TEST(StoreRestore, VerifyConfigurationIsStoredAndRestored) {
+  // Given 1020h = 15000 days / noon saved with 1010h:01, then changed
+  // When the node is reset, then "load" is written to 1011h:01 and the node reset again
+  // Then 1020h reads the saved date and time, and after the restore its defaults 0 / 0
+  DriveRig rig;
+  EXPECT_EQ(rig.read(0x1020, 0).value, 2u);
+  ASSERT_EQ(rig.write(0x1020, 1, 15000, 4), 0u);
+  ASSERT_EQ(rig.write(0x1020, 2, 43200000, 4), 0u);
+  ASSERT_EQ(rig.write(0x1010, 1, kSave, 4), 0u);
+  ASSERT_EQ(rig.write(0x1020, 1, 15001, 4), 0u);
+  rig.nmt(kResetNode);
+  EXPECT_EQ(rig.read(0x1020, 1).value, 15000u);
+  EXPECT_EQ(rig.read(0x1020, 2).value, 43200000u);
+  ASSERT_EQ(rig.write(0x1011, 1, kLoad, 4), 0u);
+  rig.nmt(kResetNode);
+  EXPECT_EQ(rig.read(0x1020, 1).value, 0u);
+  EXPECT_EQ(rig.read(0x1020, 2).value, 0u);
+}
+
+TEST(StoreRestore, VerifyConfigurationNotSavedDeviationKeepsTheLastWrite) {
+  // Given the deviation store-verify-configuration-not-saved, 1020h:01 = 15000 saved, then 15001
+  // When the node is reset
+  // Then 1020h:01 reads 15001: neither the store nor the reset touched it
+  DriveConfig config;
+  config.deviations.add(Deviation::store_verify_configuration_not_saved);
+  DriveRig rig(5, config);
+  ASSERT_EQ(rig.write(0x1020, 1, 15000, 4), 0u);
+  ASSERT_EQ(rig.write(0x1010, 1, kSave, 4), 0u);
+  ASSERT_EQ(rig.write(0x1020, 1, 15001, 4), 0u);
+  rig.nmt(kResetNode);
+  EXPECT_EQ(rig.read(0x1020, 1).value, 15001u);
+}
+
 TEST(StoreRestore, RestoreOfOneGroupKeepsTheOthers) {
   // Given 1017h and 2000h saved (all)
   // When 1011h:02 (communication defaults) is restored and the node reset
