@@ -326,7 +326,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     if (from == marks_.end() || to == marks_.end())
       return harness_error(
           name, fmt::format("unknown mark '{}'", from == marks_.end() ? e->from : e->to));
-    if (e->frames) {
+    if (!e->frames.empty()) {
       // Frames on the bus between the two marks, by their timestamps: the harness's own too
       // (their echo is their wire time), so what counts is what was on the bus, not when the
       // harness meant to send it.
@@ -334,14 +334,20 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       const auto last = to->second.at;
       std::size_t count = 0;
       for (const EvidenceFrame& seen : result_.frames) {
-        if (seen.at > first && seen.at <= last && e->frames->matches(seen.frame, node())) ++count;
+        if (seen.at <= first || seen.at > last) continue;
+        if (std::ranges::any_of(e->frames, [&](const FrameSpec& pattern) {
+              return pattern.matches(seen.frame, node());
+            }))
+          ++count;
       }
+      std::string patterns;
+      for (const FrameSpec& pattern : e->frames)
+        patterns += (patterns.empty() ? "" : " or ") + pattern.text;
       const auto bound = [](const std::optional<std::size_t>& n) {
         return n ? fmt::format("{}", *n) : std::string("-");
       };
-      const auto expected =
-          fmt::format("frames matching {} between {} and {}: [{}, {}]", e->frames->text, e->from,
-                      e->to, bound(e->min_count), bound(e->max_count));
+      const auto expected = fmt::format("frames matching {} between {} and {}: [{}, {}]", patterns,
+                                        e->from, e->to, bound(e->min_count), bound(e->max_count));
       const bool ok =
           (!e->min_count || count >= *e->min_count) && (!e->max_count || count <= *e->max_count);
       const auto actual = fmt::format("{} ({} after {})", count, ms(last - first), e->from);

@@ -242,15 +242,16 @@ struct PollStep {
   friend bool operator==(const PollStep&, const PollStep&) = default;
 };
 // Between two marks: the time (min/max durations), or with `frames:` the number of frames
-// matching that pattern on the bus in between, the harness's own (by their loopback echo) and
-// the DUT's (min_count/max_count): e.g. the SYNCs between two synchronous TPDOs, which judges
-// "every n-th SYNC" by the SYNCs that were on the bus, whenever the harness sent them.
+// matching that pattern (or any of a list of patterns) on the bus in between, the harness's own
+// (by their loopback echo) and the DUT's (min_count/max_count): e.g. the SYNCs between two
+// synchronous TPDOs, which judges "every n-th SYNC" by the SYNCs that were on the bus, whenever
+// the harness sent them; or the synchronous TPDOs on several COB-IDs after one SYNC.
 struct MeasureStep {
   std::string from;
   std::string to;
   std::optional<DurationSpec> min;
   std::optional<DurationSpec> max;
-  std::optional<FrameSpec> frames;
+  std::vector<FrameSpec> frames;  // empty: a time measure
   std::optional<std::size_t> min_count;
   std::optional<std::size_t> max_count;
   friend bool operator==(const MeasureStep&, const MeasureStep&) = default;

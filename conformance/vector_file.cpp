@@ -1385,15 +1385,30 @@ class Parser {
       step.from = mark_reference(value["from"], "from");
       step.to = mark_reference(value["to"], "to");
       if (value["frames"]) {
-        // A count of frames: min and max are numbers of frames, not durations.
-        auto text = scalar(value["frames"], "measure frames");
-        if (!text) return std::nullopt;
-        auto pattern = parse_frame_spec(*text, true);
-        if (!pattern) {
-          error(value["frames"], fmt::format("measure frames: {}", pattern.error()));
-          return std::nullopt;
+        // A count of frames: min and max are numbers of frames, not durations. One pattern, or
+        // a list of them (a frame matching any counts once).
+        const YAML::Node frames = value["frames"];
+        std::vector<YAML::Node> items;
+        if (frames.IsSequence()) {
+          for (const YAML::Node& item : frames)
+            items.push_back(item);
+          if (items.empty()) {
+            error(frames, "measure frames: an empty list (give one pattern or more)");
+            return std::nullopt;
+          }
+        } else {
+          items.push_back(frames);
         }
-        step.frames = std::move(*pattern);
+        for (const YAML::Node& item : items) {
+          auto text = scalar(item, "measure frames");
+          if (!text) return std::nullopt;
+          auto pattern = parse_frame_spec(*text, true);
+          if (!pattern) {
+            error(item, fmt::format("measure frames: {}", pattern.error()));
+            return std::nullopt;
+          }
+          step.frames.push_back(std::move(*pattern));
+        }
         if (value["min"]) step.min_count = integer<std::size_t>(value["min"], "min", 0, 10000);
         if (value["max"]) step.max_count = integer<std::size_t>(value["max"], "max", 0, 10000);
         if (step.min_count && step.max_count && *step.min_count > *step.max_count)

@@ -586,9 +586,17 @@ class Writer {
     quoted(s.from);
     key("to");
     quoted(s.to);
-    if (s.frames) {
+    if (s.frames.size() == 1) {
       key("frames");
-      quoted(s.frames->text);
+      quoted(s.frames.front().text);
+    } else if (!s.frames.empty()) {
+      key("frames");
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (const FrameSpec& pattern : s.frames)
+        quoted(pattern.text);
+      out_ << YAML::EndSeq;
+    }
+    if (!s.frames.empty()) {
       if (s.min_count) {
         key("min");
         plain(fmt::format("{}", *s.min_count));

@@ -64,7 +64,8 @@ std::string can_only_step(const Vector& vector) {
                  std::holds_alternative<ExpectHeartbeatStep>(action) ||
                  std::holds_alternative<ExpectPeriodicStep>(action) ||
                  std::holds_alternative<BusOffStep>(action);
-      if (const auto* m = std::get_if<MeasureStep>(&action); m != nullptr && m->frames) can = true;
+      if (const auto* m = std::get_if<MeasureStep>(&action); m != nullptr && !m->frames.empty())
+        can = true;
       if (const auto* w = std::get_if<SdoWriteStep>(&action);
           w != nullptr && w->transfer == Transfer::block)
         can = true;

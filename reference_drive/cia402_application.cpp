@@ -426,6 +426,11 @@ void Cia402Application::on_communication_loss(ReferenceDrive& drive) {
   pds_.on_communication_loss();
 }
 
+void Cia402Application::on_connection_event(ReferenceDrive& drive) {
+  drive_ = &drive;
+  if (pds_.state() == cia402::State::operation_enabled) pds_.on_communication_loss();
+}
+
 void Cia402Application::on_sync(ReferenceDrive& drive, can::TimePoint at) {
   drive_ = &drive;
   if (active_ != nullptr && context_) active_->on_sync(*context_, at);

@@ -175,6 +175,12 @@ class Cia402Application final : public DriveApplication, private FaultReporter, 
   void on_cycle(ReferenceDrive& drive, can::TimePoint now) override;
   void on_sync(ReferenceDrive& drive, can::TimePoint at) override;
   void on_communication_loss(ReferenceDrive& drive) override;
+  // The other 6007h events (bus-off, NMT Stopped, reset communication): the same reaction, in
+  // OPERATION ENABLED only. CiA 402-2 does not say in which states 6007h acts; a fault signal
+  // (6007h = 1) for a reset communication of a drive standing in SWITCH ON DISABLED would make
+  // every configuration reset a fault, so the drive takes the narrow reading (the vectors judge
+  // the reaction from OPERATION ENABLED only).
+  void on_connection_event(ReferenceDrive& drive) override;
   void on_drive_destroyed(ReferenceDrive& drive) override;
 
   // The `simulate` inputs (see the file comment).

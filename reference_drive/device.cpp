@@ -98,7 +98,17 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
     auto store = cia301::StoreRestore::create(*od_, *storage);
     if (!store) return Unexpected(store.error());
     store_ = std::move(*store);
-    store_->set_restore_guard(config_.restore_guard);
+    store_->set_restore_guard([this]() -> Expected<void, cia301::SdoAbort> {
+      if (config_.restore_guard) {
+        if (auto ok = config_.restore_guard(); !ok) return ok;
+      }
+      // Deviation restore-communication-at-reset-node-only: what was stored before the restore
+      // is what a reset communication still loads, until the next reset node.
+      if (has(Deviation::restore_communication_at_reset_node_only) && !stored_before_restore_) {
+        stored_before_restore_ = store_->stored();
+      }
+      return {};
+    });
   }
 
   if (has(Deviation::store_misses_sync_objects)) {  // deviation: not part of any store group
@@ -141,7 +151,11 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   pdos_->set_rtr_in_any_state(has(Deviation::pdo_rtr_outside_operational));          // deviation
   pdos_->set_sync_acyclic_in_stopped(has(Deviation::sync_tpdo_acyclic_in_stopped));  // deviation
   pdos_->set_sync_acyclic_in_pre_operational(
-      has(Deviation::sync_tpdo_acyclic_in_pre_operational));  // deviation
+      has(Deviation::sync_tpdo_acyclic_in_pre_operational));                           // deviation
+  pdos_->set_sync_window_tpdos_sent_late(has(Deviation::sync_window_tpdo_sent_late));  // deviation
+  pdos_->set_sync_tpdo_only_first(has(Deviation::sync_tpdo_only_first));               // deviation
+  pdos_->set_sync_window_rpdo_not_resumed(
+      has(Deviation::sync_window_rpdo_not_resumed));  // deviation
 
   cia301::SdoServerConfig sdo = cia301::SdoServerConfig::for_node(od_->node_id());
   sdo.timeout = config_.sdo_timeout;
@@ -192,6 +206,7 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   cia301::DeviceServicesConfig services{config_.initialisation_time};
   services.heartbeat_consumer_timeouts = !has(Deviation::heartbeat_consumer_timeout_ignored);
   services.emcy_inhibit = !has(Deviation::emcy_inhibit_ignored);
+  services.error_history_shift_when_full = !has(Deviation::emcy_history_full_not_shifted);
   services.error_behaviour = !has(Deviation::error_behaviour_ignored);
   services.sync_in_stopped =
       has(Deviation::pdo_in_stopped) || has(Deviation::sync_tpdo_acyclic_in_stopped);
@@ -310,6 +325,9 @@ void ReferenceDrive::set_bus_off(bool bus_off) {
       if (auto reaction = cia301::communication_error_command(state(), value)) command(*reaction);
     }
   }
+  // CiA 402-2 6007h: bus-off is one of the events of the abort connection option code (a
+  // personality with its manual's own bus-off reaction, on_bus_off, takes that instead).
+  if (bus_off && powered_ && !config_.on_bus_off) abort_connection_event();
   if (config_.on_bus_off) {
     config_.on_bus_off(*this, bus_off, transmitted_);
   } else if (!bus_off && powered_) {
@@ -401,7 +419,12 @@ void ReferenceDrive::apply_stored(std::uint8_t group) {
 }
 
 void ReferenceDrive::on_reset(cia301::ResetKind kind) {
+  // CiA 402-2 6007h: a reset communication of its own (not the one of a reset node or power on)
+  // is one of the events of the abort connection option code; it acts after the application
+  // has taken the reset (which re-reads 6040h).
+  const bool abort_connection = kind == cia301::ResetKind::communication && !application_reset_;
   if (kind == cia301::ResetKind::application) {
+    stored_before_restore_.reset();
     apply_stored(cia301::kStoreApplication);
     apply_stored(cia301::kStoreManufacturer);
     // Deviation: 60F8h (max slippage) boots with its default + 1, not the EDS's value.
@@ -416,7 +439,19 @@ void ReferenceDrive::on_reset(cia301::ResetKind kind) {
   } else {
     reset_sdo_servers();
     // Deviation: a reset communication on its own keeps the communication objects as written.
-    if (application_reset_ || !has(Deviation::nmt_reset_communication_keeps_values)) {
+    if (!application_reset_ && stored_before_restore_) {
+      // Deviation restore-communication-at-reset-node-only: the values stored before the
+      // restore come back, not the defaults.
+      od_->restore_defaults(cia301::kStoreCommunication);
+      cia301::ObjectDictionary::StoredParameters communication;
+      for (const auto& stored : *stored_before_restore_) {
+        const cia301::Entry* entry = od_->find(stored.index, stored.sub_index);
+        if (entry != nullptr && entry->store_group() == cia301::kStoreCommunication) {
+          communication.push_back(stored);
+        }
+      }
+      (void)od_->load(communication);
+    } else if (application_reset_ || !has(Deviation::nmt_reset_communication_keeps_values)) {
       apply_stored(cia301::kStoreCommunication);
     }
     application_reset_ = false;
@@ -439,6 +474,7 @@ void ReferenceDrive::on_reset(cia301::ResetKind kind) {
     handle(pdos_->clear_errors());
   }
   if (config_.application != nullptr) config_.application->on_reset(*this, kind);
+  if (abort_connection) abort_connection_event();
 }
 
 void ReferenceDrive::on_state_changed(cia301::NmtState from, cia301::NmtState to) {
@@ -453,7 +489,21 @@ void ReferenceDrive::on_state_changed(cia301::NmtState from, cia301::NmtState to
   pdos_->set_nmt_state(
       pdo_in_pre_operational || pdo_in_stopped ? cia301::NmtState::operational : to, now);
   if (config_.application != nullptr) config_.application->on_nmt_state(*this, from, to);
+  // CiA 402-2 6007h: entering NMT Stopped is one of the events of the abort connection option
+  // code.
+  if (to == cia301::NmtState::stopped && from != cia301::NmtState::stopped) {
+    abort_connection_event();
+  }
   rearm();
+}
+
+void ReferenceDrive::abort_connection_event() {
+  // Deviation abort-connection-other-events-ignored: only heartbeat and life guarding count.
+  if (config_.application == nullptr || !config_.can_abort_connection_events ||
+      has(Deviation::abort_connection_other_events_ignored)) {
+    return;
+  }
+  config_.application->on_connection_event(*this);
 }
 
 void ReferenceDrive::on_sync(const cia301::SyncConsumerEvent& event) {

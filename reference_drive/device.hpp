@@ -51,6 +51,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -107,12 +108,21 @@ class DriveApplication {
   // Heartbeat consumer timeout or life guarding event (the services have sent EMCY 8130h and
   // applied 1029h): CiA 402's abort connection reaction (6007h) starts here.
   virtual void on_communication_loss(ReferenceDrive& drive) { (void)drive; }
+  // Bus-off, NMT Stopped entered or a reset communication of its own (CiA 402-2 lists them as
+  // abort connection events too; DriveConfig::can_abort_connection_events): the 6007h reaction
+  // where the application applies it (the CiA 402 application: in OPERATION ENABLED only).
+  virtual void on_connection_event(ReferenceDrive& drive) { (void)drive; }
   // The drive is being destroyed (its dictionary goes with it): drop every reference to it.
   virtual void on_drive_destroyed(ReferenceDrive& drive) { (void)drive; }
 };
 
 struct DriveConfig {
   DictionaryOptions dictionary;  // node-ID, identity, PDO counts, 1017h default, ...
+  // CiA 402-2 6007h on CAN: bus-off, entering NMT Stopped and a reset communication of its own
+  // are abort connection events (on_communication_loss), besides heartbeat and life guarding.
+  // False behind EtherCAT (reference_drive/ethercat), whose AL states drive the NMT state and
+  // whose event is leaving OP.
+  bool can_abort_connection_events = true;
   // The application's control cycle; 0: none (then event-driven TPDOs see changes only at
   // their timers and at SYNC/SDO activity).
   can::Duration control_cycle = std::chrono::milliseconds(1);
@@ -235,6 +245,10 @@ class ReferenceDrive {
   // The stored parameters of `group`, or its defaults without store/restore.
   void apply_stored(std::uint8_t group);
   void on_state_changed(cia301::NmtState from, cia301::NmtState to);
+  // An event of the abort connection option code 6007h other than heartbeat and life guarding
+  // (CiA 402-2: bus-off, NMT Stopped entered, reset communication): the application's
+  // on_communication_loss.
+  void abort_connection_event();
   void on_sync(const cia301::SyncConsumerEvent& event);
   void handle(const cia301::PdoOutput& output);
   void send(const can::Frame& frame);
@@ -246,6 +260,9 @@ class ReferenceDrive {
   std::unique_ptr<ReboundBus> rebound_bus_;  // between bus_ (or the deviation port) and the bus
   std::unique_ptr<DeviationPort> deviation_port_;
   bool application_reset_ = false;  // nmt-reset-communication-keeps-values
+  // restore-communication-at-reset-node-only: the stored parameters before the last restore
+  // command since the last reset node.
+  std::optional<cia301::ObjectDictionary::StoredParameters> stored_before_restore_;
   can::Bus& bus_;
   DriveConfig config_;
   std::unique_ptr<cia301::ObjectDictionary> od_;

@@ -234,6 +234,9 @@ class PersonalityApplication final : public DriveApplication {
   void on_communication_loss(ReferenceDrive& drive) override {
     if (cia402_) inner_.on_communication_loss(drive);
   }
+  void on_connection_event(ReferenceDrive& drive) override {
+    if (cia402_) inner_.on_connection_event(drive);
+  }
   void on_drive_destroyed(ReferenceDrive& drive) override {
     if (sampling_) sampling_->detach();
     if (cia402_) inner_.on_drive_destroyed(drive);

@@ -67,6 +67,7 @@ DeviceServices::DeviceServices(can::Bus& bus, ObjectDictionary& od, DeviceServic
       emcy_(usable_node_id(od.node_id()), error_history_size(od)) {
   // Powered off: nothing is produced until power_on().
   emcy_.set_enabled(false);
+  emcy_.set_history_shift_when_full(config_.error_history_shift_when_full);
   bind_objects();
 }
 

@@ -84,6 +84,9 @@ struct DeviceServicesConfig {
   bool error_behaviour = true;
   // true: SYNC frames are consumed in Stopped too (pdo-in-stopped; false in a conformant device).
   bool sync_in_stopped = false;
+  // false: once 1003h is full, new errors are not entered (the oldest stay; emcy-history-full-
+  // not-shifted); true in a conformant device (the oldest entry drops out).
+  bool error_history_shift_when_full = true;
 };
 
 struct DeviceServicesHandlers {

@@ -60,9 +60,11 @@ bool EmcyProducer::raise(std::uint16_t code, std::uint8_t register_bits,
   if (code == 0x0000 || is_active(code)) return false;
   active_.push_back({code, register_bits, manufacturer});
   // Newest first: shift the history down by one, the oldest falls off when it is full.
-  if (history_.size() < history_size_) history_.push_back(0);
-  std::move_backward(history_.begin(), history_.end() - 1, history_.end());
-  history_.front() = code;
+  if (history_.size() < history_size_ || shift_when_full_) {
+    if (history_.size() < history_size_) history_.push_back(0);
+    std::move_backward(history_.begin(), history_.end() - 1, history_.end());
+    history_.front() = code;
+  }
   enqueue(Emcy{code, error_register(), manufacturer}, now);
   return true;
 }

@@ -112,6 +112,9 @@ class EmcyProducer {
   void reset();
   // 1003h sub 00h := 0.
   void clear_history() { history_.clear(); }
+  // Fault injection (false only for the reference drive's emcy-history-full-not-shifted): a
+  // full history takes no new entries (CiA 301 §7.5.2.4: the oldest drops out).
+  void set_history_shift_when_full(bool shift) { shift_when_full_ = shift; }
   // Reset communication: queued EMCYs are dropped, the inhibit timer restarts; errors stay.
   void discard_pending();
 
@@ -144,6 +147,7 @@ class EmcyProducer {
   can::Duration inhibit_{0};
   bool enabled_ = true;
   std::size_t history_size_;
+  bool shift_when_full_ = true;  // set_history_shift_when_full
   std::vector<ActiveError> active_;
   std::vector<std::uint32_t> history_;
   std::deque<Pending> queue_;

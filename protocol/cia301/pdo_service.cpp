@@ -485,6 +485,7 @@ void PdoService::set_nmt_state(NmtState state, can::TimePoint now) {
   if (run == running_) return;
   running_ = run;
   last_sync_.reset();
+  sync_rpdos_stopped_ = false;
   held_.clear();
   held_next_ = 0;
   in_flight_.reset();
@@ -627,9 +628,10 @@ void PdoService::receive(Rpdo& pdo, const can::Frame& frame, can::TimePoint now)
   set_error(pdo.short_error, false, kLengthError);
   if (length > pdo.length) ++stats_.length_errors;
   set_error(pdo.long_error, length > pdo.length, kLengthExceeded);
-  if (pdo.type <= 240 && window_closed(now)) {
+  if (pdo.type <= 240 && (window_closed(now) || sync_rpdos_stopped_)) {
     // 1007h: "all synchronous RPDOs may be discarded until the next SYNC message is received".
     ++stats_.sync_rpdos_discarded;
+    sync_rpdos_stopped_ = sync_window_rpdo_not_resumed_;  // fault injection only
     return;
   }
   if (pdo.type <= 240) {
@@ -680,6 +682,17 @@ void PdoService::release_held(can::TimePoint now) {
   if (held_next_ >= held_.size()) return;
   if (sync_window() == can::Duration::zero()) {
     // 1007h was set to 0 while TPDOs were held: no window any more, they all go.
+    for (; held_next_ < held_.size(); ++held_next_) {
+      frames_.push_back(held_[held_next_]);
+      ++stats_.tpdos_sent;
+    }
+    held_.clear();
+    held_next_ = 0;
+    in_flight_.reset();
+    return;
+  }
+  if (window_closed(now) && sync_window_tpdos_sent_late_) {
+    // Fault injection only (sync-window-tpdo-sent-late): what is held goes out late.
     for (; held_next_ < held_.size(); ++held_next_) {
       frames_.push_back(held_[held_next_]);
       ++stats_.tpdos_sent;
@@ -759,6 +772,11 @@ PdoOutput PdoService::on_sync(std::optional<std::uint8_t> counter, can::TimePoin
       pdo.sample = pack(pdo);
       pdo.sampled = true;
     }
+  }
+  if (sync_tpdo_only_first_ && frames_.size() > 1) {
+    // Fault injection only (sync-tpdo-only-first): the others due at this SYNC are dropped.
+    stats_.tpdos_sent -= frames_.size() - 1;
+    frames_.resize(1);
   }
   if (sync_window() > can::Duration::zero() && frames_.size() > 1) {
     // A window: the TPDOs go to the controller one after the other (on_sent), each only while

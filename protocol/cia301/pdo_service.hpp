@@ -239,6 +239,20 @@ class PdoService {
   // (type 0) that are due.
   void set_sync_acyclic_in_pre_operational(bool on) { sync_acyclic_in_pre_operational_ = on; }
 
+  // Fault injection (the reference drive's sync-window-tpdo-sent-late; false in a conformant
+  // device): with 1007h ≠ 0 the synchronous TPDOs held when the window closes are sent then,
+  // late, instead of being discarded.
+  void set_sync_window_tpdos_sent_late(bool on) { sync_window_tpdos_sent_late_ = on; }
+  // Fault injection (the reference drive's sync-tpdo-only-first; false in a conformant device):
+  // of the synchronous TPDOs due at one SYNC only the first (lowest number) is sent, the
+  // others are dropped, whatever 1007h holds.
+  void set_sync_tpdo_only_first(bool on) { sync_tpdo_only_first_ = on; }
+  // Fault injection (the reference drive's sync-window-rpdo-not-resumed; false in a conformant
+  // device): once a synchronous RPDO has been discarded for arriving after the window, every
+  // later synchronous RPDO is discarded too, until the PDOs start again (leaving and entering
+  // Operational), instead of processing being resumed with the next SYNC.
+  void set_sync_window_rpdo_not_resumed(bool on) { sync_window_rpdo_not_resumed_ = on; }
+
   // A frame from the bus: an RPDO, or an RTR for a TPDO.
   PdoOutput on_frame(const can::Frame& frame, can::TimePoint now);
   // A SYNC (counter: when 1019h ≠ 0).
@@ -360,6 +374,10 @@ class PdoService {
   bool sync_acyclic_in_pre_operational_ = false;  // set_sync_acyclic_in_pre_operational
   NmtState state_ = NmtState::boot_up;            // set_nmt_state
   bool first_sync_phase_ = false;                 // set_first_sync_phase
+  bool sync_window_tpdos_sent_late_ = false;      // set_sync_window_tpdos_sent_late
+  bool sync_tpdo_only_first_ = false;             // set_sync_tpdo_only_first
+  bool sync_window_rpdo_not_resumed_ = false;     // set_sync_window_rpdo_not_resumed
+  bool sync_rpdos_stopped_ = false;               // (that fault) an RPDO was discarded
   std::vector<Rpdo> rpdos_;
   std::vector<Tpdo> tpdos_;
   std::vector<std::pair<std::uint16_t, std::uint8_t>> bound_;

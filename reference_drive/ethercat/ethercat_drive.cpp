@@ -130,6 +130,7 @@ Expected<void, std::string> EthercatDrive::build() {
     application_ = std::make_unique<CoeObjectsApplication>(config.application);
     config.application = application_.get();
     default_pdos(config.dictionary.pdo);
+    config.can_abort_connection_events = false;  // 6007h: leaving OP (on_state_change)
   };
   auto created = ServoDrive::create(port_, std::move(servo));
   if (!created) return Unexpected(created.error());

@@ -86,6 +86,21 @@ TEST(EmcyProducer, HistoryIsNewestFirstAndBounded) {
             expected);
 }
 
+TEST(EmcyProducer, FullHistoryWithoutShiftKeepsTheOldest) {
+  // Given a history of 3 entries that does not shift when full (the fault injection of
+  // emcy-history-full-not-shifted)
+  EmcyProducer producer(5, 3);
+  producer.set_history_shift_when_full(false);
+  // When 4 errors are raised
+  for (const std::uint16_t code : {0x1000, 0x2000, 0x3000, 0x4000}) {
+    producer.raise(code, 0, {}, at(0ms));
+  }
+  // Then the first 3 stay and the 4th is not entered
+  const std::vector<std::uint32_t> expected = {0x3000, 0x2000, 0x1000};
+  EXPECT_EQ(std::vector<std::uint32_t>(producer.history().begin(), producer.history().end()),
+            expected);
+}
+
 TEST(EmcyProducer, NothingSentWhenDisabledOrInvalid) {
   // Given producers disabled by the NMT state, and with 1014h bit 31 set
   EmcyProducer stopped(5);

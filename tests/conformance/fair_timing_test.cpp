@@ -153,6 +153,29 @@ TEST(FairTiming, WrongSyncCountFailsTheDeviceEvenWhenTheHarnessWasLate) {
   EXPECT_NE(result.message.find("frames matching 080#"), std::string::npos) << result.message;
 }
 
+// One SYNC, then at most one frame on 1A0h or 1A1h together (a list of patterns).
+const std::string kOneOfTwo =
+    "    - mark: s\n"
+    "    - send: \"080#\"\n    - wait: 20ms\n"
+    "    - mark: e\n"
+    "    - measure: {from: s, to: e, frames: [\"1A0#*\", \"1A1#*\"], max: 1}\n";
+
+TEST(FairTiming, FramesOfAListOfPatternsAreCountedTogether) {
+  // Given a DUT that sends one frame on 1A0h and one on 1A1h after the SYNC
+  test_support::ManualBus bus;
+  bus.inject(*can::parse_candump("1A0#01"), TimePoint{} + 2ms);
+  bus.inject(*can::parse_candump("1A1#02"), TimePoint{} + 3ms);
+  // When the vector allows at most one frame matching either pattern
+  const auto result = run(bus, make_vector(kOneOfTwo));
+  // Then it fails: two frames matched the list, and the message names both patterns
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_NE(result.message.find("1A0#* or 1A1#*"), std::string::npos) << result.message;
+  // And one frame on either COB-ID alone passes
+  test_support::ManualBus one;
+  one.inject(*can::parse_candump("1A1#02"), TimePoint{} + 3ms);
+  EXPECT_EQ(run(one, make_vector(kOneOfTwo)).verdict, Verdict::pass);
+}
+
 // 21 frames on 1A0h at `period` apart, each `jitter` late or early in turn (not adding up).
 void inject_periodic(test_support::ManualBus& bus, can::Duration period, can::Duration jitter) {
   for (int n = 0; n < 21; ++n) {
