@@ -158,6 +158,31 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
       check(name, expected, outcome.describe(), true);
       return StepStatus::ok;
     }
+    if (const auto& refusal = write->refused_means_not_applicable) {
+      // A value CiA lets the device refuse (FORMAT.md "Values the device may refuse"): a
+      // refusal in the set ends the vector as not applicable, any other answer is judged.
+      const auto expected =
+          fmt::format("{}: ok, or (not applicable) {}", what, refusal->describe());
+      if (outcome.ok) {
+        check(name, expected, "ok", true);
+        return StepStatus::ok;
+      }
+      if (!outcome.abort || !refusal->accepts(*outcome.abort))
+        return fail(name, expected, outcome.describe(), outcome.observed());
+      check(name, expected, outcome.describe(), true);
+      std::string value = fmt::format("{:02X}", fmt::join(data, " "));
+      if (write->value) {
+        std::string error;
+        if (const auto resolved = value_of(*write->value, error))
+          value = fmt::format("{}", *resolved);
+      }
+      message_ = fmt::format(
+          "device refused {:04X}h{} = {} ({:08X}h), a value it may refuse ({}): step {}, "
+          "{}:{}",
+          write->index, write->sub == 0 ? std::string() : fmt::format(" sub {}", write->sub), value,
+          *outcome.abort, step.clause, step_index_ + 1, vector_.file, step.line);
+      return StepStatus::not_applicable;
+    }
     const auto expected = fmt::format("{}: ok", what);
     if (!outcome.ok) return fail(name, expected, outcome.describe(), outcome.observed());
     check(name, expected, "ok", true);

@@ -135,6 +135,10 @@ struct SdoWriteStep {
   std::vector<std::uint8_t> data;  // `data:` form (value absent)
   Transfer transfer = Transfer::automatic;
   SdoExpect expect;  // ok or abort
+  // `refused_means_not_applicable: <set>`: the value is one CiA lets the device refuse (the
+  // step's `clause:` cites where). With `expect: ok` only: an abort in this set makes the
+  // vector not applicable, naming the refusal; any other abort fails as usual.
+  std::optional<AbortExpect> refused_means_not_applicable;
   friend bool operator==(const SdoWriteStep&, const SdoWriteStep&) = default;
 };
 struct SdoReadStep {

@@ -406,7 +406,7 @@ const std::vector<StepSyntax>& step_syntax() {
   static const std::vector<StepSyntax> kSyntax{
       {"send", {}},
       {"nmt", {"node"}},
-      {"sdo_write", {"transfer", "expect"}},
+      {"sdo_write", {"transfer", "expect", "refused_means_not_applicable", "clause"}},
       {"sdo_read", {"transfer", "block_size", "expect", "signed", "save"}},
       {"wait", {}},
       {"controlword", {}},
@@ -1008,6 +1008,22 @@ class Parser {
       }
       if (const auto node = modifier("transfer")) write.transfer = transfer(node);
       if (const auto node = modifier("expect")) write.expect = sdo_expect(node, false);
+      if (const auto node = modifier("refused_means_not_applicable")) {
+        // A value CiA lets the device refuse: a refusal in the set means not applicable.
+        const YAML::Node clause = modifier("clause");
+        write.refused_means_not_applicable =
+            abort_expect(node, &clause, "refused_means_not_applicable");
+        if (write.expect.kind != SdoExpect::Kind::ok)
+          error(node,
+                "refused_means_not_applicable: goes with expect: ok (the write the vector "
+                "needs); an expected refusal is expect: {abort: <set>}");
+        if (write.refused_means_not_applicable->set == "any")
+          error(node,
+                "refused_means_not_applicable: 'any' would make every refusal not applicable: "
+                "name the set of codes that mean 'value not supported' (value-range)");
+      } else if (const auto clause = modifier("clause")) {
+        error(clause, "sdo_write: 'clause' goes with 'refused_means_not_applicable'");
+      }
       return write;
     }
     if (action == "sdo_read") {

@@ -389,17 +389,64 @@ std::vector<std::string> check_timing_bounds(const Vector& vector, const Step& s
           action, key, describe_duration(d->value)));
     return messages;
   }
+  if (auto problem = check_clause_citation(step.clause, manuals); !problem.empty())
+    messages.push_back(fmt::format("{} clause: {}", action, problem));
+  return messages;
+}
+
+std::string check_clause_citation(const std::string& clause,
+                                  const std::vector<ManualEntry>& manuals) {
   // The clause begins with a citation: up to the first " (", ";" or ",".
-  std::string head = step.clause;
+  std::string head = clause;
   for (const char* stop : {" (", ";", ","}) {
     if (const auto at = head.find(stop); at != std::string::npos) head.resize(at);
   }
   auto citation = parse_source(head);
-  if (!citation) {
-    messages.push_back(fmt::format("{} clause: '{}' does not begin with a citation: {}", action,
-                                   step.clause, citation.error()));
-  } else if (auto problem = check_citation(*citation, manuals); !problem.empty()) {
-    messages.push_back(fmt::format("{} clause: {}", action, problem));
+  if (!citation)
+    return fmt::format("'{}' does not begin with a citation: {}", clause, citation.error());
+  return check_citation(*citation, manuals);
+}
+
+std::vector<std::string> check_refusal_not_applicable(const Vector& vector, const Step& step,
+                                                      bool in_finally,
+                                                      const std::vector<ManualEntry>& manuals) {
+  std::vector<std::string> messages;
+  const auto* write = std::get_if<SdoWriteStep>(&step.action);
+  if (write == nullptr || !write->refused_means_not_applicable) return messages;
+  if (in_finally) {
+    messages.push_back(
+        "sdo_write refused_means_not_applicable: not in finally: (the verdict is decided by "
+        "then; a clean-up write the DUT refuses is a harness note)");
+    return messages;
+  }
+  if (step.clause.empty()) {
+    messages.push_back(
+        "sdo_write refused_means_not_applicable: give clause: citing where CiA (or the "
+        "manual) lets the device refuse this value (an optional value, a reserved range)");
+  } else if (auto problem = check_clause_citation(step.clause, manuals); !problem.empty()) {
+    messages.push_back(fmt::format("sdo_write clause: {}", problem));
+  }
+  // A must-level vector that writes an object every device it applies to has: a refusal of it
+  // would turn what may be a failure into not applicable. The value may still be optional
+  // (a mode, an option code), but then a feature says so (mode.*, option.*), not a refusal.
+  if (vector.level == Level::must) {
+    const auto row = write->index >= 0x6000 && write->index <= 0x67FF
+                         ? cia402::find_object_requirement(write->index, write->sub)
+                         : cia301::find_object_requirement(write->index, write->sub);
+    const bool mandatory =
+        row &&
+        (row->kind == cia301::ObjectClass::mandatory ||
+         (row->kind == cia301::ObjectClass::conditional && condition_met(row->condition, vector)));
+    if (mandatory)
+      messages.push_back(fmt::format(
+          "sdo_write refused_means_not_applicable: {:04X}h sub {} ({}) is mandatory here ({}): "
+          "in a must-level vector a refusal of it must not make the vector not applicable; "
+          "require the feature that makes the value optional (mode.*, option.*), or make the "
+          "vector should",
+          write->index, write->sub, row->name,
+          row->kind == cia301::ObjectClass::mandatory
+              ? row->clause
+              : fmt::format("{}, {}", row->condition, row->clause)));
   }
   return messages;
 }
@@ -552,6 +599,16 @@ LintReport lint_vector_tree(const LintOptions& options) {
       for (auto& message : check_timing_bounds(vector, step, manuals))
         report.errors.push_back({vector.file, static_cast<int>(step.line),
                                  fmt::format("vector {}: {}", vector.id, message)});
+    }
+    // A refusal that means not applicable: cited, not in finally:, not of a mandatory object
+    // at must level (FORMAT.md "Values the device may refuse").
+    for (const auto* steps : {&vector.steps, &vector.finally_steps}) {
+      for (const auto& step : *steps) {
+        for (auto& message :
+             check_refusal_not_applicable(vector, step, steps == &vector.finally_steps, manuals))
+          report.errors.push_back({vector.file, static_cast<int>(step.line),
+                                   fmt::format("vector {}: {}", vector.id, message)});
+      }
     }
     // A bus_off step as long as the whole vector leaves no time to see the drive's reaction.
     for (const auto* steps : {&vector.steps, &vector.finally_steps}) {

@@ -101,6 +101,18 @@ std::string check_abort_expectation(const Step& step);
 // a bound. Vectors of level should/may and `finally:` steps are not checked.
 std::vector<std::string> check_timing_bounds(const Vector& vector, const Step& step,
                                              const std::vector<ManualEntry>& manuals);
+// A `clause:` text that begins with a citation (up to " (", ";" or ","), checked like a source
+// ("" when fine).
+std::string check_clause_citation(const std::string& clause,
+                                  const std::vector<ManualEntry>& manuals);
+// The findings about an sdo_write's `refused_means_not_applicable:` (FORMAT.md "Values the
+// device may refuse"), empty when fine: it needs `clause:` beginning with a citation (where
+// CiA or the manual lets the device refuse the value), it may not be in `finally:`, and in a
+// `level: must` vector the object may not be one the object requirement tables make mandatory
+// for it (mandatory, or conditional on a feature the vector requires).
+std::vector<std::string> check_refusal_not_applicable(const Vector& vector, const Step& step,
+                                                      bool in_finally,
+                                                      const std::vector<ManualEntry>& manuals);
 // Checks a source citation against the manual list ("" when fine).
 std::string check_citation(const Source& source, const std::vector<ManualEntry>& manuals);
 

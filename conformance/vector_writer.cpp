@@ -356,6 +356,17 @@ class Writer {
     out_ << YAML::EndMap;
     transfer(s.transfer);
     expect(s.expect);
+    if (const auto& refusal = s.refused_means_not_applicable) {
+      key("refused_means_not_applicable");
+      if (!refusal->set.empty()) {
+        plain(refusal->set);
+      } else {
+        out_ << YAML::Flow << YAML::BeginSeq;
+        for (const std::uint32_t code : refusal->codes)
+          plain(fmt::format("0x{:08X}", code));
+        out_ << YAML::EndSeq;
+      }
+    }
   }
   void action(const SdoReadStep& s) {
     key("sdo_read");

@@ -171,8 +171,12 @@ void HomingMode::step(can::TimePoint now, const HomingInputs& inputs, HomingAxis
     } else {
       run_phase(axis);
     }
-  } else if (rising && inputs.mode_active && !halt && may_run) {
+  } else if (rising && inputs.mode_active && (!halt || config_.deviations.start_ignores_halt) &&
+             may_run) {
     start(now, axis);
+  } else if (falling && status_ == HomingStatus::attained &&
+             config_.deviations.attained_cleared_on_bit4_low) {
+    status_ = HomingStatus::not_started;  // the deviation: "completed" forgotten
   }
   standstill_ = std::abs(axis.velocity()) < kStandstill;
   if (status_ == HomingStatus::attained && standstill_ && !finished_) finished_ = now;
@@ -634,6 +638,9 @@ void HomingOperationMode::apply_deviations(const ModeContext& ctx) {
     deviations.no_error_bit |= set.has(Deviation::homing_error_bit_never_set);
     deviations.offset_ignored |= set.has(Deviation::homing_offset_ignored);
     deviations.reserved_methods_accepted |= set.has(Deviation::homing_reserved_methods_accepted);
+    deviations.start_ignores_halt |= set.has(Deviation::homing_start_ignores_halt);
+    deviations.attained_cleared_on_bit4_low |=
+        set.has(Deviation::homing_attained_cleared_on_bit4_low);
   }
   mode_.set_deviations(deviations);
 }

@@ -191,6 +191,10 @@ struct HomingDeviations {
   // homing-reserved-methods-accepted: 6098h writes of 16, 31, 32, 36 are confirmed, the
   // method in force stays.
   bool reserved_methods_accepted = false;
+  // homing-start-ignores-halt: a rising edge of bit 4 starts homing while halt is set.
+  bool start_ignores_halt = false;
+  // homing-attained-cleared-on-bit4-low: a completed homing shows 0/0/1 once bit 4 is 0.
+  bool attained_cleared_on_bit4_low = false;
 };
 
 struct HomingConfig {

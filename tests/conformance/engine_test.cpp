@@ -248,6 +248,58 @@ TEST_F(EngineTest, WrongAbortCodeFailsWithExpectedActual) {
   EXPECT_FALSE(result.checks.back().ok);
 }
 
+// An optional value (6088h = 1, the sin² ramp) that the device may refuse.
+const std::string kOptionalValue =
+    "    - sdo_write: {index: 0x6088, sub: 0, value: 1, size: 2}\n"
+    "      refused_means_not_applicable: value-range\n"
+    "      clause: \"CiA 402-2 §6088h torque profile type\"\n"
+    "    - sdo_read: {index: 0x6088, sub: 0}\n"
+    "      expect: {value: 1}\n";
+
+TEST_F(EngineTest, RefusedOptionalValueMakesTheVectorNotApplicable) {
+  // Given a drive that refuses 6088h = 1 with 06090030h (value range exceeded)
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2B88600001000000")  // ccs=1 n=2 e=1 s=1, 6088h sub 0, data 0001h
+      .reply("581#8088600030000906");  // abort 6088h sub 0, 06090030h
+  // When the vector writes it with refused_means_not_applicable: value-range
+  const auto result = run(make_vector(kOptionalValue));
+  // Then it is not applicable, naming the refusal, and the read after it never ran
+  EXPECT_EQ(result.verdict, Verdict::not_applicable) << result.message;
+  EXPECT_NE(result.message.find("device refused 6088h = 1 (06090030h), a value it may refuse "
+                                "(CiA 402-2 §6088h torque profile type): step 1, t.yaml:"),
+            std::string::npos)
+      << result.message;
+  EXPECT_TRUE(peer.finished());
+}
+
+TEST_F(EngineTest, RefusalOutsideTheSetStillFails) {
+  // Given a drive that refuses 6088h = 1 with 06010002h (read only): not "value not supported"
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2B88600001000000")  // ccs=1 n=2 e=1 s=1, 6088h sub 0, data 0001h
+      .reply("581#8088600002000106");  // abort 6088h sub 0, 06010002h
+  // When the vector writes it with refused_means_not_applicable: value-range
+  const auto result = run(make_vector(kOptionalValue));
+  // Then it fails, Expected naming the set and Actual the code
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_NE(result.message.find("ok, or (not applicable) abort in value-range"), std::string::npos)
+      << result.message;
+  EXPECT_NE(result.message.find("06010002"), std::string::npos) << result.message;
+}
+
+TEST_F(EngineTest, AcceptedOptionalValueIsJudged) {
+  // Given a drive that takes 6088h = 1 but reads back 0
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2B88600001000000")  // ccs=1 n=2 e=1 s=1, 6088h sub 0, data 0001h
+      .reply("581#6088600000000000");  // download confirmed
+  peer.expect("601#4088600000000000")  // ccs=2 upload, 6088h sub 0
+      .reply("581#4B88600000000000");  // scs=2 n=2 e=1 s=1, 0000h
+  // When the vector writes it and reads it back
+  const auto result = run(make_vector(kOptionalValue));
+  // Then the later step judges it: a failure, not N/A
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_NE(result.message.find("read 6088h sub 0"), std::string::npos) << result.message;
+}
+
 TEST_F(EngineTest, SdoReadValueWithMask) {
   // Given a peer answering 6041h reads with 0240h twice
   test_support::ScriptedPeer peer(*peer_port_);

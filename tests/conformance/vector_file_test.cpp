@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <variant>
 
 namespace drivecheck::conformance {
 namespace {
@@ -423,6 +424,40 @@ TEST(VectorFile, ValueMustFitItsSize) {
       only_error(std::string(kHead) +
                  "  steps:\n    - sdo_write: {index: 0x6060, sub: 0, value: 0x1FF, size: 1}\n");
   EXPECT_NE(error.find("does not fit in 1 byte"), std::string::npos) << error;
+}
+
+TEST(VectorFile, RefusedMeansNotApplicableTakesASetOnAPlainWrite) {
+  // Given an sdo_write with refused_means_not_applicable and clause:
+  const std::string steps = std::string(kHead) + "  steps:\n";
+  const auto set = parse_vectors(steps +
+                                     "    - sdo_write: {index: 0x6088, sub: 0, value: 1, size: 2}\n"
+                                     "      refused_means_not_applicable: value-range\n"
+                                     "      clause: \"CiA 402-2 §6088h\"\n",
+                                 "v.yaml");
+  // When parsed / Then the step holds the set (its codes from the table) and the clause
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& write = std::get<SdoWriteStep>(set.vectors.at(0).steps.at(0).action);
+  ASSERT_TRUE(write.refused_means_not_applicable);
+  EXPECT_EQ(write.refused_means_not_applicable->set, "value-range");
+  EXPECT_TRUE(write.refused_means_not_applicable->accepts(0x06090030));
+  EXPECT_FALSE(write.refused_means_not_applicable->accepts(0x06010002));
+  EXPECT_EQ(write.refused_means_not_applicable->clause, "CiA 402-2 §6088h");
+  // And an unknown set, `any`, an expected abort beside it and a clause without it are errors
+  const std::string write6088 = "    - sdo_write: {index: 0x6088, sub: 0, value: 1, size: 2}\n";
+  EXPECT_NE(only_error(steps + write6088 + "      refused_means_not_applicable: nope\n")
+                .find("v.yaml:7: refused_means_not_applicable: unknown abort set 'nope'"),
+            std::string::npos);
+  EXPECT_NE(only_error(steps + write6088 + "      refused_means_not_applicable: any\n")
+                .find("v.yaml:7: refused_means_not_applicable: 'any' would make every refusal"),
+            std::string::npos);
+  EXPECT_NE(only_error(steps + write6088 +
+                       "      expect: {abort: value-range}\n"
+                       "      refused_means_not_applicable: value-range\n")
+                .find("v.yaml:8: refused_means_not_applicable: goes with expect: ok"),
+            std::string::npos);
+  EXPECT_NE(only_error(steps + write6088 + "      clause: \"CiA 402-2 §6088h\"\n")
+                .find("v.yaml:7: sdo_write: 'clause' goes with 'refused_means_not_applicable'"),
+            std::string::npos);
 }
 
 TEST(VectorFile, InvalidLevelAndId) {

@@ -105,6 +105,75 @@ TEST_F(LintTree, AbortCodesNeedASetOrAClause) {
       << report.errors[1].to_string();
 }
 
+TEST_F(LintTree, RefusalMeansNotApplicableIsCitedAndNotOfAMandatoryObject) {
+  // Given refused_means_not_applicable without clause, on 6060h (mandatory with cia402) in a
+  // must-level vector, in finally:, and once as it should be (an optional object, cited)
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  write("v.yaml", R"yaml(- id: a/no-clause
+  title: t
+  source: "CiA 402-2 §1"
+  requires: [cia402, object.6088]
+  steps:
+    - sdo_write: {index: 0x6088, sub: 0, value: 1, size: 2}
+      refused_means_not_applicable: value-range
+- id: a/mandatory
+  title: t
+  source: "CiA 402-2 §1"
+  requires: [cia402]
+  steps:
+    - sdo_write: {index: 0x6060, sub: 0, value: 4, size: 1}
+      refused_means_not_applicable: value-range
+      clause: "CiA 402-2 §6060h"
+- id: a/finally
+  title: t
+  source: "CiA 402-2 §1"
+  level: should
+  requires: [cia402, object.6088]
+  steps:
+    - wait: 1ms
+  finally:
+    - sdo_write: {index: 0x6088, sub: 0, value: 1, size: 2}
+      refused_means_not_applicable: value-range
+      clause: "CiA 402-2 §6088h"
+- id: a/fine
+  title: t
+  source: "CiA 402-2 §1"
+  requires: [cia402, object.6088]
+  steps:
+    - sdo_write: {index: 0x6088, sub: 0, value: 1, size: 2}
+      refused_means_not_applicable: value-range
+      clause: "CiA 402-2 §6088h torque profile type (1: a value a drive may support)"
+- id: a/should-mandatory
+  title: t
+  source: "CiA 402-2 §1"
+  level: should
+  requires: [cia402]
+  steps:
+    - sdo_write: {index: 0x6060, sub: 0, value: 4, size: 1}
+      refused_means_not_applicable: value-range
+      clause: "CiA 402-2 §6060h"
+)yaml");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals", {}});
+  // Then the first three are errors at their steps' lines; the last two are fine
+  ASSERT_EQ(report.errors.size(), 3U) << report.errors[0].to_string();
+  EXPECT_NE(report.errors[0].to_string().find(
+                "v.yaml:6: vector a/no-clause: sdo_write refused_means_not_applicable: give "
+                "clause:"),
+            std::string::npos)
+      << report.errors[0].to_string();
+  EXPECT_NE(report.errors[1].to_string().find(
+                "v.yaml:13: vector a/mandatory: sdo_write refused_means_not_applicable: 6060h "
+                "sub 0 (modes of operation) is mandatory here"),
+            std::string::npos)
+      << report.errors[1].to_string();
+  EXPECT_NE(report.errors[2].to_string().find(
+                "v.yaml:24: vector a/finally: sdo_write refused_means_not_applicable: not in "
+                "finally:"),
+            std::string::npos)
+      << report.errors[2].to_string();
+}
+
 TEST_F(LintTree, DeviationIdsMustBeVectors) {
   // Given a profile whose deviation names one existing vector and one that does not exist
   write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
