@@ -9,9 +9,12 @@
 // Size: consecutive frames with equal shapes (dissector.hpp: no mailbox content, differing at
 // most in process data) become one entry per datagram with a count, so a vector that holds OP
 // for a second shows "LRW ... x1000", not a thousand lines; every acyclic datagram (mailbox,
-// AL control, SM configuration, ...) stays one entry. A vector keeps its kHead first and
+// AL control, SM configuration, ...) stays one entry. Repeated patterns of entries (the SII
+// read of each bring-up, the mailbox polls of CoE transfers: alike but for the mailbox counter
+// and the SII address and data, dissector.hpp patterns) are summarised (repeats.hpp) when the
+// entries reach the bound and when the vector ends. A vector keeps its kHead first and
 // kTail..kTail + kBatch last entries (datagrams_elided says how many were left out; --pcap has
-// every frame).
+// every frame); a summarised block is never cut apart.
 #pragma once
 
 #include <cstddef>
@@ -42,6 +45,7 @@ class DatagramEvidence {
  private:
   void record(const ethercat::DissectedFrame& frame, can::TimePoint at, bool answered);
   void bound();
+  void fold();  // repeated patterns (repeats.hpp) from fold_from_ on
   ethercat::FrameDissector dissector_;
   std::optional<ethercat::TimedFrame> pending_;  // sent, not back yet
   VectorResult* sink_ = nullptr;
@@ -49,6 +53,9 @@ class DatagramEvidence {
   // its first entry.
   std::vector<std::string> last_shapes_;
   std::size_t last_first_ = 0;
+  // The pattern key of every entry of sink_ (the dissector's patterns), in step with them.
+  std::vector<std::string> keys_;
+  std::size_t fold_from_ = 0;
 };
 
 }  // namespace drivecheck::conformance

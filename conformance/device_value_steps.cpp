@@ -55,6 +55,10 @@ StepStatus VectorRun::resolve_device_values() {
       use(read->expect.low);
       use(read->expect.high);
     }
+    if (const auto* poll = std::get_if<PollStep>(&step.action); poll && poll->range) {
+      use(poll->range->first);
+      use(poll->range->second);
+    }
   }
   for (const auto& name : names) {
     if (const auto it = context_.device_values.find(name); it != context_.device_values.end()) {

@@ -10,6 +10,7 @@
 #include "conformance/can_port.hpp"
 #include "conformance/capabilities.hpp"
 #include "conformance/pdo_tracker.hpp"
+#include "conformance/repeats.hpp"
 #include "conformance/samples.hpp"
 #include "conformance/vector_run.hpp"
 #include "conformance/verdict.hpp"
@@ -35,12 +36,19 @@ void keep_head_and_tail(VectorResult& result) {
   // (samples.hpp).
   result.samples_elided += thin_samples(result.samples, kMaxSamples);
   auto& frames = result.frames;
+  // Repeated patterns first (repeats.hpp): frames alike in identifier, data and sender.
+  std::vector<std::string> keys;
+  keys.reserve(frames.size());
+  for (const auto& f : frames)
+    keys.push_back(fmt::format("{} {}", f.from_harness ? 'h' : 'd', f.frame));
+  (void)fold_repeats(frames, keys, 0, [](const EvidenceFrame& f) { return f.at; });
   if (frames.size() <= kHeadFrames + kTailFrames) return;
-  const std::size_t elided = frames.size() - kHeadFrames - kTailFrames;
-  frames.erase(frames.begin() + static_cast<std::ptrdiff_t>(kHeadFrames),
-               frames.begin() + static_cast<std::ptrdiff_t>(kHeadFrames + elided));
-  result.frames_elided = elided;
-  result.frames_elided_at = kHeadFrames;
+  const auto [from, to] = safe_cut(frames, kHeadFrames, frames.size() - kTailFrames);
+  if (from == to) return;
+  frames.erase(frames.begin() + static_cast<std::ptrdiff_t>(from),
+               frames.begin() + static_cast<std::ptrdiff_t>(to));
+  result.frames_elided = to - from;
+  result.frames_elided_at = from;
 }
 
 // The capability probes (capabilities.hpp) through one harness VectorRun: SDO transfers and, on

@@ -293,24 +293,56 @@ StepStatus VectorRun::run_expectation(const Step& step) {
   if (const auto* e = std::get_if<PollStep>(&action)) {
     const auto deadline = start + resolve(e->within);
     const auto every = resolve(e->every);
+    // `range:` bounds, resolved once (saved values do not change while polling).
+    std::int64_t low = 0;
+    std::int64_t high = 0;
+    if (e->range) {
+      std::string error;
+      const auto lo = value_of(e->range->first, error);
+      const auto hi = lo ? value_of(e->range->second, error) : std::nullopt;
+      if (!lo || !hi) return harness_error(name, error);
+      low = *lo;
+      high = *hi;
+    }
+    const auto bound = [](const ValueSpec& spec, std::int64_t v) {
+      if (spec.saved.empty()) return fmt::format("{}", v);
+      return spec.offset == 0 ? fmt::format("${} = {}", spec.saved, v)
+                              : fmt::format("${}{:+} = {}", spec.saved, spec.offset, v);
+    };
     const auto expected =
-        fmt::format("{:04X}h sub {} & {:X}h == {:X}h within {}", e->index, e->sub, e->mask,
-                    e->value & e->mask, profile::format_duration(resolve(e->within)));
+        e->range
+            ? fmt::format("{:04X}h sub {} in [{}, {}]{} within {}", e->index, e->sub,
+                          bound(e->range->first, low), bound(e->range->second, high),
+                          e->is_signed ? " (signed)" : "",
+                          profile::format_duration(resolve(e->within)))
+            : fmt::format("{:04X}h sub {} & {:X}h == {:X}h within {}", e->index, e->sub, e->mask,
+                          e->value & e->mask, profile::format_duration(resolve(e->within)));
     std::string last = "nothing read";
     Observation observed = nothing();
     while (true) {
       const auto started = now();
       const auto outcome = sdo_upload({e->index, e->sub});
       if (outcome.ok) {
-        const auto raw = cia301::load_unsigned(
-            std::span(outcome.data.data(), std::min<std::size_t>(outcome.data.size(), 8)));
-        if ((raw & e->mask) == (e->value & e->mask)) {
-          check(name, expected, fmt::format("{:X}h after {}", raw, ms(now() - start)), true);
+        const auto bytes =
+            std::span(outcome.data.data(), std::min<std::size_t>(outcome.data.size(), 8));
+        const auto raw = cia301::load_unsigned(bytes);
+        const std::int64_t value = e->is_signed && !bytes.empty() ? cia301::load_signed(bytes)
+                                                                  : static_cast<std::int64_t>(raw);
+        // As sdo_read's range: unsigned, a value above INT64_MAX is above any bound.
+        const bool met =
+            e->range ? (e->is_signed ? value >= low && value <= high
+                                     : high >= 0 && raw <= static_cast<std::uint64_t>(high) &&
+                                           (low <= 0 || raw >= static_cast<std::uint64_t>(low)))
+                     : (raw & e->mask) == (e->value & e->mask);
+        const auto seen =
+            e->range ? fmt::format("{} ({:X}h)", value, raw) : fmt::format("{:X}h", raw);
+        if (met) {
+          check(name, expected, fmt::format("{} after {}", seen, ms(now() - start)), true);
           return StepStatus::ok;
         }
-        last = fmt::format("{:X}h", raw);
+        last = seen;
         observed = Observation{};
-        observed.value = static_cast<std::int64_t>(raw);
+        observed.value = e->range ? value : static_cast<std::int64_t>(raw);
       } else {
         last = outcome.describe();
         observed = outcome.observed();

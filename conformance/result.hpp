@@ -38,12 +38,27 @@ constexpr std::string_view to_string(Level level) {
   return kNames[static_cast<std::size_t>(level)];
 }
 
+// A repeated pattern summarised in the evidence (conformance/repeats.hpp), on the first entry
+// of its first occurrence: that entry and the `length - 1` after it came again right after
+// them, `times` more times until `until` (those repetitions are left out), and then once more:
+// that last repetition follows them in full. A pattern is entries alike in their meaning: CAN
+// frames equal in identifier, data and sender (an SDO poll and its answer); EtherCAT datagrams
+// equal but for process data, the mailbox counter and the SII EEPROM address and data (the SII
+// read of a bring-up, a mailbox poll). times 0: no pattern starts here.
+struct EvidenceRepeat {
+  std::size_t length = 0;
+  std::size_t times = 0;
+  can::TimePoint until{};
+  friend bool operator==(const EvidenceRepeat&, const EvidenceRepeat&) = default;
+};
+
 // One frame on the bus during the vector, as the harness saw it.
 struct EvidenceFrame {
   can::TimePoint at{};        // bus time (simulated, or the kernel timestamp)
   can::Frame frame;           // prints as candump via fmt / can::to_candump
   bool from_harness = false;  // sent by the harness (else by the DUT or another node)
   std::string decoded;        // the dissector's one-line meaning
+  EvidenceRepeat repeat;      // a summarised pattern starting here (times 0: none)
 };
 
 // One EtherCAT datagram the master exchanged during the vector, decoded
@@ -56,6 +71,7 @@ struct EvidenceDatagram {
   can::TimePoint last{};  // the last frame of a run (== at when count is 1)
   std::size_t count = 1;  // identical frames in a row summarised into this entry
   std::string decoded;    // command, address, registers, length, wkc, mailbox and CoE
+  EvidenceRepeat repeat;  // a summarised pattern starting here (times 0: none)
   friend bool operator==(const EvidenceDatagram&, const EvidenceDatagram&) = default;
 };
 

@@ -13,6 +13,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -241,6 +242,12 @@ struct PollStep {
   std::uint8_t sub = 0;
   std::uint64_t value = 0;
   std::uint64_t mask = ~std::uint64_t{0};
+  // `range: [lo, hi]` instead of value/mask: read until the value is within both bounds (each
+  // a literal or `$name±k`, as sdo_read's); `signed: true` reads it as signed. For a value that
+  // moves into a window whatever a status bit says (6064h after a homing the vector started,
+  // where bit 12 may still show an earlier one).
+  std::optional<std::pair<ValueSpec, ValueSpec>> range;
+  bool is_signed = false;
   DurationSpec within;
   DurationSpec every{{}, "poll"};
   friend bool operator==(const PollStep&, const PollStep&) = default;

@@ -419,7 +419,7 @@ const std::vector<StepSyntax>& step_syntax() {
       {"expect_emcy", {"within", "mark", "since", "clause"}},
       {"expect_state", {"within", "clause"}},
       {"expect_statusword", {"within", "clause"}},
-      {"poll", {"within", "every", "clause"}},
+      {"poll", {"within", "every", "clause", "signed"}},
       {"measure", {"clause"}},
       {"expect_periodic", {"period", "tolerance", "count", "mark", "last", "clause"}},
       {"bus_off", {}},
@@ -1355,29 +1355,58 @@ class Parser {
     }
     if (action == "poll") {
       PollStep step;
-      if (!check_map(value, "poll", {"index", "sub", "value", "mask"})) return std::nullopt;
+      if (!check_map(value, "poll", {"index", "sub", "value", "mask", "range"}))
+        return std::nullopt;
       auto idx = index(value, "poll");
       auto sb = sub(value, "poll");
       if (!idx || !sb) return std::nullopt;
       step.index = *idx;
       step.sub = *sb;
-      if (!value["value"]) {
-        error(value, "poll: 'value' is missing");
-        return std::nullopt;
-      }
-      auto v = parse_integer(value["value"].Scalar());
-      if (!value["value"].IsScalar() || !v) {
-        error(value["value"], "poll: value is not an integer");
-        return std::nullopt;
-      }
-      step.value = v->bits;
-      if (value["mask"]) {
-        auto m = parse_integer(value["mask"].IsScalar() ? value["mask"].Scalar() : "");
-        if (!m || m->negative) {
-          error(value["mask"], "poll: mask is not an unsigned integer");
+      if (const auto node = modifier("signed"))
+        step.is_signed = boolean(node, "signed").value_or(false);
+      if (value["range"]) {
+        // `range: [lo, hi]`: the value read until it is within (each bound a literal or
+        // `$name±k`), instead of value/mask.
+        if (value["value"] || value["mask"]) {
+          error(value, "poll: give either 'range' or 'value' (with 'mask'), not both");
           return std::nullopt;
         }
-        step.mask = m->bits;
+        const auto& range = value["range"];
+        if (!range.IsSequence() || range.size() != 2) {
+          error(range, "poll: range: expected [low, high]");
+          return std::nullopt;
+        }
+        const auto low = value_spec(range[0], "range low");
+        const auto high = value_spec(range[1], "range high");
+        if (!low || !high) return std::nullopt;
+        if (low->saved == high->saved &&
+            (low->saved.empty() ? low->literal > high->literal : low->offset > high->offset)) {
+          error(range, "poll: range: low is above high");
+          return std::nullopt;
+        }
+        step.range.emplace(*low, *high);
+      } else if (!value["value"]) {
+        error(value, "poll: 'value' (or 'range') is missing");
+        return std::nullopt;
+      } else if (step.is_signed) {
+        error(modifier("signed"), "poll: 'signed' goes with 'range'");
+        return std::nullopt;
+      }
+      if (!step.range) {
+        auto v = parse_integer(value["value"].Scalar());
+        if (!value["value"].IsScalar() || !v) {
+          error(value["value"], "poll: value is not an integer");
+          return std::nullopt;
+        }
+        step.value = v->bits;
+        if (value["mask"]) {
+          auto m = parse_integer(value["mask"].IsScalar() ? value["mask"].Scalar() : "");
+          if (!m || m->negative) {
+            error(value["mask"], "poll: mask is not an unsigned integer");
+            return std::nullopt;
+          }
+          step.mask = m->bits;
+        }
       }
       const auto within = modifier("within");
       if (!within) {

@@ -582,11 +582,21 @@ class Writer {
     key("poll");
     out_ << YAML::Flow << YAML::BeginMap;
     index_sub(s.index, s.sub);
-    key("value");
-    plain(fmt::format("0x{:X}", s.value));
-    key("mask");
-    plain(fmt::format("0x{:X}", s.mask));
+    if (s.range) {
+      key("range");
+      out_ << YAML::Flow << YAML::BeginSeq << value_text(s.range->first)
+           << value_text(s.range->second) << YAML::EndSeq;
+    } else {
+      key("value");
+      plain(fmt::format("0x{:X}", s.value));
+      key("mask");
+      plain(fmt::format("0x{:X}", s.mask));
+    }
     out_ << YAML::EndMap;
+    if (s.is_signed) {
+      key("signed");
+      plain("true");
+    }
     duration_key("within", s.within);
     duration_key("every", s.every);
   }

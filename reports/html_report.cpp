@@ -871,16 +871,31 @@ void render_transcript(std::string& out, const VectorResult& vector) {
                      esc(check->expected), esc(check->actual));
     }
   };
+  RepeatLines repeats;
   for (std::size_t i = 0; i < vector.frames.size(); ++i) {
     if (vector.frames_elided != 0 && i == vector.frames_elided_at) {
       out += esc(elided_line(vector.frames_elided));
       out += '\n';
     }
+    if (const auto* repeat = repeats.before(i)) {
+      mark_until(repeat->until);
+      out += esc(repeat_line(*repeat, vector.started, "frame(s)"));
+      out += '\n';
+    }
     mark_until(vector.frames[i].at);
     out += esc(transcript_line(vector.frames[i], vector.started));
     out += '\n';
+    repeats.after(i, vector.frames[i].repeat);
   }
   mark_until(std::nullopt);
+}
+
+// The frames a vector's summarised patterns left out.
+std::size_t repeated_frames(const VectorResult& vector) {
+  std::size_t n = 0;
+  for (const auto& frame : vector.frames)
+    n += frame.repeat.times * frame.repeat.length;
+  return n;
 }
 
 void render_vector(std::string& out, const VectorResult& vector, const RunResult& result) {
@@ -978,6 +993,11 @@ void render_vector(std::string& out, const VectorResult& vector, const RunResult
     std::size_t frames = vector.datagrams_elided;
     for (const auto& d : vector.datagrams)
       frames += d.count;
+    for (std::size_t i = 0; i < vector.datagrams.size(); ++i) {
+      const auto& repeat = vector.datagrams[i].repeat;
+      for (std::size_t k = 0; k < repeat.length && repeat.times != 0; ++k)
+        frames += repeat.times * vector.datagrams[i + k].count;  // about: a shown pattern's counts
+    }
     fmt::format_to(std::back_inserter(out),
                    "<p class=\"mono\">{} EtherCAT datagrams, {} bus time</p><pre "
                    "class=\"transcript datagrams\">{}</pre></div></details>\n",
@@ -987,7 +1007,7 @@ void render_vector(std::string& out, const VectorResult& vector, const RunResult
   }
   fmt::format_to(std::back_inserter(out),
                  "<p class=\"mono\">{} frames, {} bus time</p><pre class=\"transcript\">",
-                 vector.frames.size() + vector.frames_elided,
+                 vector.frames.size() + vector.frames_elided + repeated_frames(vector),
                  ms_text(vector.finished - vector.started));
   render_transcript(out, vector);
   out += "</pre></div></details>\n";

@@ -44,14 +44,23 @@ json dut_json(const DutIdentity& dut) {
   return out;
 }
 
+// A summarised repeated pattern starting at an entry (conformance::EvidenceRepeat).
+void put_repeat(json& out, const conformance::EvidenceRepeat& repeat) {
+  if (repeat.times == 0) return;
+  out["repeat"] = {
+      {"length", repeat.length}, {"times", repeat.times}, {"until_ns", ns_of(repeat.until)}};
+}
+
 json frames_json(const std::vector<conformance::EvidenceFrame>& list) {
   json frames = json::array();
   for (const auto& frame : list) {
-    frames.push_back({{"t_ns", ns_of(frame.at)},
-                      {"t_s", seconds(frame.at.time_since_epoch())},
-                      {"frame", can::to_candump(frame.frame)},
-                      {"from_harness", frame.from_harness},
-                      {"decoded", frame.decoded}});
+    json item = {{"t_ns", ns_of(frame.at)},
+                 {"t_s", seconds(frame.at.time_since_epoch())},
+                 {"frame", can::to_candump(frame.frame)},
+                 {"from_harness", frame.from_harness},
+                 {"decoded", frame.decoded}};
+    put_repeat(item, frame.repeat);
+    frames.push_back(std::move(item));
   }
   return frames;
 }
@@ -103,11 +112,13 @@ json vector_json(const VectorResult& vector) {
   if (!vector.datagrams.empty() || vector.datagrams_elided != 0) {
     json datagrams = json::array();
     for (const auto& d : vector.datagrams) {
-      datagrams.push_back({{"t_ns", ns_of(d.at)},
-                           {"t_s", seconds(d.at.time_since_epoch())},
-                           {"last_ns", ns_of(d.last)},
-                           {"count", d.count},
-                           {"decoded", d.decoded}});
+      json item = {{"t_ns", ns_of(d.at)},
+                   {"t_s", seconds(d.at.time_since_epoch())},
+                   {"last_ns", ns_of(d.last)},
+                   {"count", d.count},
+                   {"decoded", d.decoded}};
+      put_repeat(item, d.repeat);
+      datagrams.push_back(std::move(item));
     }
     out["datagrams"] = std::move(datagrams);
     out["datagrams_elided"] = vector.datagrams_elided;
@@ -269,6 +280,25 @@ std::size_t size_of(const Reader& reader, const json& object, const char* key) {
   return static_cast<std::size_t>(value);
 }
 
+// `repeat` of an entry (absent before schema 4: nothing summarised). `index` and `size`: the
+// entry's place and the list's length (the pattern and its last repetition must be in it).
+conformance::EvidenceRepeat read_repeat(Reader& reader, const json& item, std::size_t index,
+                                        std::size_t size) {
+  conformance::EvidenceRepeat repeat;
+  if (!item.contains("repeat")) return repeat;
+  Scope scope(reader, "repeat");
+  const json& in = reader.object(item, "repeat");
+  repeat.length = static_cast<std::size_t>(reader.unsigned_integer(in, "length"));
+  repeat.times = static_cast<std::size_t>(reader.unsigned_integer(in, "times"));
+  repeat.until = time_at(reader.nanoseconds(in, "until_ns"));
+  if (repeat.length == 0 || repeat.times == 0)
+    throw ReadError{reader.where("") + ": length and times must be at least 1"};
+  if (index + 2 * repeat.length > size)
+    throw ReadError{reader.where("length") +
+                    ": the pattern and its last repetition run past the list"};
+  return repeat;
+}
+
 std::vector<conformance::EvidenceFrame> read_frames(Reader& reader, const json& in,
                                                     const char* key) {
   std::vector<conformance::EvidenceFrame> frames;
@@ -284,6 +314,7 @@ std::vector<conformance::EvidenceFrame> read_frames(Reader& reader, const json& 
     frame.frame = *parsed;
     frame.from_harness = reader.boolean(item, "from_harness");
     frame.decoded = reader.string(item, "decoded");
+    frame.repeat = read_repeat(reader, item, i - 1, reader.array(in, key).size());
     frames.push_back(std::move(frame));
   }
   return frames;
@@ -369,6 +400,7 @@ VectorResult read_vector(Reader& reader, const json& in, std::int64_t version) {
       d.count = static_cast<std::size_t>(reader.unsigned_integer(item, "count"));
       if (d.count == 0) throw ReadError{reader.where("count") + ": must be at least 1"};
       d.decoded = reader.string(item, "decoded");
+      d.repeat = read_repeat(reader, item, i - 1, reader.array(in, "datagrams").size());
       vector.datagrams.push_back(std::move(d));
     }
     vector.datagrams_elided =

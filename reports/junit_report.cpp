@@ -200,10 +200,14 @@ void add_testcase(pugi::xml_node suite, const VectorResult& vector, const RunRes
   }
   out += "\n";
   out += datagram_transcript(vector);  // EtherCAT; empty on CAN
+  RepeatLines repeats;
   for (std::size_t i = 0; i < vector.frames.size(); ++i) {
     if (vector.frames_elided != 0 && i == vector.frames_elided_at)
       out += elided_line(vector.frames_elided) + "\n";
+    if (const auto* repeat = repeats.before(i))
+      out += repeat_line(*repeat, vector.started, "frame(s)") + "\n";
     out += transcript_line(vector.frames[i], vector.started) + "\n";
+    repeats.after(i, vector.frames[i].repeat);
   }
   testcase.append_child("system-out")
       .append_child(pugi::node_pcdata)

@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "conformance/result.hpp"
@@ -30,11 +31,11 @@ namespace drivecheck::reports {
 Expected<void, std::string> write_file_atomically(const std::filesystem::path& path,
                                                   std::string_view contents);
 
-// ---- JSON (schema_version 3) -------------------------------------------------------------
+// ---- JSON (schema_version 4) -------------------------------------------------------------
 //
 // The schema, versioned, is reports/report.schema.json (JSON Schema 2020-12); every field is
 // described there. In short:
-//   { "schema_version": 3, "generator": "drivecheck <version>",
+//   { "schema_version": 4, "generator": "drivecheck <version>",
 //     "run": { tool_version, revision, vector_set: {sha256, files}, documents: [{key, title,
 //              edition}], started_utc, bus, node, profile: {name,title,file,commissioning?},
 //              eds: {file,sha256}, personality, deviations: [..], seed, order, strict,
@@ -50,10 +51,15 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 //                              expected, actual, ok, t_ns?, observed?: {abort?, value?,
 //                              statusword?, nothing?, accepted?} (a failed check's typed
 //                              observation, conformance::Observation)}],
-//                    frames: [{t_ns, t_s, frame: "605#..", from_harness, decoded}],
+//                    frames: [{t_ns, t_s, frame: "605#..", from_harness, decoded,
+//                              repeat?: {length, times, until_ns}}] (repeat: this frame and
+//                              the length - 1 after it came `times` more times until until_ns,
+//                              left out, then once more: that last repetition follows them;
+//                              conformance::EvidenceRepeat),
 //                    frames_elided, frames_elided_at,
 //                    between_vectors: [frames that arrived before this vector's setup],
-//                    EtherCAT only: datagrams: [{t_ns, t_s, last_ns, count, decoded}],
+//                    EtherCAT only: datagrams: [{t_ns, t_s, last_ns, count, decoded,
+//                                                repeat?}],
 //                    datagrams_elided, datagrams_elided_at,
 //                    timings: [{name, measured_ns, measured_s, min_ns?, max_ns?, ok}],
 //                    samples: [{t_ns, signal, value, origin}], samples_elided,
@@ -63,8 +69,8 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 // Verdicts and levels are the strings of conformance::to_string. Invalid UTF-8 in a string is
 // written as U+FFFD (the only lossy step: write → read gives back every valid-UTF-8 result).
 // The reader also reads schema 1 (steps counted from 0 there; no revision, digest, documents
-// or between_vectors) and 2 (no observed).
-inline constexpr int kJsonSchemaVersion = 3;
+// or between_vectors), 2 (no observed) and 3 (no repeat: no pattern summarised).
+inline constexpr int kJsonSchemaVersion = 4;
 inline constexpr int kOldestJsonSchemaVersion = 1;
 
 std::string render_json(const conformance::RunResult& result);
@@ -147,6 +153,30 @@ std::string elided_line(std::size_t count);
 std::string transcript_line(const conformance::EvidenceDatagram& datagram, can::TimePoint start);
 // The HTML/JUnit transcript of an EtherCAT vector's datagrams, elided entries marked.
 std::string datagram_transcript(const conformance::VectorResult& vector);
+// The line after a summarised pattern's first occurrence (conformance::EvidenceRepeat):
+//   "   ↻ the 2 frame(s) above came 40 more time(s) in a row until (0.412345), left out; the
+//   last time follows". `entries` names them ("frame(s)", "datagram entries").
+std::string repeat_line(const conformance::EvidenceRepeat& repeat, can::TimePoint start,
+                        std::string_view entries);
+// Where a transcript loop puts repeat_line: after(i, entry i's repeat), then before(i) gives
+// the repeat whose line goes before entry i (nullptr: none).
+class RepeatLines {
+ public:
+  void after(std::size_t i, const conformance::EvidenceRepeat& repeat) {
+    if (repeat.times != 0) {
+      pending_ = &repeat;
+      at_ = i + repeat.length;
+    }
+  }
+  const conformance::EvidenceRepeat* before(std::size_t i) {
+    if (pending_ == nullptr || i != at_) return nullptr;
+    return std::exchange(pending_, nullptr);
+  }
+
+ private:
+  const conformance::EvidenceRepeat* pending_ = nullptr;
+  std::size_t at_ = 0;
+};
 
 // ---- console -----------------------------------------------------------------------------
 

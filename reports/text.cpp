@@ -115,16 +115,28 @@ std::string transcript_line(const conformance::EvidenceDatagram& datagram, can::
   return line;
 }
 
+std::string repeat_line(const conformance::EvidenceRepeat& repeat, can::TimePoint start,
+                        std::string_view entries) {
+  return fmt::format(
+      "   ↻ the {} {} above came {} more time(s) in a row until ({:>11}), left out; the last "
+      "time follows",
+      repeat.length, entries, repeat.times, relative_time(repeat.until, start));
+}
+
 std::string datagram_transcript(const conformance::VectorResult& vector) {
   std::string out;
+  RepeatLines repeats;
   for (std::size_t i = 0; i < vector.datagrams.size(); ++i) {
     if (vector.datagrams_elided != 0 && i == vector.datagrams_elided_at)
       out += fmt::format(
           "   … {} datagram entries not kept in this report (the run's --pcap has every "
           "frame) …\n",
           vector.datagrams_elided);
+    if (const auto* repeat = repeats.before(i))
+      out += repeat_line(*repeat, vector.started, "datagram entries") + '\n';
     out += transcript_line(vector.datagrams[i], vector.started);
     out += '\n';
+    repeats.after(i, vector.datagrams[i].repeat);
   }
   return out;
 }

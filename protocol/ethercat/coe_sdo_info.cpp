@@ -81,9 +81,11 @@ bool in_list(const cia301::Object& object, OdListType list) {
   return false;
 }
 
-std::vector<std::uint16_t> list_of(const cia301::ObjectDictionary& od, OdListType list) {
+std::vector<std::uint16_t> list_of(const cia301::ObjectDictionary& od, OdListType list,
+                                   const SdoInfoHidden& hidden) {
   std::vector<std::uint16_t> out;
   for (const cia301::Object& object : od.objects()) {
+    if (hidden && hidden(object.index())) continue;
     if (in_list(object, list)) out.push_back(object.index());
   }
   return out;
@@ -119,7 +121,8 @@ std::uint16_t object_access_bits(const cia301::Entry& entry) {
 
 std::vector<std::vector<std::uint8_t>> answer_sdo_information(cia301::ObjectDictionary& od,
                                                               std::span<const std::uint8_t> data,
-                                                              std::size_t read_size) {
+                                                              std::size_t read_size,
+                                                              const SdoInfoHidden& hidden) {
   if (data.size() < kCoeHeaderSize + kSdoInfoHeaderSize + 2) {
     return error(SdoAbort::invalid_command_specifier);
   }
@@ -135,18 +138,19 @@ std::vector<std::vector<std::uint8_t>> answer_sdo_information(cia301::ObjectDict
       put16(type, payload);
       if (type == static_cast<std::uint16_t>(OdListType::list_lengths)) {
         for (std::uint16_t t = 1; t <= 5; ++t) {
-          put16(static_cast<std::uint16_t>(list_of(od, static_cast<OdListType>(t)).size()),
+          put16(static_cast<std::uint16_t>(list_of(od, static_cast<OdListType>(t), hidden).size()),
                 payload);
         }
       } else {
-        for (std::uint16_t index : list_of(od, static_cast<OdListType>(type))) {
+        for (std::uint16_t index : list_of(od, static_cast<OdListType>(type), hidden)) {
           put16(index, payload);
         }
       }
       return fragments(SdoInfoOpcode::get_od_list_response, payload, read_size);
     }
     case static_cast<std::uint8_t>(SdoInfoOpcode::get_object_description_request): {
-      const cia301::Object* object = od.find(get16(body, 0));
+      const std::uint16_t index = get16(body, 0);
+      const cia301::Object* object = hidden && hidden(index) ? nullptr : od.find(index);
       if (object == nullptr) return error(SdoAbort::object_does_not_exist);
       put16(object->index(), payload);
       put16(object_data_type(*object), payload);
@@ -161,7 +165,9 @@ std::vector<std::vector<std::uint8_t>> answer_sdo_information(cia301::ObjectDict
       const std::uint16_t index = get16(body, 0);
       const std::uint8_t sub = body[2];
       const std::uint8_t wanted = body[3];
-      if (od.find(index) == nullptr) return error(SdoAbort::object_does_not_exist);
+      if (od.find(index) == nullptr || (hidden && hidden(index))) {
+        return error(SdoAbort::object_does_not_exist);
+      }
       const cia301::Entry* entry = od.find(index, sub);
       if (entry == nullptr) return error(SdoAbort::sub_index_does_not_exist);
       const auto& def = entry->definition();

@@ -32,6 +32,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -68,9 +69,14 @@ struct SdoInfoHeader {
 // 05040001h, a list type other than 0..5 06010000h, a missing object 06020000h, a missing
 // sub-index 06090011h. Lists 4 and 5 (device replacement, startup parameters) both name the
 // objects with an entry in a store group (1010h/1011h, object_dictionary.hpp): our choice.
+// `hidden` (may be empty): objects the device does not have over CoE although the dictionary
+// holds them (a drive's CoE rules, e.g. Festo's 1008h-100Ah, 000 §4.6.2 L1826): no list names
+// them and their descriptions are answered 06020000h, as the SDO server aborts them.
+using SdoInfoHidden = std::function<bool(std::uint16_t index)>;
 std::vector<std::vector<std::uint8_t>> answer_sdo_information(cia301::ObjectDictionary& od,
                                                               std::span<const std::uint8_t> data,
-                                                              std::size_t read_size);
+                                                              std::size_t read_size,
+                                                              const SdoInfoHidden& hidden = {});
 
 // Requests (mailbox data).
 std::vector<std::uint8_t> sdo_info_od_list_request(OdListType list);

@@ -398,7 +398,8 @@ void CoeSlave::on_write_mailbox(std::span<const std::uint8_t> buffer) {
   }
   if (*service == static_cast<std::uint8_t>(CoeService::sdo_information) &&
       options_.sdo_information) {
-    for (const auto& fragment : answer_sdo_information(od_, data, mailbox_.config().read_size)) {
+    for (const auto& fragment : answer_sdo_information(od_, data, mailbox_.config().read_size,
+                                                       options_.sdo_information_hidden)) {
       if (auto ok = mailbox_.post(MailboxType::coe, fragment, h.address); !ok) {
         mailbox_.post_error(ok.error(), h.address);
         return;

@@ -47,6 +47,7 @@
 
 #include "protocol/cia301/object_dictionary.hpp"
 #include "protocol/ethercat/coe.hpp"
+#include "protocol/ethercat/coe_sdo_info.hpp"
 #include "protocol/ethercat/mailbox.hpp"
 
 namespace drivecheck::ethercat {
@@ -68,6 +69,8 @@ struct CoeSdoServerOptions {
   std::size_t read_size = 128;  // the read mailbox (SM1) length, header included
   bool complete_access = true;
   bool sdo_information = true;  // CoeSlave answers SDO information requests (coe_sdo_info.hpp)
+  // Objects SDO information leaves out (answer_sdo_information's `hidden`); empty: none.
+  SdoInfoHidden sdo_information_hidden{};
   // The longest download the server buffers; more aborts 05040005h (out of memory). A hostile
   // master may announce any complete size: the buffer grows only with octets received.
   std::size_t max_download = 1 << 20;

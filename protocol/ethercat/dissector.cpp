@@ -215,6 +215,14 @@ std::string describe_mailbox(std::span<const std::uint8_t> buffer) {
   return fmt::format("{}: {} octet(s)", head, data.size());
 }
 
+// The mailbox with its counter (header octet 5, bits 4-6) cleared: the same message whatever
+// counter it went with.
+std::vector<std::uint8_t> without_counter(std::span<const std::uint8_t> buffer) {
+  std::vector<std::uint8_t> out(buffer.begin(), buffer.end());
+  if (out.size() > 5) out[5] = static_cast<std::uint8_t>(out[5] & 0x8F);
+  return out;
+}
+
 void FrameDissector::reset() {
   sync_managers_.clear();
   outgoing_.reset();
@@ -248,6 +256,7 @@ DissectedFrame FrameDissector::dissect(std::span<const std::uint8_t> bytes, Fram
     if (!info) {  // decode_frame refuses unknown codes; kept total all the same
       out.lines.push_back(
           fmt::format("malformed: command {:02X}h", static_cast<unsigned>(d.command)));
+      out.patterns.emplace_back();  // never part of a pattern
       continue;
     }
     const bool reads = info->access == Access::read || info->access == Access::read_write ||
@@ -257,6 +266,9 @@ DissectedFrame FrameDissector::dissect(std::span<const std::uint8_t> bytes, Fram
     const bool data_meaningful = writes || (reads && returned && d.working_counter > 0);
     std::string line(info->mnemonic);
     std::string value;
+    // `line` but for the mailbox counter and the SII EEPROM interface's values (see patterns).
+    std::string pattern_tail;
+    std::size_t pattern_from = std::string::npos;
     if (info->addressing == Addressing::logical) {
       line += fmt::format(" logical {:08X}h len {} wkc {}", d.address, d.data.size(),
                           d.working_counter);
@@ -293,28 +305,45 @@ DissectedFrame FrameDissector::dissect(std::span<const std::uint8_t> bytes, Fram
         line += fmt::format(" {:04X}h {}", ado, describe_registers(ado, d.data.size()));
       }
       line += fmt::format(" len {} wkc {}", d.data.size(), d.working_counter);
+      pattern_from = line.size();
       if (mailbox && mailbox->offset == 0) {
         if (mailbox->ecat_writes && writes) {
           line += ": " + describe_mailbox(d.data);
-          if (returned && d.working_counter == 0)
+          pattern_tail += ": " + describe_mailbox(without_counter(d.data));
+          if (returned && d.working_counter == 0) {
             line += " (not taken: wkc 0, the mailbox is full)";
+            pattern_tail += " (not taken: wkc 0, the mailbox is full)";
+          }
           mailbox_content = true;
         } else if (!mailbox->ecat_writes && reads && returned) {
           if (d.working_counter == 0) {
             line += ": empty";
+            pattern_tail += ": empty";
           } else {
             line += ": " + describe_mailbox(d.data);
+            pattern_tail += ": " + describe_mailbox(without_counter(d.data));
             mailbox_content = true;
           }
         }
       } else if (!mailbox && data_meaningful && !d.data.empty() && d.data.size() <= 8) {
         line += ": " + register_value(ado, d.data);
+        // The SII EEPROM interface (0500h-050Fh): the address and data of each word read.
+        constexpr std::size_t kSiiFirst = reg::kSiiConfiguration;
+        constexpr std::size_t kSiiEnd = kSiiFirst + 0x10;
+        if (ado + d.data.size() <= kSiiFirst || ado >= kSiiEnd)
+          pattern_tail += ": " + register_value(ado, d.data);
       } else if (!mailbox && data_meaningful && ado >= reg::kProcessRam && !d.data.empty()) {
         value = " data=" + hex_bytes(d.data);
       }
     }
-    if (d.circulating) line += " (circulating)";
+    std::string pattern =
+        pattern_from == std::string::npos ? line : line.substr(0, pattern_from) + pattern_tail;
+    if (d.circulating) {
+      line += " (circulating)";
+      pattern += " (circulating)";
+    }
     shapes.push_back(line);
+    out.patterns.push_back(std::move(pattern));
     out.lines.push_back(line + value);
   }
   if (!mailbox_content) out.shapes = std::move(shapes);

@@ -55,6 +55,11 @@ struct DissectedFrame {
   // in their process data. Empty for a malformed frame and for a frame that carries mailbox
   // content (always shown, never summarised).
   std::vector<std::string> shapes;
+  // For summarising repeated patterns (conformance/repeats.hpp): each line without its process
+  // data, its mailbox counter and the SII EEPROM interface's values (0500h-050Fh: the address
+  // and data of each word of an SII read). Two datagrams with equal patterns do the same thing
+  // to the same place; one per line (empty for a malformed frame).
+  std::vector<std::string> patterns;
 };
 
 class FrameDissector {

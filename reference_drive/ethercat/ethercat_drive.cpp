@@ -139,9 +139,10 @@ Expected<void, std::string> EthercatDrive::build() {
   port_.set_dictionary(&od);
   port_.set_emcy_handler([this](const cia301::Emcy& emcy) { on_emcy(emcy); });
 
-  const profile::CoeRules coe_rules =
+  profile::CoeRules coe_rules =
       options_.coe ? *options_.coe
                    : (options_.profile != nullptr ? options_.profile->coe : profile::CoeRules{});
+  if (has(Deviation::coe_sdo_size_limit_ignored)) coe_rules.max_sdo_size.reset();
   ecat::CoeObjectRuleOptions rule_options;
   rule_options.configuration_only_when_configurable =
       coe_rules.pdo_configuration_in == profile::PdoConfigurationIn::preop;
@@ -165,6 +166,13 @@ Expected<void, std::string> EthercatDrive::build() {
   mailbox.honour_counter = !has(Deviation::mailbox_counter_ignored);
   ecat::CoeSdoServerOptions sdo;
   sdo.read_size = kMailboxSize;
+  // SDO information lists and describes only what the SDO server serves: not the profile's
+  // coe.absent_objects (Festo's 1008h-100Ah, 000 §4.6.2 L1826, §4.6.3 L2029-2036).
+  if (!coe_rules.absent_objects.empty()) {
+    sdo.sdo_information_hidden = [absent = coe_rules](std::uint16_t index) {
+      return absent.is_absent(index);
+    };
+  }
   coe_ = std::make_unique<ecat::CoeSlave>(od, std::move(mailbox), sdo);
   coe_deviations_ = std::make_unique<CoeDeviationHook>(od, options_.deviations);
   ecat::CoeSdoHook* deviations = coe_deviations_->active() ? coe_deviations_.get() : nullptr;

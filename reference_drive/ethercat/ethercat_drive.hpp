@@ -51,9 +51,12 @@
 // into SM1 again (unless SM1 still holds it) and the repeat acknowledge (0807h+8 bit 1, written
 // by the PDI) takes the request's value.
 //
+// SDO information lists and describes only the objects the SDO server serves: the profile's
+// coe.absent_objects are left out of every list and their descriptions answer 06020000h.
+// Named deviation coe-sdo-size-limit-ignored: the profile's coe.max_sdo_size is not applied.
+//
 // Not here yet: DC sync pulses; Festo's process data from the CANopen PDO configuration
-// instead of 1C12h/1C13h (000 L1933); the SDO information service still lists the objects
-// coe.absent_objects removes.
+// instead of 1C12h/1C13h (000 L1933).
 #pragma once
 
 #include <cstdint>

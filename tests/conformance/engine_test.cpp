@@ -837,6 +837,40 @@ TEST_F(EngineDriveTest, PollAndSave) {
   EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
 }
 
+TEST_F(EngineDriveTest, PollIntoARangeSignedOrNot) {
+  // Given 1017h (UNSIGNED16) holding FFF6h
+  const std::string write = "    - sdo_write: {index: 0x1017, sub: 0, value: 0xFFF6, size: 2}\n";
+  // When polled into [-10, -1] read as signed, and into [65520, 65530] read as unsigned
+  const auto pass =
+      run(make_vector(
+          write + "    - poll: {index: 0x1017, sub: 0, range: [-10, -1]}\n      signed: true\n"
+                  "      within: 20ms\n    - poll: {index: 0x1017, sub: 0, range: [65520, 65530]}\n"
+                  "      within: 20ms\n"));
+  // Then both pass
+  EXPECT_EQ(pass.verdict, Verdict::pass) << pass.message;
+  // And [-10, -1] unsigned never holds FFF6h: it fails at the deadline with the value last read
+  const auto fail = run(make_vector(
+      write + "    - poll: {index: 0x1017, sub: 0, range: [-10, -1]}\n      within: 20ms\n"));
+  EXPECT_EQ(fail.verdict, Verdict::fail);
+  EXPECT_NE(fail.message.find("1017h sub 0 in [-10, -1] within 20ms"), std::string::npos)
+      << fail.message;
+  EXPECT_NE(fail.message.find("last read: 65526 (FFF6h)"), std::string::npos) << fail.message;
+}
+
+TEST_F(EngineDriveTest, PollRangeBoundsFromASavedValue) {
+  // Given 1018h sub 0 saved as n; When polled into [$n, $n+1], then into [$n+1, $n+2]
+  const std::string save = "    - sdo_read: {index: 0x1018, sub: 0}\n      save: n\n";
+  const auto pass = run(make_vector(
+      save +
+      "    - poll: {index: 0x1018, sub: 0, range: [\"$n\", \"$n+1\"]}\n      within: 20ms\n"));
+  const auto fail = run(make_vector(save + "    - poll: {index: 0x1018, sub: 0, range: [\"$n+1\", "
+                                           "\"$n+2\"]}\n      within: 20ms\n"));
+  // Then the first passes, the second fails showing the computed bounds
+  EXPECT_EQ(pass.verdict, Verdict::pass) << pass.message;
+  EXPECT_EQ(fail.verdict, Verdict::fail);
+  EXPECT_NE(fail.message.find("in [$n+1 = "), std::string::npos) << fail.message;
+}
+
 TEST_F(EngineDriveTest, RangeAroundASavedValue) {
   // Given the drive's device type 1000h saved, then read again against bounds computed from it
   const auto pass =

@@ -118,6 +118,47 @@ TEST(VectorFile, UnknownStepModifierIsAnError) {
   EXPECT_NE(error.find("v.yaml:7: expect_bootup: unknown key 'withn'"), std::string::npos) << error;
 }
 
+TEST(VectorFile, PollTakesARangeOfSignedValues) {
+  // Given a poll of 6064h into [-10, $p+10] as signed, after a read saved as p
+  const auto set = parse_vectors(std::string(kHead) + R"(  steps:
+    - sdo_read: {index: 0x6064, sub: 0}
+      save: p
+    - poll: {index: 0x6064, sub: 0, range: [-10, "$p+10"]}
+      signed: true
+      within: 1s
+)",
+                                 "v.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  // When loaded; Then the step holds both bounds and reads signed
+  const auto& poll = std::get<PollStep>(set.vectors.at(0).steps.at(1).action);
+  ASSERT_TRUE(poll.range.has_value());
+  EXPECT_EQ(poll.range->first.literal, -10);
+  EXPECT_EQ(poll.range->second.saved, "p");
+  EXPECT_EQ(poll.range->second.offset, 10);
+  EXPECT_TRUE(poll.is_signed);
+}
+
+TEST(VectorFile, PollRangeErrorsNameTheirLine) {
+  // Given a range with a value, a range upside down, one bound, and signed without a range
+  // When each is parsed; Then one error each, at the step's line
+  EXPECT_EQ(only_error(std::string(kHead) +
+                       "  steps:\n    - poll: {index: 0x6064, sub: 0, value: 1, range: [0, 1]}\n"
+                       "      within: 1s\n"),
+            "v.yaml:6: poll: give either 'range' or 'value' (with 'mask'), not both");
+  EXPECT_EQ(only_error(std::string(kHead) +
+                       "  steps:\n    - poll: {index: 0x6064, sub: 0, range: [5, -5]}\n"
+                       "      within: 1s\n"),
+            "v.yaml:6: poll: range: low is above high");
+  EXPECT_EQ(
+      only_error(std::string(kHead) + "  steps:\n    - poll: {index: 0x6064, sub: 0, range: [5]}\n"
+                                      "      within: 1s\n"),
+      "v.yaml:6: poll: range: expected [low, high]");
+  EXPECT_EQ(
+      only_error(std::string(kHead) + "  steps:\n    - poll: {index: 0x6064, sub: 0, value: 5}\n"
+                                      "      signed: true\n      within: 1s\n"),
+      "v.yaml:7: poll: 'signed' goes with 'range'");
+}
+
 TEST(VectorFile, AbortNamesASetOrAListWithItsClause) {
   // Given an abort expectation by set name, one by literal list with clause, and a raw abort
   // frame judged by a set with an alternative frame

@@ -115,6 +115,11 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
       every: 1ms
     - poll: {index: 0x6041, sub: 0, value: 7}
       within: 10s
+    - poll: {index: 0x6064, sub: 0, range: [-10, "$mode_seen+3"]}
+      signed: true
+      within: $timing.homing
+    - poll: {index: 0x6064, sub: 0, range: [0, 0xFFFF]}
+      within: 1s
     - measure: {from: t0, to: t1, max: 10ms}
     - measure: {from: t0, to: e, min: $timing.ack_latency, max: 1s}
     - expect_periodic: 700+N

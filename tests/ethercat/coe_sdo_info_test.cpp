@@ -15,8 +15,8 @@ using Bytes = std::vector<std::uint8_t>;
 
 // Asks and reassembles; fails the test on an assembler error.
 SdoInfoMessage ask(cia301::ObjectDictionary& od, const Bytes& request, std::size_t read_size,
-                   std::size_t* fragment_count = nullptr) {
-  const auto answer = answer_sdo_information(od, request, read_size);
+                   std::size_t* fragment_count = nullptr, const SdoInfoHidden& hidden = {}) {
+  const auto answer = answer_sdo_information(od, request, read_size, hidden);
   if (fragment_count) *fragment_count = answer.size();
   SdoInfoAssembler assembler;
   for (std::size_t i = 0; i < answer.size(); ++i) {
@@ -95,6 +95,33 @@ TEST(SdoInformation, ErrorsForMissingAndMalformed) {
   EXPECT_EQ(code(sdo_info_entry_request(0x1018, 9)), 0x06090011u);
   EXPECT_EQ(code(sdo_info_od_list_request(static_cast<OdListType>(9))), 0x06010000u);
   EXPECT_EQ(code(Bytes{0x00, 0x80, 0x05, 0x00, 0x00, 0x00, 0x18}), 0x05040001u);
+}
+
+TEST(SdoInformation, HiddenObjectsAreNeitherListedNorDescribed) {
+  // Given the test dictionary and 1008h hidden (a drive's CoE rules: Festo's 1008h-100Ah)
+  auto od = test::make_test_dictionary();
+  const SdoInfoHidden hidden = [](std::uint16_t index) { return index == 0x1008; };
+  // When the master asks for the list of all objects, the list lengths, and 1008h's
+  // object and entry descriptions
+  const auto list = parse_od_list(
+      ask(od, sdo_info_od_list_request(OdListType::all_objects), 128, nullptr, hidden));
+  const auto lengths =
+      ask(od, sdo_info_od_list_request(OdListType::list_lengths), 128, nullptr, hidden);
+  const auto object =
+      parse_sdo_info_error(ask(od, sdo_info_object_request(0x1008), 128, nullptr, hidden));
+  const auto entry =
+      parse_sdo_info_error(ask(od, sdo_info_entry_request(0x1008, 0), 128, nullptr, hidden));
+  // Then the list has the six others, its length says 6, both descriptions answer 06020000h
+  ASSERT_TRUE(list);
+  EXPECT_EQ(*list, (std::vector<std::uint16_t>{0x1018, 0x1C12, 0x2000, 0x2001, 0x2002, 0x6040}));
+  ASSERT_EQ(lengths.data.size(), 12u);
+  EXPECT_EQ(lengths.data[2], 6);
+  ASSERT_TRUE(object);
+  EXPECT_EQ(*object, 0x06020000u);
+  ASSERT_TRUE(entry);
+  EXPECT_EQ(*entry, 0x06020000u);
+  // And without the rule 1008h is described
+  EXPECT_FALSE(parse_sdo_info_error(ask(od, sdo_info_object_request(0x1008), 128)));
 }
 
 TEST(SdoInformation, AssemblerRefusesBrokenFragmentChains) {

@@ -27,5 +27,5 @@ target_compile_definitions(ethercat_run_veth_tests PRIVATE
   DRIVECHECK_BINARY="$<TARGET_FILE:drivecheck>")
 add_dependencies(ethercat_run_veth_tests drivecheck)
 add_test(NAME ethercat.run-veth COMMAND ethercat_run_veth_tests)
-set_tests_properties(ethercat.run-veth PROPERTIES LABELS ethercat TIMEOUT 240
+set_tests_properties(ethercat.run-veth PROPERTIES LABELS ethercat TIMEOUT 480
   SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]")

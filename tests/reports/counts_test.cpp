@@ -115,14 +115,20 @@ conformance::RunResult run_with_datagrams() {
   auto& vector = run.vectors.front();
   const auto at = [&](int us) { return vector.started + std::chrono::microseconds(us); };
   vector.datagrams = {
-      {at(100), at(100), 1,
+      {at(100),
+       at(100),
+       1,
        "FPWR station 1001h 1000h SM0 write mailbox len 128 wkc 1: CoE len 10 addr 0000h cnt 1: "
-       "SDO upload initiate 1000h:00"},
-      {at(1000), at(120000), 120, "LRW logical 00010000h len 14 wkc 3"},
-      {at(121000), at(121000), 1,
+       "SDO upload initiate 1000h:00",
+       {}},
+      {at(1000), at(120000), 120, "LRW logical 00010000h len 14 wkc 3", {}},
+      {at(121000),
+       at(121000),
+       1,
        "FPRD station 1001h 1080h SM1 read mailbox len 128 wkc 1: CoE len 14 addr 0000h cnt 1: "
        "SDO abort by the server 1018h:01 06010002h write_read_only: Attempt to write a read only "
-       "object"}};
+       "object",
+       {}}};
   vector.datagrams_elided = 800;
   vector.datagrams_elided_at = 1;
   return run;

@@ -1,6 +1,7 @@
 // The JSON report: its stable keys, the write → read round trip, and clear errors on bad files.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -25,10 +26,10 @@ conformance::RunResult valid_utf8_run() {
 TEST(JsonReport, HasSchemaVersionCountsAndTimesInNanosecondsAndSeconds) {
   // Given the synthetic run with every verdict
   // When written as JSON
-  // Then the document has schema_version 3, counts per tally (a warning is not a fail), the
+  // Then the document has schema_version 4, counts per tally (a warning is not a fail), the
   //      exit code, and each frame's time both as t_ns and t_s
   const json document = json::parse(render_json(valid_utf8_run()));
-  EXPECT_EQ(document["schema_version"], 3);
+  EXPECT_EQ(document["schema_version"], 4);
   EXPECT_EQ(document["counts"]["pass"], 2);
   EXPECT_EQ(document["counts"]["fail"], 1);
   EXPECT_EQ(document["counts"]["warning"], 1);
@@ -98,6 +99,38 @@ TEST(JsonReport, WriteThenReadGivesTheSameRun) {
     for (std::size_t c = 0; c < a.checks.size(); ++c)
       EXPECT_EQ(b.checks[c].observed, a.checks[c].observed);
   }
+}
+
+TEST(JsonReport, RepeatedPatternsAreWrittenAndReadBack) {
+  // Given a vector whose frame 0 starts a pattern (frame 1 its last time) left out 40 times, and
+  // an EtherCAT vector whose first datagram starts one of length 1
+  auto run = valid_utf8_run();
+  auto& frames = run.vectors.at(0).frames;
+  ASSERT_GE(frames.size(), 2U);
+  frames[0].repeat = {1, 40, frames[0].at + std::chrono::milliseconds(400)};
+  auto& ecat = run.vectors.at(1);
+  ecat.datagrams = {{ecat.started, ecat.started, 1, "FPRD station 1001h 080Dh SM1 status", {}},
+                    {ecat.started, ecat.started, 1, "FPRD station 1001h 080Dh SM1 status", {}}};
+  ecat.datagrams[0].repeat = {1, 7, ecat.started + std::chrono::milliseconds(7)};
+  // When written and read back
+  const json document = json::parse(render_json(run));
+  const auto read = parse_json_report(document.dump());
+  // Then each is an object {length, times, until_ns} on its entry and comes back the same
+  EXPECT_EQ(document["vectors"][0]["frames"][0]["repeat"]["length"], 1);
+  EXPECT_EQ(document["vectors"][0]["frames"][0]["repeat"]["times"], 40);
+  EXPECT_FALSE(document["vectors"][0]["frames"][1].contains("repeat"));
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(read->vectors.at(0).frames[0].repeat, frames[0].repeat);
+  EXPECT_EQ(read->vectors.at(1).datagrams, ecat.datagrams);
+  // And a pattern that runs past the list, and schema 3 (no patterns), are told apart
+  json past = document;
+  past["vectors"][1]["datagrams"][0]["repeat"]["length"] = 2;
+  EXPECT_EQ(parse_json_report(past.dump()).error().message,
+            "vectors[1].datagrams[0].repeat.length: the pattern and its last repetition run past "
+            "the list");
+  json older = json::parse(render_json(valid_utf8_run()));
+  older["schema_version"] = 3;
+  EXPECT_TRUE(parse_json_report(older.dump()));
 }
 
 TEST(JsonReport, CommissioningIsListedUnderTheProfileAndReadBack) {
@@ -228,8 +261,8 @@ TEST(JsonReportRead, StructuralErrorsNameTheKey) {
   // Then each error names the JSON path and what is wrong
   json document = json::parse(render_json(valid_utf8_run()));
   json wrong_version = document;
-  wrong_version["schema_version"] = 4;
-  EXPECT_NE(parse_json_report(wrong_version.dump()).error().message.find("schema_version: 4"),
+  wrong_version["schema_version"] = 5;
+  EXPECT_NE(parse_json_report(wrong_version.dump()).error().message.find("schema_version: 5"),
             std::string::npos);
   json bad_verdict = document;
   bad_verdict["vectors"][3]["verdict"] = "pased";

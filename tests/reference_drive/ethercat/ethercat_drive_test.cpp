@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <iterator>
 #include <memory>
@@ -17,6 +18,7 @@
 #include "protocol/cia402/state_machine.hpp"
 #include "protocol/ethercat/coe.hpp"
 #include "protocol/ethercat/coe_sdo_client.hpp"
+#include "protocol/ethercat/coe_sdo_info.hpp"
 #include "protocol/ethercat/esc.hpp"
 #include "protocol/ethercat/frame.hpp"
 #include "protocol/ethercat/mailbox.hpp"
@@ -725,6 +727,49 @@ TEST(EthercatDriveCoeRules, AbsentObjectsAnswer06020000h) {
   EXPECT_EQ(festo.upload(0x100A, 0).abort, 0x06020000u);
   EXPECT_EQ(festo.download(0x1009, 0, {0x41}).abort, 0x06020000u);
   EXPECT_FALSE(festo.upload(0x1000, 0).abort);
+}
+
+TEST(EthercatDriveCoeRules, SdoInformationLeavesAbsentObjectsOut) {
+  // Given the standard drive, and one whose coe.absent_objects is [1008h, 100Ah], in PREOP
+  // When each is asked over SDO information for the list of all objects and 1009h's description
+  // Then the standard drive lists 1008h-100Ah and describes 1009h; the other lists none of
+  //      them (1000h still) and answers the description 06020000h, as its SDO server does
+  std::uint8_t counter = 0;
+  const auto ask = [&counter](Master& master, const Bytes& request) {
+    ecat::MailboxHeader h;
+    h.type = static_cast<std::uint8_t>(ecat::MailboxType::coe);
+    counter = static_cast<std::uint8_t>(counter % 7 + 1);  // 1..7: each a new request
+    h.counter = counter;
+    master.drive().coe().on_write_mailbox(ecat::build_mailbox(h, request, kMailboxSize));
+    ecat::SdoInfoAssembler assembler;
+    while (const auto reply = master.drive().coe().take_reply()) {
+      auto m = assembler.add(ecat::parse_mailbox(*reply)->data);
+      if (m && *m) return **m;
+    }
+    ADD_FAILURE() << "no complete SDO information answer";
+    return ecat::SdoInfoMessage{};
+  };
+  const auto list_request = ecat::sdo_info_od_list_request(ecat::OdListType::all_objects);
+  const auto lists = [](const std::vector<std::uint16_t>& list, std::uint16_t index) {
+    return std::find(list.begin(), list.end(), index) != list.end();
+  };
+  Master standard;
+  standard.to_preop();
+  const auto all = ecat::parse_od_list(ask(standard, list_request));
+  ASSERT_TRUE(all);
+  EXPECT_TRUE(lists(*all, 0x1008) && lists(*all, 0x1009) && lists(*all, 0x100A));
+  EXPECT_FALSE(ecat::parse_sdo_info_error(ask(standard, ecat::sdo_info_object_request(0x1009))));
+  profile::CoeRules rules;
+  rules.absent_objects = {{0x1008, 0x100A}};
+  Master festo(with_coe(rules));
+  festo.to_preop();
+  const auto some = ecat::parse_od_list(ask(festo, list_request));
+  ASSERT_TRUE(some);
+  EXPECT_FALSE(lists(*some, 0x1008) || lists(*some, 0x1009) || lists(*some, 0x100A));
+  EXPECT_TRUE(lists(*some, 0x1000));
+  const auto error = ecat::parse_sdo_info_error(ask(festo, ecat::sdo_info_object_request(0x1009)));
+  ASSERT_TRUE(error);
+  EXPECT_EQ(*error, 0x06020000u);
 }
 
 TEST(EthercatDriveCoeRules, TransfersAboveMaxSdoSizeAreAborted) {
