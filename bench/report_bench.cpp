@@ -35,8 +35,11 @@ conformance::RunResult large_run() {
     vector.started = start;
     vector.finished = start + std::chrono::milliseconds(50);
     for (int f = 0; f < 20; ++f) {
-      vector.frames.push_back({start + std::chrono::microseconds(f * 500), f % 2 ? reply : request,
-                               f % 2 == 0, "SDO rx  node 5  initiate upload 6041:00 (statusword)"});
+      vector.frames.push_back({start + std::chrono::microseconds(f * 500),
+                               f % 2 ? reply : request,
+                               f % 2 == 0,
+                               "SDO rx  node 5  initiate upload 6041:00 (statusword)",
+                               {}});
     }
     for (std::size_t c = 0; c < 4; ++c)
       vector.checks.push_back(
