@@ -17,9 +17,7 @@
 #include "conformance/ethercat_port.hpp"
 #include "conformance/vector_file.hpp"
 #include "protocol/cia301/data_type.hpp"
-#include "protocol/ethercat/master.hpp"
-#include "protocol/ethercat/sim_segment.hpp"
-#include "reference_drive/ethercat/ethercat_drive.hpp"
+#include "tests/support/ethercat_rig.hpp"
 
 namespace drivecheck::conformance {
 namespace {
@@ -41,24 +39,11 @@ std::vector<Vector> parse(const std::string& text) {
 // The emulated slave, a master brought up to PREOP, the engine's port and clock: no power cycle.
 class EthercatIsolationTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    auto created = reference_drive::ethercat::EthercatDrive::create(segment_);
-    ASSERT_TRUE(created) << created.error();
-    drive_ = std::move(*created);
-    segment_.attach(*drive_);
-    drive_->power_on();
-    ethercat::MasterConfig config;
-    config.scan.expected_slaves = 1;
-    master_ = std::make_unique<ethercat::Master>(segment_, config);
-    ASSERT_TRUE(master_->bring_up(ethercat::AlState::preop));
-    port_ = std::make_unique<EthercatPort>(*master_);
-    clock_ = std::make_unique<EthercatClock>(segment_, *port_);
-  }
-  void TearDown() override { segment_.detach_all(); }
+  void SetUp() override { ASSERT_TRUE(rig_.ready()); }
 
   // 6065h (following error window) as the master reads it now.
   std::uint32_t window() {
-    auto value = master_->sdo_upload(0, {0x6065, 0});
+    auto value = rig_.master().sdo_upload(0, {0x6065, 0});
     EXPECT_TRUE(value);
     if (!value) return 0;
     return static_cast<std::uint32_t>(cia301::load_unsigned(*value));
@@ -77,11 +62,7 @@ class EthercatIsolationTest : public ::testing::Test {
         before);
   }
 
-  ethercat::SimSegment segment_;
-  std::unique_ptr<reference_drive::ethercat::EthercatDrive> drive_;
-  std::unique_ptr<ethercat::Master> master_;
-  std::unique_ptr<EthercatPort> port_;
-  std::unique_ptr<EthercatClock> clock_;
+  test_support::EthercatRig rig_;
   profile::DriveProfile profile_ = make_profile();
 };
 
@@ -91,7 +72,7 @@ TEST_F(EthercatIsolationTest, WrittenObjectIsPutBackOverCoe) {
   ASSERT_NE(before, 1234U);
   const auto vectors = parse(two_vectors(before));
   // When both run on EtherCAT, where a reset node cannot power-cycle the drive
-  Engine engine(*clock_, *port_, profile_, {});
+  Engine engine(rig_.clock(), rig_.port(), profile_, {});
   const RunResult result = engine.run(vectors);
   // Then the first fails at its read, the engine put 6065h back (a passing restore check that
   // names it), the second reads the value before, and the drive holds it after the run
@@ -115,7 +96,7 @@ TEST_F(EthercatIsolationTest, WithoutIsolationTheWrittenObjectLeaks) {
   // When both run without isolation
   EngineOptions options;
   options.isolation = false;
-  Engine engine(*clock_, *port_, profile_, options);
+  Engine engine(rig_.clock(), rig_.port(), profile_, options);
   const RunResult result = engine.run(vectors);
   // Then the second vector reads the first one's value: the reset did not bring 6065h back
   ASSERT_EQ(result.vectors.size(), 2U);
@@ -166,7 +147,7 @@ TEST_F(EthercatIsolationTest, CompleteAccessVectorPassesOnTheEmulatedSlave) {
   // Given the complete access vector and the emulated slave, which implements it
   const auto vectors = coe_vector("ethercat/coe/complete-access/upload-1c12");
   // When it runs on EtherCAT
-  Engine engine(*clock_, *port_, profile_, {});
+  Engine engine(rig_.clock(), rig_.port(), profile_, {});
   const RunResult result = engine.run(vectors);
   // Then it passes
   ASSERT_EQ(result.vectors.size(), 1U);
@@ -176,9 +157,9 @@ TEST_F(EthercatIsolationTest, CompleteAccessVectorPassesOnTheEmulatedSlave) {
 TEST_F(EthercatIsolationTest, CompleteAccessVectorFailsWhenTheBitIsIgnored) {
   // Given the complete access vector and a slave that answers it as a plain SDO upload
   const auto vectors = coe_vector("ethercat/coe/complete-access/upload-1c12");
-  IgnoresCompleteAccess broken(*port_);
+  IgnoresCompleteAccess broken(rig_.port());
   // When it runs on EtherCAT
-  Engine engine(*clock_, broken, profile_, {});
+  Engine engine(rig_.clock(), broken, profile_, {});
   const RunResult result = engine.run(vectors);
   // Then it fails (a should-level vector: a warning) at step 4, where sub-index 0 came alone
   ASSERT_EQ(result.vectors.size(), 1U);

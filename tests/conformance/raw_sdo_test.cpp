@@ -17,10 +17,8 @@
 #include "conformance/verdict.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/cia301/data_type.hpp"
-#include "protocol/ethercat/master.hpp"
-#include "protocol/ethercat/sim_segment.hpp"
 #include "reference_drive/device.hpp"
-#include "reference_drive/ethercat/ethercat_drive.hpp"
+#include "tests/support/ethercat_rig.hpp"
 
 namespace drivecheck::conformance {
 namespace {
@@ -212,41 +210,24 @@ class CanDrive {
   std::unique_ptr<reference_drive::ReferenceDrive> drive_;
 };
 
-// The reference drive as an emulated EtherCAT slave on the simulated segment, a master brought
-// up to PREOP, the engine's port and clock (no power cycle: a reset node is INIT then PREOP).
+// The reference drive as an emulated EtherCAT slave with `deviations` (tests/support).
 class EthercatDrive {
  public:
-  explicit EthercatDrive(DeviationSet deviations) {
-    reference_drive::ethercat::EthercatDriveOptions options;
-    options.deviations = deviations;
-    auto created = reference_drive::ethercat::EthercatDrive::create(segment_, options);
-    EXPECT_TRUE(created) << created.error();
-    if (!created) return;
-    drive_ = std::move(*created);
-    segment_.attach(*drive_);
-    drive_->power_on();
-    ethercat::MasterConfig config;
-    config.scan.expected_slaves = 1;
-    master_ = std::make_unique<ethercat::Master>(segment_, config);
-    EXPECT_TRUE(master_->bring_up(ethercat::AlState::preop));
-    port_ = std::make_unique<EthercatPort>(*master_);
-    clock_ = std::make_unique<EthercatClock>(segment_, *port_);
-  }
-  ~EthercatDrive() { segment_.detach_all(); }
-  EthercatDrive(const EthercatDrive&) = delete;
-  EthercatDrive& operator=(const EthercatDrive&) = delete;
+  explicit EthercatDrive(DeviationSet deviations) : rig_(options(deviations)) {}
   RunResult run(const std::vector<Vector>& vectors, const profile::DriveProfile& profile) {
-    Engine engine(*clock_, *port_, profile, {});
+    if (!rig_.ready()) return {};
+    Engine engine(rig_.clock(), rig_.port(), profile, {});
     return engine.run(vectors);
   }
-  ethercat::Master& master() { return *master_; }
+  ethercat::Master& master() { return rig_.master(); }
 
  private:
-  ethercat::SimSegment segment_;
-  std::unique_ptr<reference_drive::ethercat::EthercatDrive> drive_;
-  std::unique_ptr<ethercat::Master> master_;
-  std::unique_ptr<EthercatPort> port_;
-  std::unique_ptr<EthercatClock> clock_;
+  static reference_drive::ethercat::EthercatDriveOptions options(DeviationSet deviations) {
+    reference_drive::ethercat::EthercatDriveOptions options;
+    options.deviations = deviations;
+    return options;
+  }
+  test_support::EthercatRig rig_;
 };
 
 class RawSdoLinkTest : public ::testing::TestWithParam<LinkKind> {

@@ -19,10 +19,8 @@
 #include "conformance/engine.hpp"
 #include "conformance/ethercat_port.hpp"
 #include "conformance/vector_file.hpp"
-#include "protocol/ethercat/master.hpp"
-#include "protocol/ethercat/sim_segment.hpp"
 #include "protocol/profile/drive_profile.hpp"
-#include "reference_drive/ethercat/ethercat_drive.hpp"
+#include "tests/support/ethercat_rig.hpp"
 
 namespace drivecheck::conformance {
 namespace {
@@ -52,37 +50,22 @@ Vector without_range_polls(Vector vector) {
 class PpHomingKeptTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    auto created = reference_drive::ethercat::EthercatDrive::create(segment_);
-    ASSERT_TRUE(created) << created.error();
-    drive_ = std::move(*created);
-    segment_.attach(*drive_);
-    drive_->power_on();
-    ethercat::MasterConfig config;
-    config.scan.expected_slaves = 1;
-    master_ = std::make_unique<ethercat::Master>(segment_, config);
-    ASSERT_TRUE(master_->bring_up(ethercat::AlState::preop));
-    port_ = std::make_unique<EthercatPort>(*master_);  // no power cycle hook
-    clock_ = std::make_unique<EthercatClock>(segment_, *port_);
+    ASSERT_TRUE(rig_.ready());
     auto profile = profile::load_profile(std::string(DRIVECHECK_VECTORS_DIR) +
                                          "/drives/cia402-reference.yaml");
     ASSERT_TRUE(profile) << profile.error().to_string();
     profile_ = *profile;
   }
-  void TearDown() override { segment_.detach_all(); }
 
   // Runs `vectors` in one engine run (motion allowed, as the embedded run does).
   RunResult run(const std::vector<Vector>& vectors) {
     EngineOptions options;
     options.allow_motion = true;
-    Engine engine(*clock_, *port_, profile_, options);
+    Engine engine(rig_.clock(), rig_.port(), profile_, options);
     return engine.run(vectors);
   }
 
-  ethercat::SimSegment segment_;
-  std::unique_ptr<reference_drive::ethercat::EthercatDrive> drive_;
-  std::unique_ptr<ethercat::Master> master_;
-  std::unique_ptr<EthercatPort> port_;
-  std::unique_ptr<EthercatClock> clock_;
+  test_support::EthercatRig rig_;  // no power cycle hook
   profile::DriveProfile profile_;
 };
 

@@ -69,12 +69,13 @@ TEST(ServoDriveBusOff, EsrFaultsWith8180) {
   EXPECT_EQ(rig.value(0x603F, 0), 0x8180u);
 }
 
-TEST(ServoDriveBusOff, StandardDriveKeepsRunning) {
-  // Given the standard drive in OPERATION ENABLED
+TEST(ServoDriveBusOff, StandardDriveWithoutAbortConnectionReactionKeepsRunning) {
+  // Given the standard drive in OPERATION ENABLED with 6007h = 0 (no action)
   // When its controller goes bus-off and recovers
   // Then the axis state is untouched (CiA 301 reacts in NMT and by EMCY 8140h only)
   BusOffRig rig("");
   rig.power_on();
+  ASSERT_EQ(rig.write(0x6007, 0, 0, 2), 0u);
   rig.enable();
   ASSERT_EQ(rig.state(), cia402::State::operation_enabled);
   rig.bus_off(true);
@@ -83,6 +84,22 @@ TEST(ServoDriveBusOff, StandardDriveKeepsRunning) {
   rig.run(20ms);
   EXPECT_EQ(rig.state(), cia402::State::operation_enabled);
   EXPECT_EQ(rig.value(0x1003, 1) & 0xFFFF, 0x8140u);
+}
+
+TEST(ServoDriveBusOff, StandardDriveTakesTheAbortConnectionReaction) {
+  // Given the standard drive in OPERATION ENABLED with 6007h = 2 (disable voltage)
+  // When its controller goes bus-off and recovers
+  // Then it is in SWITCH ON DISABLED: bus-off is an abort connection event (CiA 402-2 6007h)
+  BusOffRig rig("");
+  rig.power_on();
+  ASSERT_EQ(rig.write(0x6007, 0, 2, 2), 0u);
+  rig.enable();
+  ASSERT_EQ(rig.state(), cia402::State::operation_enabled);
+  rig.bus_off(true);
+  rig.run(50ms);
+  rig.bus_off(false);
+  rig.run(20ms);
+  EXPECT_EQ(rig.state(), cia402::State::switch_on_disabled);
 }
 
 }  // namespace
