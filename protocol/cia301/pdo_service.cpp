@@ -678,28 +678,23 @@ bool PdoService::window_closed(can::TimePoint now) const {
   return window > can::Duration::zero() && now >= *last_sync_ + window;
 }
 
+void PdoService::send_all_held() {
+  for (; held_next_ < held_.size(); ++held_next_) {
+    frames_.push_back(held_[held_next_]);
+    ++stats_.tpdos_sent;
+  }
+  held_.clear();
+  held_next_ = 0;
+  in_flight_.reset();
+}
+
 void PdoService::release_held(can::TimePoint now) {
   if (held_next_ >= held_.size()) return;
-  if (sync_window() == can::Duration::zero()) {
-    // 1007h was set to 0 while TPDOs were held: no window any more, they all go.
-    for (; held_next_ < held_.size(); ++held_next_) {
-      frames_.push_back(held_[held_next_]);
-      ++stats_.tpdos_sent;
-    }
-    held_.clear();
-    held_next_ = 0;
-    in_flight_.reset();
-    return;
-  }
-  if (window_closed(now) && sync_window_tpdos_sent_late_) {
-    // Fault injection only (sync-window-tpdo-sent-late): what is held goes out late.
-    for (; held_next_ < held_.size(); ++held_next_) {
-      frames_.push_back(held_[held_next_]);
-      ++stats_.tpdos_sent;
-    }
-    held_.clear();
-    held_next_ = 0;
-    in_flight_.reset();
+  // 1007h set to 0 while TPDOs were held: no window any more, they all go. With the fault
+  // injection sync-window-tpdo-sent-late, what is held goes out late too.
+  if (sync_window() == can::Duration::zero() ||
+      (window_closed(now) && sync_window_tpdos_sent_late_)) {
+    send_all_held();
     return;
   }
   if (window_closed(now)) {

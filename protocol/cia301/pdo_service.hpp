@@ -360,6 +360,7 @@ class PdoService {
   // Hands out the next held synchronous TPDO, or discards the held ones when the window has
   // closed.
   void release_held(can::TimePoint now);
+  void send_all_held();  // every held TPDO goes out now
   void sync_outside_operational(std::optional<std::uint8_t> counter, bool start_values,
                                 can::TimePoint now);
 

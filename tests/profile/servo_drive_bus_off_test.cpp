@@ -26,18 +26,24 @@ class BusOffRig : public testing::ServoRig {
   explicit BusOffRig(const std::string& profile_name) : ServoRig(profile_name, PowerOn::later) {}
 };
 
-TEST(ServoDriveBusOff, KollmorgenEnabledDriveStopsWithF23) {
-  // Given the Kollmorgen drive in OPERATION ENABLED (its boot-up went out)
-  // When its controller goes bus-off, then recovers
-  // Then the drive is in FAULT with 603Fh = 8182h (F23, 002 §2.9 L206-210, §5.1 L1193)
-  BusOffRig rig("kollmorgen-s300-s700");
-  rig.power_on();
+// The drive put in OPERATION ENABLED, then its controller bus-off for 50 ms and back for 20 ms.
+void enable_then_bus_off_and_recover(BusOffRig& rig) {
   rig.enable();
   ASSERT_EQ(rig.state(), cia402::State::operation_enabled);
   rig.bus_off(true);
   rig.run(50ms);
   rig.bus_off(false);
   rig.run(20ms);
+}
+
+TEST(ServoDriveBusOff, KollmorgenEnabledDriveStopsWithF23) {
+  // Given the Kollmorgen drive in OPERATION ENABLED (its boot-up went out)
+  // When its controller goes bus-off, then recovers
+  // Then the drive is in FAULT with 603Fh = 8182h (F23, 002 §2.9 L206-210, §5.1 L1193)
+  BusOffRig rig("kollmorgen-s300-s700");
+  rig.power_on();
+  enable_then_bus_off_and_recover(rig);
+  if (::testing::Test::HasFatalFailure()) return;
   EXPECT_EQ(rig.state(), cia402::State::fault);
   EXPECT_EQ(rig.value(0x603F, 0), 0x8182u);
 }
@@ -76,12 +82,8 @@ TEST(ServoDriveBusOff, StandardDriveWithoutAbortConnectionReactionKeepsRunning) 
   BusOffRig rig("");
   rig.power_on();
   ASSERT_EQ(rig.write(0x6007, 0, 0, 2), 0u);
-  rig.enable();
-  ASSERT_EQ(rig.state(), cia402::State::operation_enabled);
-  rig.bus_off(true);
-  rig.run(50ms);
-  rig.bus_off(false);
-  rig.run(20ms);
+  enable_then_bus_off_and_recover(rig);
+  if (::testing::Test::HasFatalFailure()) return;
   EXPECT_EQ(rig.state(), cia402::State::operation_enabled);
   EXPECT_EQ(rig.value(0x1003, 1) & 0xFFFF, 0x8140u);
 }
@@ -93,12 +95,8 @@ TEST(ServoDriveBusOff, StandardDriveTakesTheAbortConnectionReaction) {
   BusOffRig rig("");
   rig.power_on();
   ASSERT_EQ(rig.write(0x6007, 0, 2, 2), 0u);
-  rig.enable();
-  ASSERT_EQ(rig.state(), cia402::State::operation_enabled);
-  rig.bus_off(true);
-  rig.run(50ms);
-  rig.bus_off(false);
-  rig.run(20ms);
+  enable_then_bus_off_and_recover(rig);
+  if (::testing::Test::HasFatalFailure()) return;
   EXPECT_EQ(rig.state(), cia402::State::switch_on_disabled);
 }
 
