@@ -151,19 +151,19 @@ Expected<void, std::string> install_coe_object_rules(cia301::ObjectDictionary& o
         guard(entry, in_state);
       } else if (entry.sub_index() == 0) {
         guard(entry,
-              [in_state, range = range, index = index](
+              [in_state, mappings = range, assign = index](
                   const cia301::ObjectDictionary& d, const cia301::Entry& e,
                   std::span<const std::uint8_t> data) -> Expected<void, SdoAbort> {
                 if (auto ok = in_state(d, e, data); !ok) return ok;
                 const auto count = little(data);
-                const cia301::Object* o = d.find(index);
+                const cia301::Object* o = d.find(assign);
                 std::uint64_t highest = 0;
                 for (const auto& sub : o->entries())
                   highest = sub.sub_index();
                 if (count > highest) return Unexpected(SdoAbort::value_too_high);
                 for (std::uint64_t i = 1; i <= count; ++i) {
                   const cia301::Entry* assigned = o->find(static_cast<std::uint8_t>(i));
-                  if (assigned == nullptr || !valid_mapping(d, range, assigned->as_unsigned())) {
+                  if (assigned == nullptr || !valid_mapping(d, mappings, assigned->as_unsigned())) {
                     return Unexpected(SdoAbort::invalid_value);
                   }
                 }
@@ -171,16 +171,16 @@ Expected<void, std::string> install_coe_object_rules(cia301::ObjectDictionary& o
               });
       } else {
         guard(entry,
-              [in_state, range = range, index = index](
+              [in_state, mappings = range, assign = index](
                   const cia301::ObjectDictionary& d, const cia301::Entry& e,
                   std::span<const std::uint8_t> data) -> Expected<void, SdoAbort> {
                 if (auto ok = in_state(d, e, data); !ok) return ok;
-                const cia301::Entry* count = d.find(index, 0);
+                const cia301::Entry* count = d.find(assign, 0);
                 if (count != nullptr && count->as_unsigned() != 0) {
                   return Unexpected(SdoAbort::coe_sub_index_0_must_be_0);
                 }
                 const auto value = little(data);
-                if (value != 0 && !valid_mapping(d, range, value)) {
+                if (value != 0 && !valid_mapping(d, mappings, value)) {
                   return Unexpected(SdoAbort::invalid_value);
                 }
                 return {};
