@@ -50,6 +50,7 @@
 #include "protocol/ethercat/master.hpp"
 #include "protocol/ethercat/pcap.hpp"
 #include "protocol/ethercat/raw_link.hpp"
+#include "protocol/ethercat/recording_link.hpp"
 #include "protocol/ethercat/sim_segment.hpp"
 #include "protocol/profile/drive_profile.hpp"
 #include "reports/report_writers.hpp"
@@ -78,17 +79,34 @@ std::optional<std::string> ethercat_interface(std::string_view bus) {
 // Every wait is bounded by the master's timeouts: a silent link ends the bring-up with an
 // error, or the run's SDOs with "no answer" (and the run with DUT lost), never in a hang.
 struct EthercatTarget {
-  std::unique_ptr<ethercat::RawLink> link;
+  std::unique_ptr<ethercat::RawLink> raw;
+  // With --pcap: the raw link behind a recorder (every frame sent and received), else null.
+  std::unique_ptr<ethercat::RecordingLink> recording;
+  ethercat::Link* link = nullptr;  // what the master and the clock use: recording or raw
   std::unique_ptr<ethercat::Master> master;
   std::unique_ptr<conformance::EthercatPort> port;
   std::unique_ptr<conformance::EthercatClock> clock;
 };
 
-std::unique_ptr<EthercatTarget> open_ethercat(const std::string& interface) {
+// `pcap` (with --pcap) is created here, on the link's clock (CLOCK_MONOTONIC + its Unix
+// offset), and records from the first frame of the bring-up; the caller keeps it alive longer
+// than the target.
+std::unique_ptr<EthercatTarget> open_ethercat(const std::string& interface,
+                                              const std::string& pcap_path,
+                                              std::unique_ptr<ethercat::PcapWriter>& pcap) {
   auto target = std::make_unique<EthercatTarget>();
   auto link = ethercat::RawLink::open(interface);
   if (!link) usage_error("run", ethercat::describe_open_error(interface, link.error()));
-  target->link = std::move(*link);
+  target->raw = std::move(*link);
+  target->link = target->raw.get();
+  if (!pcap_path.empty()) {
+    pcap = std::make_unique<ethercat::PcapWriter>(pcap_path, target->raw->unix_offset());
+    if (!pcap->ok()) usage_error("run", pcap->error());
+    target->recording = std::make_unique<ethercat::RecordingLink>(
+        *target->raw, [writer = pcap.get()](const ethercat::TimedFrame& frame,
+                                            ethercat::FrameDirection) { writer->write(frame); });
+    target->link = target->recording.get();
+  }
   ethercat::MasterConfig config;
   // A real link: the answer comes from another process or machine, which a loaded host may
   // not schedule within the simulated segment's 2 ms.
@@ -224,10 +242,6 @@ void run(const RunOptions& options) {
     usage_error("run",
                 "--trace writes a candump log of CAN frames; on --bus ethercat use --pcap "
                 "FILE.pcap (`drivecheck decode FILE.pcap` prints it as text)");
-  if (ethercat_if && !options.pcap.empty())
-    usage_error("run",
-                "--pcap is written for --bus ethercat:sim only (no capture of a real "
-                "EtherCAT link yet: use tshark/dumpcap on the interface)");
   auto order = conformance::parse_vector_order(options.order);
   if (!order) usage_error("run", order.error());
   // `shuffle` alone: a seed drawn here, recorded in the reports so that the run can be repeated.
@@ -330,7 +344,9 @@ void run(const RunOptions& options) {
   std::unique_ptr<EthercatTarget> ethercat_target;
   can::Bus* port = nullptr;
   if (ethercat_if) {
-    ethercat_target = open_ethercat(*ethercat_if);
+    // --pcap on a real link: what the harness sends and receives on it (frames of others on
+    // the wire are not seen: the socket takes EtherType 88A4h addressed to it).
+    ethercat_target = open_ethercat(*ethercat_if, options.pcap, ethercat_pcap);
     port = ethercat_target->clock.get();
   } else if (ethercat_sim) {
     // --pcap on EtherCAT: every frame of the segment (sent and returned) from the first frame of
@@ -367,7 +383,7 @@ void run(const RunOptions& options) {
   // Traces: the whole simulated wire, or what the harness port sees on a real bus.
   std::unique_ptr<can::TraceRecorder> recorder;
   std::unique_ptr<can::RecordingBus> recording;
-  if (!ethercat_sim && (!options.trace.empty() || !options.pcap.empty())) {
+  if (!ethercat_sim && !ethercat_if && (!options.trace.empty() || !options.pcap.empty())) {
     auto opened = can::TraceRecorder::open(
         {options.trace, options.pcap},
         {.interface = sim ? "sim" : spec->interface, .unix_offset = port->unix_offset()});
@@ -699,11 +715,11 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--html", options->html, "Write an HTML report")->type_name("FILE");
   cmd->add_option("--json", options->json, "Write a JSON report")->type_name("FILE");
   cmd->add_option("--trace", options->trace,
-                  "Record every frame to a candump -L log (CAN only; on ethercat:sim use --pcap)")
+                  "Record every frame to a candump -L log (CAN only; on EtherCAT use --pcap)")
       ->type_name("FILE.log");
   cmd->add_option("--pcap", options->pcap,
                   "Record every frame to a pcap file for Wireshark (CAN: LINKTYPE_CAN_SOCKETCAN; "
-                  "ethercat:sim: Ethernet frames, both ways; `drivecheck decode FILE` reads both)")
+                  "EtherCAT: Ethernet frames, both ways; `drivecheck decode FILE` reads both)")
       ->type_name("FILE");
   add_vectors_option(*cmd, options->vectors);
   cmd->add_option("--deviation", options->deviations,

@@ -35,6 +35,9 @@ struct TimedFrame {
   TimePoint timestamp;              // end of frame at the master (simulated) or receive time
 };
 
+// Which way a frame went, seen from the master: a monitor's or a recorder's view.
+enum class FrameDirection : std::uint8_t { sent, received };
+
 // Errors a link reports (std::error_code over LinkError, category "ethercat-link").
 enum class LinkError {
   link_down = 1,      // no carrier / the segment is down: the frame was not sent

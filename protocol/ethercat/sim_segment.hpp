@@ -95,8 +95,6 @@ struct FrameCorruption {
   std::vector<std::pair<std::size_t, std::uint8_t>> flips;
 };
 
-enum class FrameDirection : std::uint8_t { sent, received };
-
 using FaultId = std::uint64_t;
 using MonitorId = std::uint64_t;
 

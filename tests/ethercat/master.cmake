@@ -20,7 +20,7 @@ set_tests_properties(ethercat.veth-master PROPERTIES LABELS ethercat TIMEOUT 120
 # (issue 20, "Tested for real in CI"). Label `ethercat` only: it runs two drivecheck processes
 # in real time for about a minute.
 add_executable(ethercat_run_veth_tests ${CMAKE_CURRENT_LIST_DIR}/run_veth_test.cpp)
-target_link_libraries(ethercat_run_veth_tests PRIVATE drivecheck::reports GTest::gtest
+target_link_libraries(ethercat_run_veth_tests PRIVATE drivecheck::reports drivecheck::ethercat GTest::gtest
   GTest::gtest_main drivecheck::warnings)
 target_include_directories(ethercat_run_veth_tests PRIVATE ${PROJECT_SOURCE_DIR})
 target_compile_definitions(ethercat_run_veth_tests PRIVATE

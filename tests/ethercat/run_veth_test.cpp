@@ -11,6 +11,9 @@
 // that reason (the drive is another process); beyond that, kAllowed lists vector ids with the
 // reason. Any other difference fails the test, and so does an allowed id that no longer
 // differs (the list stays short and true).
+//
+// A second test records such a run with --pcap (ethercat::RecordingLink on the raw link) and
+// reads the capture back with `drivecheck decode`.
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -24,12 +27,14 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "conformance/result.hpp"
+#include "protocol/ethercat/pcap.hpp"
 #include "reports/report_writers.hpp"
 #include "tests/ethercat/veth_pair.hpp"
 #include "tests/support/child_process.hpp"
@@ -186,6 +191,64 @@ TEST_F(RunOnVeth, VerdictsMatchTheEmbeddedEthercatRun) {
   for (const auto& [id, why] : kAllowed)
     EXPECT_TRUE(allowed_seen.contains(id))
         << id << " is allowed to differ (" << why << ") but does not: remove it from kAllowed";
+}
+
+TEST_F(RunOnVeth, PcapOfTheRealLinkHoldsBothDirections) {
+  // Given `drivecheck drive --bus ethercat:<b>` on the other end of the veth pair
+  // When `drivecheck run --bus ethercat:<a> --pcap F` reads 1000h (one CoE SDO upload)
+  // Then F holds the frames the harness sent and those that came back (as many of each, none
+  //      malformed, at the host's Unix time), and `drivecheck decode F` shows the 1000h upload
+  //      in a mailbox both ways
+  drive_pid_ = spawn({DRIVECHECK_BINARY, "drive", "--bus", "ethercat:" + b_, "--node", "1"},
+                     dir_ / "drive.log");
+  ASSERT_GT(drive_pid_, 0);
+  std::this_thread::sleep_for(200ms);
+  const auto pcap = dir_ / "run.pcap";
+  const auto before = std::chrono::system_clock::now();
+  const auto run_exit =
+      wait_for(spawn({DRIVECHECK_BINARY, "run", "--bus", "ethercat:" + a_, "--profile",
+                      "cia402-reference", "--color", "never", "--filter",
+                      "cia301/od/mandatory/device-type", "--pcap", pcap.string()},
+                     dir_ / "run.log"),
+               60s);
+  (void)wait_for(drive_pid_, 3s, SIGTERM);
+  drive_pid_ = -1;
+  ASSERT_EQ(run_exit, std::optional<int>(0)) << slurp(dir_ / "run.log");
+
+  const std::string bytes = slurp(pcap);
+  const auto read = read_ethernet_pcap(std::span<const std::uint8_t>(
+      reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
+  ASSERT_FALSE(read.error) << *read.error;
+  ASSERT_GT(read.records.size(), 10U);
+  const auto since_epoch = before.time_since_epoch();
+  EXPECT_GE(read.records.front().timestamp,
+            std::chrono::duration_cast<std::chrono::nanoseconds>(since_epoch) - 60s);
+
+  const auto decode_exit =
+      wait_for(spawn({DRIVECHECK_BINARY, "decode", pcap.string()}, dir_ / "decode.log"), 60s);
+  ASSERT_EQ(decode_exit, std::optional<int>(0)) << slurp(dir_ / "decode.log");
+  const std::string text = slurp(dir_ / "decode.log");
+  std::size_t out_lines = 0;
+  std::size_t returned_lines = 0;
+  std::size_t upload_out = 0;
+  std::size_t upload_returned = 0;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    const bool out = line.find("  out  ") != std::string::npos;
+    const bool returned = line.find("  ret  ") != std::string::npos;
+    out_lines += out;
+    returned_lines += returned;
+    if (line.find("1000h:00") != std::string::npos) {
+      upload_out += out;
+      upload_returned += returned;
+    }
+  }
+  EXPECT_NE(text.find(" datagram(s), 0 malformed"), std::string::npos) << text.substr(0, 4000);
+  EXPECT_EQ(text.find("  ?  "), std::string::npos) << "a malformed frame";
+  EXPECT_GT(out_lines, 0U);
+  EXPECT_EQ(out_lines, returned_lines) << "every datagram the harness sent came back";
+  EXPECT_GT(upload_out, 0U) << text.substr(0, 4000);
+  EXPECT_GT(upload_returned, 0U) << text.substr(0, 4000);
 }
 
 }  // namespace
