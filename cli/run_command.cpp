@@ -242,6 +242,14 @@ void run(const RunOptions& options) {
     usage_error("run",
                 "--trace writes a candump log of CAN frames; on --bus ethercat use --pcap "
                 "FILE.pcap (`drivecheck decode FILE.pcap` prints it as text)");
+  // An EDS (CiA 306) describes a device's CANopen interface: over EtherCAT the same drive has
+  // the CoE objects (1C00h-1C33h) and the PDO defaults of its ESI (ETG.2000), so the live
+  // checks against the EDS would judge the wrong description. drivecheck reads no ESI yet.
+  if ((ethercat_sim || ethercat_if) && !options.eds.empty())
+    usage_error("run",
+                "--eds checks a device against its EDS, which describes the CANopen interface; "
+                "over EtherCAT the description is the device's ESI, which drivecheck does not "
+                "read yet (lint the EDS on its own: drivecheck eds lint FILE)");
   auto order = conformance::parse_vector_order(options.order);
   if (!order) usage_error("run", order.error());
   // `shuffle` alone: a seed drawn here, recorded in the reports so that the run can be repeated.

@@ -137,6 +137,9 @@ TEST(CliUsage, BadOptionValuesExitTwo) {
   expect_usage_error(drivecheck({"run", "--bus", "socketcan:caf\xC3\xA9"}),
                      "is not a network interface name");
   expect_usage_error(drivecheck({"run", "--bus", "socketcan:sixteen-chars-xx"}), "1..15");
+  // an EDS describes the CANopen interface: not a judge of the device over EtherCAT
+  expect_usage_error(drivecheck({"run", "--bus", "ethercat:sim", "--eds", "any.eds"}),
+                     "over EtherCAT the description is the device's ESI");
 }
 
 TEST(CliDecode, PrintsEachRecordWithTimeInterfaceDirectionAndFrame) {
