@@ -138,8 +138,10 @@ TEST(CliUsage, BadOptionValuesExitTwo) {
                      "is not a network interface name");
   expect_usage_error(drivecheck({"run", "--bus", "socketcan:sixteen-chars-xx"}), "1..15");
   // an EDS describes the CANopen interface: not a judge of the device over EtherCAT
-  expect_usage_error(drivecheck({"run", "--bus", "ethercat:sim", "--eds", "any.eds"}),
-                     "over EtherCAT the description is the device's ESI");
+  expect_usage_error(
+      drivecheck({"run", "--bus", "ethercat:sim", "--eds",
+                  std::string(DRIVECHECK_SOURCE_DIR) + "/reference_drive/reference_drive.eds"}),
+      "over EtherCAT the description is the device's ESI");
 }
 
 TEST(CliDecode, PrintsEachRecordWithTimeInterfaceDirectionAndFrame) {
