@@ -179,6 +179,96 @@ TEST_F(EdsChecksTest, WrongIdentityIsCaught) {
   EXPECT_EQ(result.verdict, Verdict::fail);
 }
 
+TEST_F(EdsChecksTest, TpdoMapIsNotApplicableWhereTheEdsHasNoWoOrRwwMappableEntry) {
+  // Given the drive's own EDS (no wo or rww entry with PDOMapping=1)
+  start();
+  // When the checks are generated
+  const auto vectors = generate();
+  // Then the one tpdo-map result is not applicable and says why
+  EXPECT_NE(find(vectors, "eds/od/tpdo-map").not_applicable.find("PDOMapping=1"),
+            std::string::npos);
+}
+
+TEST_F(EdsChecksTest, WriteOnlyEntryMappedIntoATpdoFails) {
+  // Given an EDS that declares the mappable 6040h write only, while the drive can read it
+  start();
+  eds_.find(0x6040)->keys.access_type = cia301::AccessType::wo;
+  const auto vectors = generate();
+  // When its tpdo-map check runs (TPDO1 destroyed, mapping disabled, 60400010h written)
+  EXPECT_FALSE(has(vectors, "eds/od/tpdo-map"));
+  const auto& vector = find(vectors, "eds/od/6040-00/tpdo-map");
+  EXPECT_EQ(vector.level, Level::must);
+  ASSERT_EQ(vector.steps.size(), 3U);
+  const auto& destroy = std::get<SdoWriteStep>(vector.steps.at(0).action);
+  EXPECT_EQ(destroy.index, 0x1800);
+  EXPECT_EQ(destroy.value->literal, 0x80000181);
+  const auto result = run(vector);
+  // Then it fails: the drive maps it (a wo entry in a TPDO must be refused, not-mappable)
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_FALSE(result.warning);
+}
+
+TEST_F(EdsChecksTest, RwwEntryMappedIntoATpdoOnlyWarns) {
+  // Given an EDS that declares 6040h rww (meant for an RPDO; CiA 301 makes that a hint)
+  start();
+  eds_.find(0x6040)->keys.access_type = cia301::AccessType::rww;
+  const auto vectors = generate();
+  // When its tpdo-map check runs on a drive that maps it
+  const auto& vector = find(vectors, "eds/od/6040-00/tpdo-map");
+  const auto result = run(vector);
+  // Then it is a should-level failure: a warning, not a fail
+  EXPECT_EQ(vector.level, Level::should);
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_TRUE(result.warning);
+}
+
+TEST_F(EdsChecksTest, DefaultMappingNamesAnObjectTheDriveHasOrFails) {
+  // Given an EDS whose TPDO1 maps 6041h (the drive has it) and TPDO2 2FFFh (it has not)
+  start();
+  const auto sub_one = [&](std::uint16_t index) -> cia306::SubObject* {
+    for (auto& sub : eds_.find(index)->subs)
+      if (sub.sub_index == 1) return &sub;
+    return nullptr;
+  };
+  auto* tpdo1 = sub_one(0x1A00);
+  auto* tpdo2 = sub_one(0x1A01);
+  ASSERT_NE(tpdo1, nullptr);
+  ASSERT_NE(tpdo2, nullptr);
+  tpdo1->keys.default_value = "0x60410010";
+  tpdo2->keys.default_value = "0x2FFF0010";
+  const auto vectors = generate();
+  // When the mapped-object checks run
+  const auto present = run(find(vectors, "eds/od/1a00-01/mapped-object"));
+  const auto absent = run(find(vectors, "eds/od/1a01-01/mapped-object"));
+  // Then the first passes and the second fails; an empty entry (0) gets no check
+  EXPECT_EQ(present.verdict, Verdict::pass) << present.message;
+  EXPECT_EQ(absent.verdict, Verdict::fail) << absent.message;
+  EXPECT_FALSE(has(vectors, "eds/od/1a02-01/mapped-object"));
+}
+
+TEST_F(EdsChecksTest, ResetCommunicationRestoresTheCommunicationArea) {
+  // Given the drive and its own EDS
+  start();
+  const auto vectors = generate();
+  const auto& vector = find(vectors, "eds/od/reset-communication");
+  // When the reset-communication check runs (1017h among the values written before)
+  EXPECT_NE(vector.note.find("1017h sub 0"), std::string::npos) << vector.note;
+  const auto result = run(vector);
+  // Then every writable entry of 1000h-1FFFh is back to its power-on value
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+}
+
+TEST_F(EdsChecksTest, ResetCommunicationThatKeepsValuesFails) {
+  // Given a drive whose reset communication keeps the communication objects as written
+  start(reference_drive::DeviationSet{
+      reference_drive::Deviation::nmt_reset_communication_keeps_values});
+  const auto vectors = generate();
+  // When the reset-communication check runs
+  const auto result = run(find(vectors, "eds/od/reset-communication"));
+  // Then it fails
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+}
+
 TEST(EdsLintResults, CleanEdsPassesEveryRule) {
   // Given no findings
   const auto profile = plain_profile();
