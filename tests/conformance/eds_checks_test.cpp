@@ -2,6 +2,7 @@
 // simulated bus: the live object dictionary cross-check (defaults after reset, write-back, sub
 // FFh, 1018h) passing against the drive's own EDS and failing against a mismatching EDS or a
 // drive with a named deviation; the eds/lint results of a clean and a broken EDS.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -22,7 +23,8 @@ using namespace std::chrono_literals;
 
 profile::DriveProfile plain_profile() {
   auto parsed = profile::parse_profile(
-      "name: t\ntitle: T\nfeatures: [heartbeat.producer, store, restore]\n",
+      "name: t\ntitle: T\nfeatures: [heartbeat.producer, store, restore, pdo, "
+      "pdo.dynamic-mapping]\n",
       {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
   EXPECT_TRUE(parsed) << parsed.error().to_string();
   return *parsed;
@@ -56,6 +58,14 @@ class EdsChecksTest : public ::testing::Test {
         std::find_if(vectors.begin(), vectors.end(), [&](const Vector& v) { return v.id == id; });
     if (it == vectors.end()) throw std::runtime_error(id + " not generated");
     return *it;
+  }
+  // The first readable PDO-mappable VAR of the EDS (the CiA 301 device's 1001h).
+  cia306::EdsObject* mappable_var() {
+    for (auto& object : eds_.objects)
+      if (object.keys.pdo_mapping && object.keys.object_type == cia301::ObjectCode::var &&
+          object.keys.access_type && cia301::is_readable(*object.keys.access_type))
+        return &object;
+    return nullptr;
   }
   static bool has(const std::vector<Vector>& vectors, const std::string& id) {
     return std::any_of(vectors.begin(), vectors.end(), [&](const Vector& v) { return v.id == id; });
@@ -190,13 +200,15 @@ TEST_F(EdsChecksTest, TpdoMapIsNotApplicableWhereTheEdsHasNoWoOrRwwMappableEntry
 }
 
 TEST_F(EdsChecksTest, WriteOnlyEntryMappedIntoATpdoFails) {
-  // Given an EDS that declares the mappable 6040h write only, while the drive can read it
+  // Given an EDS that declares a mappable entry (1001h) write only, while the drive reads it
   start();
-  eds_.find(0x6040)->keys.access_type = cia301::AccessType::wo;
+  auto* object = mappable_var();
+  ASSERT_NE(object, nullptr);
+  object->keys.access_type = cia301::AccessType::wo;
   const auto vectors = generate();
-  // When its tpdo-map check runs (TPDO1 destroyed, mapping disabled, 60400010h written)
+  // When its tpdo-map check runs (TPDO1 destroyed, mapping disabled, the entry written)
   EXPECT_FALSE(has(vectors, "eds/od/tpdo-map"));
-  const auto& vector = find(vectors, "eds/od/6040-00/tpdo-map");
+  const auto& vector = find(vectors, fmt::format("eds/od/{:04x}-00/tpdo-map", object->index));
   EXPECT_EQ(vector.level, Level::must);
   ASSERT_EQ(vector.steps.size(), 3U);
   const auto& destroy = std::get<SdoWriteStep>(vector.steps.at(0).action);
@@ -209,12 +221,15 @@ TEST_F(EdsChecksTest, WriteOnlyEntryMappedIntoATpdoFails) {
 }
 
 TEST_F(EdsChecksTest, RwwEntryMappedIntoATpdoOnlyWarns) {
-  // Given an EDS that declares 6040h rww (meant for an RPDO; CiA 301 makes that a hint)
+  // Given an EDS that declares a mappable entry (1001h) rww (meant for an RPDO; CiA 301 makes
+  //       that a hint)
   start();
-  eds_.find(0x6040)->keys.access_type = cia301::AccessType::rww;
+  auto* object = mappable_var();
+  ASSERT_NE(object, nullptr);
+  object->keys.access_type = cia301::AccessType::rww;
   const auto vectors = generate();
   // When its tpdo-map check runs on a drive that maps it
-  const auto& vector = find(vectors, "eds/od/6040-00/tpdo-map");
+  const auto& vector = find(vectors, fmt::format("eds/od/{:04x}-00/tpdo-map", object->index));
   const auto result = run(vector);
   // Then it is a should-level failure: a warning, not a fail
   EXPECT_EQ(vector.level, Level::should);
@@ -223,10 +238,13 @@ TEST_F(EdsChecksTest, RwwEntryMappedIntoATpdoOnlyWarns) {
 }
 
 TEST_F(EdsChecksTest, DefaultMappingNamesAnObjectTheDriveHasOrFails) {
-  // Given an EDS whose TPDO1 maps 6041h (the drive has it) and TPDO2 2FFFh (it has not)
+  // Given an EDS whose TPDO1 maps 1001h (the drive has it) and TPDO2 2FFFh (it has not)
   start();
+  ASSERT_NE(eds_.find(0x1A01), nullptr);
   const auto sub_one = [&](std::uint16_t index) -> cia306::SubObject* {
-    for (auto& sub : eds_.find(index)->subs)
+    auto* object = eds_.find(index);
+    if (object == nullptr) return nullptr;
+    for (auto& sub : object->subs)
       if (sub.sub_index == 1) return &sub;
     return nullptr;
   };
@@ -234,7 +252,7 @@ TEST_F(EdsChecksTest, DefaultMappingNamesAnObjectTheDriveHasOrFails) {
   auto* tpdo2 = sub_one(0x1A01);
   ASSERT_NE(tpdo1, nullptr);
   ASSERT_NE(tpdo2, nullptr);
-  tpdo1->keys.default_value = "0x60410010";
+  tpdo1->keys.default_value = "0x10010008";
   tpdo2->keys.default_value = "0x2FFF0010";
   const auto vectors = generate();
   // When the mapped-object checks run
