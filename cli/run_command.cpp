@@ -434,8 +434,9 @@ void run(const RunOptions& options) {
   fmt::print("drivecheck run: profile {} ({})\n", profile->name, profile_choice);
 
   // EDS-driven object dictionary checks (family eds/od) from the EDS and the profile's objects.
-  auto od_vectors = conformance::generate_od_vectors(eds_od ? &*eds_od : nullptr, options.eds,
-                                                     *profile, eds_identity);
+  auto od_vectors =
+      conformance::generate_od_vectors(eds_od ? &*eds_od : nullptr, options.eds, *profile,
+                                       eds_identity, static_cast<std::uint8_t>(options.node));
   for (auto& vector : od_vectors)
     vectors.vectors.push_back(std::move(vector));
   // The selection first, then its order: a shuffle depends on the seed and the selection only.

@@ -29,6 +29,7 @@ struct OdObject {
   // EDS entries only: the entry (its definition and the value the EDS gives) and its object.
   const cia301::Entry* eds_entry = nullptr;
   cia301::ObjectCode code = cia301::ObjectCode::var;
+  bool pdo = false;  // PDO-mappable (EDS PDOMapping=1, the profile's `pdo: true`)
 };
 
 std::optional<std::int64_t> integer_of(const cia301::Value& value) {
@@ -138,6 +139,93 @@ bool default_is_reset_value(const OdObject& object) {
   const auto access = object.access;
   if (access == cia301::AccessType::constant || cia301::is_writable(access)) return true;
   return object.sub == 0 && is_array_or_record(object.code);
+}
+
+// The TPDO the tpdo-map checks remap (CTT 3.31): the first TPDO whose communication (18xxh) and
+// mapping (1Axxh) records the EDS has, else the profile's first default TPDO, else TPDO1 at its
+// pre-defined COB-ID 180h + node-ID (CiA 301 §7.3.5). The COB-ID is the one the PDO has after a
+// reset (the EDS default, $NODEID resolved), so setting bit 31 only destroys the PDO (CiA 301
+// §7.5.2.37: bits 0-29 may not change while it exists).
+struct TpdoChoice {
+  std::uint16_t number = 1;  // 1..512
+  std::uint32_t cob_id = 0;
+  std::string why;
+};
+
+std::optional<TpdoChoice> tpdo_to_remap(const cia301::ObjectDictionary* eds,
+                                        const profile::DriveProfile& profile, std::uint8_t node) {
+  if (eds != nullptr) {
+    for (std::uint16_t n = 0; n < 512; ++n) {
+      const auto* cob_id = eds->find(static_cast<std::uint16_t>(0x1800 + n), 1);
+      if (cob_id == nullptr || eds->find(static_cast<std::uint16_t>(0x1A00 + n)) == nullptr)
+        continue;
+      return TpdoChoice{static_cast<std::uint16_t>(n + 1),
+                        static_cast<std::uint32_t>(cia301::load_unsigned(cob_id->bytes())),
+                        fmt::format("TPDO{}: the EDS's {:04X}h sub 1 default", n + 1, 0x1800 + n)};
+    }
+    return std::nullopt;
+  }
+  for (const auto& pdo : profile.pdo_defaults) {
+    if (pdo.kind == profile::PdoKind::tpdo)
+      return TpdoChoice{pdo.number, pdo.cob_id.resolve(node),
+                        fmt::format("TPDO{}: the profile's default COB-ID {}", pdo.number,
+                                    profile::to_string(pdo.cob_id))};
+  }
+  return TpdoChoice{1, 0x180u + node,
+                    "TPDO1: the pre-defined COB-ID 180h + node-ID (CiA 301 §7.3.5)"};
+}
+
+// CTT 3.31: a PDO-mappable wo or rww entry mapped into a TPDO. A wo entry cannot be read, so
+// a TPDO cannot carry it: CiA 301 §7.5.2.38 (the mapping entry is refused, 06040041h "object
+// cannot be mapped to the PDO") at must level. An rww entry can be read: CiA 301 §7.4.5 makes
+// rww ("read/write on process output") a hint that it belongs into an RPDO, and the CTT refuses
+// it in a TPDO; a device that maps it meets CiA 301, so the check is should level (a warning).
+// Accepted: set not-mappable (06020000h, 06040041h: CTT 3.31). The PDO is destroyed (bit 31)
+// and its mapping disabled first (the mapping procedure of §7.5.2.38), so the refusal can only
+// be for the entry; the engine's restore puts back 18xxh sub 1 and 1Axxh (FORMAT.md
+// "Isolation").
+void add_tpdo_map_check(const OdObject& object, const TpdoChoice& tpdo,
+                        std::vector<Vector>& vectors) {
+  const bool wo = object.access == cia301::AccessType::wo;
+  const auto& info = cia301::info(object.type);
+  const auto comm = static_cast<std::uint16_t>(0x1800 + tpdo.number - 1);
+  const auto map = static_cast<std::uint16_t>(0x1A00 + tpdo.number - 1);
+  const auto entry = (std::uint32_t{object.index} << 16) | (std::uint32_t{object.sub} << 8) |
+                     static_cast<std::uint32_t>(info.bit_size);
+  SdoWriteStep destroy;
+  destroy.index = comm;
+  destroy.sub = 1;
+  destroy.value = ValueSpec{static_cast<std::int64_t>(tpdo.cob_id | 0x80000000u), {}};
+  destroy.size = 4;
+  SdoWriteStep disable;
+  disable.index = map;
+  disable.sub = 0;
+  disable.value = ValueSpec{0, {}};
+  disable.size = 1;
+  SdoWriteStep write;
+  write.index = map;
+  write.sub = 1;
+  write.value = ValueSpec{entry, {}};
+  write.size = 4;
+  write.expect.kind = SdoExpect::Kind::abort;
+  write.expect.abort = *AbortExpect::named("not-mappable");
+  auto vector =
+      make(object, "tpdo-map",
+           fmt::format("Mapping {} {:04X}h sub {} into TPDO{} ({:04X}h sub 1 := {:08X}h) {} be "
+                       "refused ({})",
+                       cia301::to_string(object.access), object.index, object.sub, tpdo.number, map,
+                       entry, wo ? "MUST" : "SHOULD", write.expect.abort.describe()),
+           Step{destroy, fmt::format("{} not valid (bit 31)", tpdo.why), 0, {}});
+  vector.steps.push_back(Step{disable, "mapping disabled (CiA 301 §7.5.2.38 step 2)", 0, {}});
+  vector.steps.push_back(Step{write, {}, 0, {}});
+  vector.level = wo ? Level::must : Level::should;
+  vector.requires_features = {"pdo", "pdo.dynamic-mapping"};
+  vector.sources.push_back(
+      cited(wo ? "CiA 301 §7.5.2.38 (a TPDO carries readable objects: a wo entry cannot be mapped, "
+                 "06040041h); §7.4.5 (wo: write only); CTT 3.31 [06020000h, 06040041h]"
+               : "CiA 301 §7.4.5 (rww: read/write on process output, meant for RPDOs: a hint); CTT "
+                 "3.31 refuses it in a TPDO [06020000h, 06040041h]"));
+  vectors.push_back(std::move(vector));
 }
 
 void add_eds_entry_checks(const OdObject& object, bool dcf, std::vector<Vector>& vectors) {
@@ -255,6 +343,149 @@ void add_sub_ff_check(const cia301::Object& object, const std::string& eds_file,
   vectors.push_back(std::move(vector));
 }
 
+// CTT 3.21: each object a default PDO mapping of the EDS names (1600h-17FFh / 1A00h-1BFFh sub
+// 1..40h, DefaultValue index << 16 | sub << 8 | length) exists in the device with that length:
+// read live, a TPDO's must give length/8 bytes (a TPDO reads it); an RPDO's may also be write
+// only (abort read-write-only: it exists). Dummy entries (index 0001h-0007h, CiA 301 §7.4.8)
+// and empty ones (0) name no object. That the live mapping equals the EDS default is
+// `<idx>-<sub>/default` (after a factory restore).
+void add_mapped_object_check(const OdObject& object, std::vector<Vector>& vectors) {
+  const bool tpdo = object.index >= 0x1A00 && object.index <= 0x1BFF;
+  const bool rpdo = object.index >= 0x1600 && object.index <= 0x17FF;
+  if ((!tpdo && !rpdo) || object.sub == 0 || object.sub > 0x40 || object.eds_entry == nullptr ||
+      object.eds_entry->definition().default_value.empty())
+    return;
+  const auto value = static_cast<std::uint32_t>(cia301::load_unsigned(object.eds_entry->bytes()));
+  const auto index = static_cast<std::uint16_t>(value >> 16);
+  const auto sub = static_cast<std::uint8_t>(value >> 8);
+  const auto bits = static_cast<std::uint8_t>(value);
+  if (value == 0 || index < 0x0008) return;
+  SdoReadStep read{index, sub, Transfer::automatic, {}, false, {}};
+  if (bits % 8 == 0 && bits != 0) {
+    read.expect.kind = SdoExpect::Kind::size;
+    read.expect.size = bits / 8;
+  }
+  if (rpdo) {
+    read.expect.kind = SdoExpect::Kind::ok;
+    read.expect.or_abort = AbortExpect::named("read-write-only");
+  }
+  const auto title = fmt::format(
+      "The object {:04X}h sub {} that {:04X}h sub {} maps by default ({:08X}h) MUST exist{}", index,
+      sub, object.index, object.sub, value,
+      tpdo ? fmt::format(" and read {} bit(s)", bits)
+           : std::string(" (read, or refused as write only)"));
+  auto vector = make(object, "mapped-object", title, Step{read, {}, 0, {}});
+  vector.sources.push_back(
+      cited("CiA 301 §7.5.2.36, §7.5.2.38 (a mapping entry names an object of the device by "
+            "index, sub-index and length); CiA 306 DefaultValue; CTT 3.21"));
+  vectors.push_back(std::move(vector));
+}
+
+// CTT 9.1: the communication area after reset communication. The entries whose every value of
+// the type CiA 301 allows (so a write of another value is valid on any device): the value
+// written is chosen to differ from the EDS default.
+struct FreeParameter {
+  std::uint16_t first;  // index range
+  std::uint16_t last;
+  std::uint8_t sub;
+  std::int64_t value;      // written, unless it is the default: then `otherwise`
+  std::int64_t otherwise;  //
+  const char* clause;
+};
+constexpr FreeParameter kFreeParameters[] = {
+    {0x100C, 0x100C, 0, 1234, 1000, "CiA 301 §7.5.2.10 (guard time, any UNSIGNED16)"},
+    {0x100D, 0x100D, 0, 3, 2, "CiA 301 §7.5.2.11 (life time factor, any UNSIGNED8)"},
+    {0x1017, 0x1017, 0, 1000, 500, "CiA 301 §7.5.2.32 (producer heartbeat time, any UNSIGNED16)"},
+    {0x1800, 0x19FF, 5, 500, 1000,
+     "CiA 301 §7.5.2.37 (TPDO event timer, any UNSIGNED16, changeable while the PDO exists)"},
+};
+
+// Why an entry of 1000h-1FFFh takes no part in the reset-communication check (empty: it does).
+std::string reset_communication_exclusion(const OdObject& object) {
+  if (auto why = write_back_exclusion(object); !why.empty()) return why;
+  if (object.index == 0x1013)
+    return "CiA 301 §7.5.2.16: 1013h is a running time stamp, not a parameter";
+  if (object.eds_entry != nullptr &&
+      (object.eds_entry->definition().obj_flags & kRefuseReadOnScan) != 0)
+    return "ObjFlags bit 1 (refuse read on scan, CiA 306)";
+  return {};
+}
+
+// One vector: every readable and writable entry of 1000h-1FFFh of a fixed size is read after
+// the reset node (its power-on value: stored, else default), the free parameters above get
+// another value, NMT reset communication, and every entry must read its power-on value again
+// (CiA 301 §7.3.2.1: reset communication sets the communication area to its power-on values).
+// One reset for all entries; the engine's restore puts back whatever a failing device kept.
+void add_reset_communication_check(
+    const std::map<std::pair<std::uint16_t, std::uint8_t>, OdObject>& objects,
+    const std::string& eds_file, std::vector<Vector>& vectors) {
+  std::vector<const OdObject*> entries;
+  for (const auto& [key, object] : objects) {
+    const auto& info = cia301::info(object.type);
+    if (object.eds_entry == nullptr || object.index < 0x1000 || object.index > 0x1FFF ||
+        !cia301::is_readable(object.access) || !cia301::is_writable(object.access) ||
+        info.size < 1 || info.size > 8 || !cia301::is_integer(object.type))
+      continue;
+    if (reset_communication_exclusion(object).empty()) entries.push_back(&object);
+  }
+  OdObject where;
+  where.source = fmt::format("EDS {} (every rw entry of 1000h-1FFFh)", eds_file);
+  Vector vector = make(where, "reset-communication",
+                       fmt::format("After reset communication, each of the {} writable entries of "
+                                   "1000h-1FFFh MUST hold its power-on value again",
+                                   entries.size()),
+                       Step{WaitStep{}, {}, 0, {}});
+  vector.id = "eds/od/reset-communication";
+  vector.steps.clear();
+  vector.timeout = DurationSpec{std::chrono::seconds(60), {}};
+  std::vector<std::string> written;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const auto& object = *entries[i];
+    const bool is_signed =
+        cia301::info(object.type).type_class == cia301::TypeClass::signed_integer;
+    SdoReadStep read{object.index, object.sub, Transfer::automatic,
+                     {},           is_signed,  fmt::format("e{}", i)};
+    vector.steps.push_back(Step{read, "the power-on value (after the setup's reset node)", 0, {}});
+  }
+  for (const auto* object : entries) {
+    for (const auto& free : kFreeParameters) {
+      if (object->index < free.first || object->index > free.last || object->sub != free.sub)
+        continue;
+      const auto default_value =
+          object->eds_entry->bytes().empty()
+              ? std::int64_t{0}
+              : static_cast<std::int64_t>(cia301::load_unsigned(object->eds_entry->bytes()));
+      SdoWriteStep write;
+      write.index = object->index;
+      write.sub = object->sub;
+      write.value = ValueSpec{default_value == free.value ? free.otherwise : free.value, {}};
+      write.size = cia301::info(object->type).size;
+      vector.steps.push_back(Step{write, free.clause, 0, {}});
+      written.push_back(fmt::format("{:04X}h sub {}", object->index, object->sub));
+    }
+  }
+  vector.steps.push_back(Step{NmtStep{cia301::NmtCommand::reset_communication, {}}, {}, 0, {}});
+  vector.steps.push_back(Step{ExpectBootupStep{}, {}, 0, {}});
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const auto& object = *entries[i];
+    const bool is_signed =
+        cia301::info(object.type).type_class == cia301::TypeClass::signed_integer;
+    SdoReadStep read{object.index, object.sub, Transfer::automatic, {}, is_signed, {}};
+    read.expect.kind = SdoExpect::Kind::value;
+    read.expect.value = ValueSpec{0, fmt::format("e{}", i)};
+    vector.steps.push_back(Step{read, {}, 0, {}});
+  }
+  vector.note = fmt::format(
+      "Written before the reset (values CiA 301 allows on any device): {}",
+      written.empty() ? std::string("none") : fmt::format("{}", fmt::join(written, ", ")));
+  vector.sources.push_back(
+      cited("CiA 301 §7.3.2.1 (reset communication: the parameters of the communication area "
+            "1000h-1FFFh are set to their power-on values); CTT 9.1"));
+  if (entries.empty())
+    vector.not_applicable = "the EDS has no readable and writable integer entry in 1000h-1FFFh";
+  vectors.push_back(std::move(vector));
+}
+
 void add_identity_checks(const EdsIdentity& identity, const std::string& eds_file,
                          std::vector<Vector>& vectors) {
   struct Item {
@@ -309,7 +540,8 @@ void add_identity_checks(const EdsIdentity& identity, const std::string& eds_fil
 std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
                                         const std::string& eds_file,
                                         const profile::DriveProfile& profile,
-                                        const std::optional<EdsIdentity>& identity) {
+                                        const std::optional<EdsIdentity>& identity,
+                                        std::uint8_t node) {
   std::map<std::pair<std::uint16_t, std::uint8_t>, OdObject> objects;
   // A DCF (CiA 306-1 device configuration file) describes one configured device.
   std::string extension = std::filesystem::path(eds_file).extension().string();
@@ -330,6 +562,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
             fmt::format("EDS {} [{:04X}sub{:X}]", eds_file, object.index(), entry.sub_index()),
             &entry,
             object.code()};
+        od.pdo = entry.pdo_mappable();
         objects[{od.index, od.sub}] = od;
       }
     }
@@ -344,6 +577,7 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
                 spec.max,
                 spec.sources.empty() ? fmt::format("profile {} objects", profile.name)
                                      : spec.sources.front()};
+    od.pdo = spec.pdo;
     objects[{od.index, od.sub}] = od;
   }
   std::vector<Vector> vectors;
@@ -387,7 +621,10 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
                                          read.expect.abort.describe()),
                              Step{read, {}, 0, {}}));
     }
-    if (object.eds_entry != nullptr) add_eds_entry_checks(object, dcf, vectors);
+    if (object.eds_entry != nullptr) {
+      add_eds_entry_checks(object, dcf, vectors);
+      add_mapped_object_check(object, vectors);
+    }
     if (!cia301::is_writable(object.access) && info.size != 0 && info.size <= 8) {
       SdoWriteStep write;
       write.index = object.index;
@@ -430,7 +667,42 @@ std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
         limit_vector(*object.max + 1, "above-max", "max + 1");
     }
   }
+  // CTT 3.31: every PDO-mappable wo/rww entry into a TPDO; with an EDS that has none, one
+  // not-applicable result says so.
+  const auto tpdo = tpdo_to_remap(eds, profile, node);
+  bool any_tpdo_candidate = false;
+  for (const auto& [key, object] : objects) {
+    const auto bits = cia301::info(object.type).bit_size;
+    if (!object.pdo || bits == 0 || bits > 64 ||
+        (object.access != cia301::AccessType::wo && object.access != cia301::AccessType::rww))
+      continue;
+    any_tpdo_candidate = true;
+    if (tpdo) {
+      add_tpdo_map_check(object, *tpdo, vectors);
+    } else {
+      Vector vector = make(object, "tpdo-map",
+                           fmt::format("Mapping {} {:04X}h sub {} into a TPDO is refused",
+                                       cia301::to_string(object.access), object.index, object.sub),
+                           Step{WaitStep{}, {}, 0, {}});
+      vector.not_applicable = "the EDS has no TPDO (no 1800h-19FFh with its 1A00h-1BFFh)";
+      vectors.push_back(std::move(vector));
+    }
+  }
+  if (eds != nullptr && !any_tpdo_candidate) {
+    OdObject none;
+    none.source = fmt::format("EDS {}", eds_file);
+    Vector vector = make(none, "tpdo-map",
+                         "A PDO-mappable wo or rww entry mapped into a TPDO is "
+                         "refused (CTT 3.31)",
+                         Step{WaitStep{}, {}, 0, {}});
+    vector.id = "eds/od/tpdo-map";
+    vector.not_applicable =
+        "no wo or rww entry with PDOMapping=1 in the EDS (nor `pdo: true` in the profile's "
+        "objects): nothing a TPDO could wrongly carry";
+    vectors.push_back(std::move(vector));
+  }
   if (eds != nullptr) {
+    add_reset_communication_check(objects, eds_file, vectors);
     for (const auto& object : eds->objects())
       add_sub_ff_check(object, eds_file, vectors);
     if (identity) add_identity_checks(*identity, eds_file, vectors);

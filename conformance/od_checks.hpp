@@ -36,6 +36,28 @@
 //                           the data type index in bits 8-23 (CTT 4.5). A RECORD's data type (its
 //                           structure index) is not in the EDS model: only its object code is
 //                           judged.
+//   <idx>-<sub>/mapped-object  a default PDO mapping entry (1600h-17FFh/1A00h-1BFFh sub 1..40h,
+//                           EDS DefaultValue not 0, no dummy): the object it names exists,
+//                           read live: a TPDO's with the mapped length, an RPDO's read or
+//                           refused read-write-only (CTT 3.21; the mapping itself is
+//                           <idx>-<sub>/default).
+//   reset-communication     one check (`eds/od/reset-communication`, CTT 9.1): every readable,
+//                           writable integer entry of 1000h-1FFFh read after the reset node (its
+//                           power-on value: stored, else default), the parameters CiA 301 lets
+//                           take any value (100Ch, 100Dh, 1017h, 18xxh sub 5) written another,
+//                           NMT reset communication, each entry must read its power-on value
+//                           again (CiA 301 §7.3.2.1). One reset for all; the write-back
+//                           exclusions apply, and 1013h (a running time stamp).
+// EDS entries and the profile's objects:
+//   <idx>-<sub>/tpdo-map    a PDO-mappable (EDS PDOMapping=1, profile `pdo: true`) wo or rww
+//                           entry of a fixed size, mapped into a TPDO with the CiA 301 §7.5.2.38
+//                           procedure (PDO destroyed, mapping disabled, entry written): the
+//                           entry write is refused, set not-mappable (CTT 3.31). wo at must
+//                           level (a wo entry cannot be read, so no TPDO can carry it); rww at
+//                           should level (CiA 301 §7.4.5 makes its direction a hint; the CTT
+//                           refuses it). With an EDS that declares none, `eds/od/tpdo-map` is
+//                           one not-applicable result that says so. The TPDO: the EDS's first,
+//                           else the profile's first default TPDO, else TPDO1 at 180h + node.
 // Checks that would misjudge are not applicable with the rule as reason, never left out
 // silently: the default of an entry with ObjFlags bit 1 ("refuse read on scan", CiA 306), the
 // write-back of an entry with ObjFlags bit 0 ("refuse write on download"), of 1010h/1011h (a
@@ -86,11 +108,12 @@ struct EdsIdentity {
 };
 
 // `eds` may be null; `eds_file` names it in the sources. `identity` (with an EDS) adds the
-// `eds/identity` vectors.
+// `eds/identity` vectors. `node`: the DUT's node-ID (a profile's "+N" COB-IDs).
 std::vector<Vector> generate_od_vectors(const cia301::ObjectDictionary* eds,
                                         const std::string& eds_file,
                                         const profile::DriveProfile& profile,
-                                        const std::optional<EdsIdentity>& identity = std::nullopt);
+                                        const std::optional<EdsIdentity>& identity = std::nullopt,
+                                        std::uint8_t node = 1);
 
 // The `eds/lint/*` results of an EDS: `findings` are the reader's and the linter's diagnostics
 // of `eds_file`. Verdicts go through decide_verdict (a profile deviation may name them;

@@ -95,6 +95,7 @@ bool SdoDeviations::active() const {
                       Deviation::emcy_history_not_cleared,
                       Deviation::emcy_history_appended,
                       Deviation::rpdo_mapping_not_mappable_accepted,
+                      Deviation::tpdo_mapping_write_only_accepted,
                       Deviation::pdo_mapping_too_long_accepted,
                       Deviation::pdo_mapping_64_bits_refused,
                       Deviation::store_signature_ignored,
@@ -152,6 +153,16 @@ SdoBefore SdoDeviations::before(const SdoRequestView& r, const cia301::ObjectDic
       r.data.size() >= 4) {
     const auto mapped = static_cast<std::uint16_t>(r.data[2] | (r.data[3] << 8));
     if (mapped >= 0x1000 && mapped <= 0x1FFF) {
+      out.answer = SdoAnswerView::confirmed(r.index, r.sub);
+      return out;
+    }
+  }
+  // A TPDO mapping entry naming a write-only entry: confirmed, not mapped.
+  if (has(Deviation::tpdo_mapping_write_only_accepted) && r.kind == Kind::download && r.expedited &&
+      r.index >= 0x1A00 && r.index <= 0x1BFF && r.sub >= 1 && r.sub <= 0x40 && r.data.size() >= 4) {
+    const auto mapped = static_cast<std::uint16_t>(r.data[2] | (r.data[3] << 8));
+    const cia301::Entry* target = od.find(mapped, r.data[1]);
+    if (target != nullptr && !cia301::is_readable(target->access())) {
       out.answer = SdoAnswerView::confirmed(r.index, r.sub);
       return out;
     }

@@ -2,6 +2,7 @@
 // simulated bus: the live object dictionary cross-check (defaults after reset, write-back, sub
 // FFh, 1018h) passing against the drive's own EDS and failing against a mismatching EDS or a
 // drive with a named deviation; the eds/lint results of a clean and a broken EDS.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -22,7 +23,8 @@ using namespace std::chrono_literals;
 
 profile::DriveProfile plain_profile() {
   auto parsed = profile::parse_profile(
-      "name: t\ntitle: T\nfeatures: [heartbeat.producer, store, restore]\n",
+      "name: t\ntitle: T\nfeatures: [heartbeat.producer, store, restore, pdo, "
+      "pdo.dynamic-mapping]\n",
       {.file_name = "t.yaml", .base_dir = std::nullopt, .check_name = false});
   EXPECT_TRUE(parsed) << parsed.error().to_string();
   return *parsed;
@@ -56,6 +58,14 @@ class EdsChecksTest : public ::testing::Test {
         std::find_if(vectors.begin(), vectors.end(), [&](const Vector& v) { return v.id == id; });
     if (it == vectors.end()) throw std::runtime_error(id + " not generated");
     return *it;
+  }
+  // The first readable PDO-mappable VAR of the EDS (the CiA 301 device's 1001h).
+  cia306::EdsObject* mappable_var() {
+    for (auto& object : eds_.objects)
+      if (object.keys.pdo_mapping && object.keys.object_type == cia301::ObjectCode::var &&
+          object.keys.access_type && cia301::is_readable(*object.keys.access_type))
+        return &object;
+    return nullptr;
   }
   static bool has(const std::vector<Vector>& vectors, const std::string& id) {
     return std::any_of(vectors.begin(), vectors.end(), [&](const Vector& v) { return v.id == id; });
@@ -177,6 +187,104 @@ TEST_F(EdsChecksTest, WrongIdentityIsCaught) {
   EXPECT_FALSE(has(vectors, "eds/identity/vendor-id"));
   const auto result = run(find(vectors, "eds/identity/product-code"));
   EXPECT_EQ(result.verdict, Verdict::fail);
+}
+
+TEST_F(EdsChecksTest, TpdoMapIsNotApplicableWhereTheEdsHasNoWoOrRwwMappableEntry) {
+  // Given the drive's own EDS (no wo or rww entry with PDOMapping=1)
+  start();
+  // When the checks are generated
+  const auto vectors = generate();
+  // Then the one tpdo-map result is not applicable and says why
+  EXPECT_NE(find(vectors, "eds/od/tpdo-map").not_applicable.find("PDOMapping=1"),
+            std::string::npos);
+}
+
+TEST_F(EdsChecksTest, WriteOnlyEntryMappedIntoATpdoFails) {
+  // Given an EDS that declares a mappable entry (1001h) write only, while the drive reads it
+  start();
+  auto* object = mappable_var();
+  ASSERT_NE(object, nullptr);
+  object->keys.access_type = cia301::AccessType::wo;
+  const auto vectors = generate();
+  // When its tpdo-map check runs (TPDO1 destroyed, mapping disabled, the entry written)
+  EXPECT_FALSE(has(vectors, "eds/od/tpdo-map"));
+  const auto& vector = find(vectors, fmt::format("eds/od/{:04x}-00/tpdo-map", object->index));
+  EXPECT_EQ(vector.level, Level::must);
+  ASSERT_EQ(vector.steps.size(), 3U);
+  const auto& destroy = std::get<SdoWriteStep>(vector.steps.at(0).action);
+  EXPECT_EQ(destroy.index, 0x1800);
+  EXPECT_EQ(destroy.value->literal, 0x80000181);
+  const auto result = run(vector);
+  // Then it fails: the drive maps it (a wo entry in a TPDO must be refused, not-mappable)
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_FALSE(result.warning);
+}
+
+TEST_F(EdsChecksTest, RwwEntryMappedIntoATpdoOnlyWarns) {
+  // Given an EDS that declares a mappable entry (1001h) rww (meant for an RPDO; CiA 301 makes
+  //       that a hint)
+  start();
+  auto* object = mappable_var();
+  ASSERT_NE(object, nullptr);
+  object->keys.access_type = cia301::AccessType::rww;
+  const auto vectors = generate();
+  // When its tpdo-map check runs on a drive that maps it
+  const auto& vector = find(vectors, fmt::format("eds/od/{:04x}-00/tpdo-map", object->index));
+  const auto result = run(vector);
+  // Then it is a should-level failure: a warning, not a fail
+  EXPECT_EQ(vector.level, Level::should);
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
+  EXPECT_TRUE(result.warning);
+}
+
+TEST_F(EdsChecksTest, DefaultMappingNamesAnObjectTheDriveHasOrFails) {
+  // Given an EDS whose TPDO1 maps 1001h (the drive has it) and TPDO2 2FFFh (it has not)
+  start();
+  ASSERT_NE(eds_.find(0x1A01), nullptr);
+  const auto sub_one = [&](std::uint16_t index) -> cia306::SubObject* {
+    auto* object = eds_.find(index);
+    if (object == nullptr) return nullptr;
+    for (auto& sub : object->subs)
+      if (sub.sub_index == 1) return &sub;
+    return nullptr;
+  };
+  auto* tpdo1 = sub_one(0x1A00);
+  auto* tpdo2 = sub_one(0x1A01);
+  ASSERT_NE(tpdo1, nullptr);
+  ASSERT_NE(tpdo2, nullptr);
+  tpdo1->keys.default_value = "0x10010008";
+  tpdo2->keys.default_value = "0x2FFF0010";
+  const auto vectors = generate();
+  // When the mapped-object checks run
+  const auto present = run(find(vectors, "eds/od/1a00-01/mapped-object"));
+  const auto absent = run(find(vectors, "eds/od/1a01-01/mapped-object"));
+  // Then the first passes and the second fails; an empty entry (0) gets no check
+  EXPECT_EQ(present.verdict, Verdict::pass) << present.message;
+  EXPECT_EQ(absent.verdict, Verdict::fail) << absent.message;
+  EXPECT_FALSE(has(vectors, "eds/od/1a02-01/mapped-object"));
+}
+
+TEST_F(EdsChecksTest, ResetCommunicationRestoresTheCommunicationArea) {
+  // Given the drive and its own EDS
+  start();
+  const auto vectors = generate();
+  const auto& vector = find(vectors, "eds/od/reset-communication");
+  // When the reset-communication check runs (1017h among the values written before)
+  EXPECT_NE(vector.note.find("1017h sub 0"), std::string::npos) << vector.note;
+  const auto result = run(vector);
+  // Then every writable entry of 1000h-1FFFh is back to its power-on value
+  EXPECT_EQ(result.verdict, Verdict::pass) << result.message;
+}
+
+TEST_F(EdsChecksTest, ResetCommunicationThatKeepsValuesFails) {
+  // Given a drive whose reset communication keeps the communication objects as written
+  start(reference_drive::DeviationSet{
+      reference_drive::Deviation::nmt_reset_communication_keeps_values});
+  const auto vectors = generate();
+  // When the reset-communication check runs
+  const auto result = run(find(vectors, "eds/od/reset-communication"));
+  // Then it fails
+  EXPECT_EQ(result.verdict, Verdict::fail) << result.message;
 }
 
 TEST(EdsLintResults, CleanEdsPassesEveryRule) {
