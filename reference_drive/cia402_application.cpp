@@ -151,7 +151,8 @@ std::unique_ptr<OperationMode> Cia402Application::make_standard_mode(cia402::Mod
     case cia402::Mode::profile_torque:
       return std::make_unique<ProfileTorqueMode>();
     case cia402::Mode::interpolated_position:
-      return std::make_unique<InterpolatedPositionMode>(config_.ip_submode, config_.ip_max_buffer);
+      return std::make_unique<InterpolatedPositionMode>(config_.ip_submode, config_.ip_max_buffer,
+                                                        config_.deviations);
     case cia402::Mode::cyclic_sync_position:
       return std::make_unique<CyclicSyncMode>(CyclicKind::position);
     case cia402::Mode::cyclic_sync_velocity:

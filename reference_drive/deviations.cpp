@@ -79,10 +79,11 @@ constexpr std::uint32_t kEmcyBase = 0x080;
 // SDO byte 0.
 constexpr std::uint8_t kAbort = 0x80;
 constexpr std::uint8_t kDownloadResponse = 0x60;
-constexpr std::uint8_t kBlockDownloadAck = 0xA2;  // scs 5, ss 2
-constexpr std::uint8_t kBlockUploadAck = 0xA2;    // ccs 5, cs 2
-constexpr std::uint8_t kEndBlockUpload = 0xC1;    // scs 6, ss 1 (n in bits 4..2)
-constexpr std::uint8_t kMaxBlockSize = 127;       // seqno 1..127
+constexpr std::uint8_t kBlockDownloadAck = 0xA2;          // scs 5, ss 2
+constexpr std::uint8_t kBlockUploadAck = 0xA2;            // ccs 5, cs 2
+constexpr std::uint8_t kEndBlockDownloadResponse = 0xA1;  // scs 5, ss 1
+constexpr std::uint8_t kEndBlockUpload = 0xC1;            // scs 6, ss 1 (n in bits 4..2)
+constexpr std::uint8_t kMaxBlockSize = 127;               // seqno 1..127
 constexpr unsigned ccs_of(std::uint8_t byte0) {
   return byte0 >> 5;
 }
@@ -95,6 +96,7 @@ constexpr unsigned kCcsInvalid = 7;
 
 // Abort codes (CiA 301 §7.2.4.3.17) the CAN-only mutators look at (the SDO service ones are
 // in sdo_deviations.cpp).
+constexpr std::uint32_t kAbortUnsupportedAccess = 0x06010000;
 constexpr std::uint32_t kAbortNoSubIndex = 0x06090011;
 constexpr std::uint32_t kAbortInvalidValue = 0x06090030;
 
@@ -359,6 +361,50 @@ bool DeviationPort::is_tpdo(std::uint32_t id, bool synchronous_only) const {
   return false;
 }
 
+std::optional<can::Frame> DeviationPort::without_dummy_bits(const can::Frame& frame) const {
+  if (od_ == nullptr) return std::nullopt;
+  for (std::uint16_t number = 1; number <= 512; ++number) {
+    const std::uint16_t index =
+        cia301::pdo_communication_index(cia301::PdoDirection::receive, number);
+    const cia301::Entry* cob = od_->find(index, cia301::pdo_sub::kCobId);
+    if (cob == nullptr) break;
+    const auto decoded = cia301::decode_pdo_cob_id(static_cast<std::uint32_t>(cob->as_unsigned()));
+    if (!decoded || !decoded->valid || decoded->extended || decoded->can_id != frame.id) continue;
+    const std::uint16_t mapping = cia301::pdo_mapping_index(cia301::PdoDirection::receive, number);
+    const cia301::Entry* count = od_->find(mapping, 0);
+    if (count == nullptr) return std::nullopt;
+    std::uint64_t payload = 0;
+    for (std::size_t i = 0; i < frame.length() && i < 8; ++i)
+      payload |= static_cast<std::uint64_t>(frame.data[i]) << (8 * i);
+    std::uint64_t packed = 0;
+    unsigned from = 0;
+    unsigned to = 0;
+    bool dummy = false;
+    for (unsigned sub = 1; sub <= count->as_unsigned(); ++sub) {
+      const cia301::Entry* entry = od_->find(mapping, static_cast<std::uint8_t>(sub));
+      if (entry == nullptr) return std::nullopt;
+      const auto value = static_cast<std::uint32_t>(entry->as_unsigned());
+      const unsigned bits = value & 0xFF;
+      const unsigned object = value >> 16;
+      if (bits == 0 || from + bits > 64) return std::nullopt;
+      if (object >= 0x0001 && object <= 0x0007) {
+        dummy = true;  // takes no room: the next entry is read from here
+      } else {
+        const std::uint64_t mask = bits == 64 ? ~0ULL : ((1ULL << bits) - 1);
+        packed |= ((payload >> from) & mask) << to;
+        to += bits;
+      }
+      from += bits;
+    }
+    if (!dummy) return std::nullopt;
+    can::Frame out = frame;
+    for (std::size_t i = 0; i < 8; ++i)
+      out.data[i] = i < frame.length() ? static_cast<std::uint8_t>(packed >> (8 * i)) : 0;
+    return out;
+  }
+  return std::nullopt;
+}
+
 bool DeviationPort::restricted_cob_id_written(const can::Frame& abort) const {
   const auto& request = last_request_data_;
   const bool expedited = ccs_of(request[0]) == kCcsDownloadInitiate && (request[0] & 0x02) != 0;
@@ -374,6 +420,22 @@ bool DeviationPort::restricted_cob_id_written(const can::Frame& abort) const {
                               (static_cast<std::uint32_t>(request[7]) << 24);
   const bool extended = (value & 0x20000000) != 0;
   return !extended && cia301::is_restricted_cob_id(value & 0x7FF);
+}
+
+bool DeviationPort::refuses_non_expedited_download(const can::Frame& request) {
+  // Inside a block download the frames are segments (seqno | c), not initiate requests.
+  if (block_download_running_) return false;
+  const std::uint8_t command = request.data[0];
+  const bool segmented = ccs_of(command) == kCcsDownloadInitiate && (command & 0x02) == 0;
+  const bool block = (command & 0xE1) == 0xC0;  // ccs 6, cs 0: initiate block download
+  if (!segmented && !block) return false;
+  const std::uint16_t index = index_of(request);
+  const cia301::Entry* entry = od_->find(index, request.data[3]);
+  const bool refused = index != 0x1017 && entry != nullptr &&
+                       !cia301::is_variable_length(entry->type()) &&
+                       cia301::info(entry->type()).size <= 4;
+  if (block && !refused) block_download_running_ = true;
+  return refused;
 }
 
 std::error_code DeviationPort::send(const can::Frame& frame) {
@@ -407,6 +469,7 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
         block_download_seqno_ = 1;
       }
     }
+    if (command == kAbort || command == kEndBlockDownloadResponse) block_download_running_ = false;
     if (command == kAbort) {
       const std::uint32_t code = load_u32(frame, 4);
       if (code == kAbortNoSubIndex && d.has(Deviation::fatal_sdo_hang_on_missing_sub)) {
@@ -445,7 +508,11 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       return out;
     }
     const can::TimePoint now = port_.now();
+    last_nmt_state_ =
+        state == 0x00 ? kStatePreOperational : static_cast<std::uint8_t>(state & 0x7F);
     if (state == 0x00) {  // boot-up
+      guarding_took_over_ = false;
+      guarding_toggle_ = false;
       last_heartbeat_ = now;
       held_heartbeat_.reset();
       if (held_timer_ != can::kNoTimer) port_.cancel_timer(held_timer_);
@@ -463,6 +530,7 @@ std::optional<can::Frame> DeviationPort::outgoing(const can::Frame& frame) {
       }
       return out;
     }
+    if (guarding_took_over_) return std::nullopt;  // guarding-request-stops-heartbeat
     if (state == kStateStopped && d.has(Deviation::heartbeat_missing_in_stopped)) {
       return std::nullopt;
     }
@@ -568,6 +636,13 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
     }
     last_request_ = frame.data[0];
     std::copy(frame.data.begin(), frame.data.begin() + 8, last_request_data_.begin());
+    if (d.has(Deviation::sdo_non_expedited_download_heartbeat_only) &&
+        refuses_non_expedited_download(frame)) {
+      (void)send(answer_frame(
+          kSdoResponseBase + node_id,
+          SdoAnswerView::abort_of(index_of(frame), frame.data[3], kAbortUnsupportedAccess), frame));
+      return std::nullopt;
+    }
     // The SDO service deviations, shared with CoE (sdo_deviations.hpp): answered here, or the
     // data of an expedited download replaced (as 4 octets, e = 1, s = 1, n = 0).
     const SdoBefore before = sdo_->before(request_view(last_request_data_), *od_);
@@ -586,6 +661,28 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
     if (frame.id == kErrorControlBase + node_id && d.has(Deviation::guarding_no_response)) {
       return std::nullopt;
     }
+    if (frame.id == kErrorControlBase + node_id) {
+      const auto value_of = [this](std::uint16_t index) {
+        const cia301::Entry* entry = od_->find(index, 0);
+        return entry != nullptr ? entry->as_unsigned() : 0;
+      };
+      // The firmware takes a guarding request as the master's choice of guarding, when guarding
+      // is configured: the heartbeat stops.
+      if (d.has(Deviation::guarding_request_stops_heartbeat) && value_of(0x100C) != 0 &&
+          value_of(0x100D) != 0) {
+        guarding_took_over_ = true;
+      }
+      // The firmware leaves guarding requests to the heartbeat only while guarding is
+      // configured: with the guard time 0 it answers them, heartbeat or not.
+      if (d.has(Deviation::guarding_answered_with_guard_time_zero) && value_of(0x1017) != 0 &&
+          value_of(0x100C) == 0) {
+        const auto answer =
+            static_cast<std::uint8_t>((guarding_toggle_ ? 0x80 : 0x00) | last_nmt_state_);
+        guarding_toggle_ = !guarding_toggle_;
+        (void)transmit(can::Frame::standard(kErrorControlBase + node_id, {answer}));
+        return std::nullopt;
+      }
+    }
     // A guarding request of any node (700h + 1..127) taken as one for this drive.
     if (d.has(Deviation::guarding_any_node_id) && frame.id > kErrorControlBase &&
         frame.id <= kErrorControlBase + 0x7F) {
@@ -593,6 +690,8 @@ std::optional<can::Frame> DeviationPort::incoming(const can::Frame& frame) {
       return in;
     }
     if (d.has(Deviation::pdo_rtr_ignored) && is_tpdo(frame.id, false)) return std::nullopt;
+  } else if (d.has(Deviation::pdo_dummy_entry_takes_no_room)) {
+    if (auto read = without_dummy_bits(frame)) return read;
   }
   return in;
 }

@@ -215,6 +215,9 @@ class DeviationPort final : public can::Bus {
   // nullopt: drop. Sets the fatal states and arranges answers the port gives itself.
   std::optional<can::Frame> outgoing(const can::Frame& frame);
   std::optional<can::Frame> incoming(const can::Frame& frame);
+  // sdo-non-expedited-download-heartbeat-only: a segmented or block download initiate of an
+  // object of 4 octets or less but 1017h (and keeps track of the block download running).
+  bool refuses_non_expedited_download(const can::Frame& request);
   void on_frame(const can::TimedFrame& frame);
   std::error_code transmit(const can::Frame& frame);
   void fake_echo(const can::Frame& frame);
@@ -224,6 +227,10 @@ class DeviationPort final : public can::Bus {
   std::uint8_t node() const;
   std::optional<std::uint32_t> emcy_cob_id() const;
   bool is_tpdo(std::uint32_t id, bool synchronous_only) const;
+  // pdo-dummy-entry-takes-no-room: the RPDO frame on `id` as the drive reads it, its dummy
+  // entries' bits taken out (the entries after one read from where it is); nullopt when `id` is
+  // no RPDO with a dummy entry.
+  std::optional<can::Frame> without_dummy_bits(const can::Frame& frame) const;
   // The last SDO request was an expedited download of a restricted CAN-ID (CiA 301 §7.3.5) to
   // a COB-ID object (1005h, 1012h, 1014h, PDO sub 01h) and `abort` aborts that transfer.
   bool restricted_cob_id_written(const can::Frame& abort) const;
@@ -242,6 +249,16 @@ class DeviationPort final : public can::Bus {
   // sub-block open), and whether the transfer goes on after this sub-block.
   std::uint8_t block_download_seqno_ = 0;
   bool block_download_open_ = false;
+  // sdo-non-expedited-download-heartbeat-only: a block download the server took is running (its
+  // segments are not initiate requests).
+  bool block_download_running_ = false;
+  // guarding-request-stops-heartbeat: a guarding request came while guarding was configured;
+  // the heartbeat stays off until the next boot-up.
+  bool guarding_took_over_ = false;
+  // guarding-answered-with-guard-time-zero: the NMT state of the last boot-up or heartbeat, and
+  // the toggle of the next guarding response this port makes itself.
+  std::uint8_t last_nmt_state_ = 0x7F;
+  bool guarding_toggle_ = false;
   // heartbeat-period-long
   can::TimePoint last_heartbeat_ = can::TimePoint::min();
   std::optional<can::Frame> held_heartbeat_;

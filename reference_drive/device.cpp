@@ -116,6 +116,12 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
       if (cia301::Entry* entry = od_->find(index, 0)) entry->set_store_group(cia301::kStoreNone);
     }
   }
+  // Deviation store-heartbeat-time-in-application-group: the firmware's parameter table puts
+  // 1017h with the application parameters.
+  if (has(Deviation::store_heartbeat_time_in_application_group)) {
+    if (cia301::Entry* entry = od_->find(0x1017, 0))
+      entry->set_store_group(cia301::kStoreApplication);
+  }
   // Deviation: 1020h belongs to no group, so neither a store nor a reset nor a restore touches it.
   if (has(Deviation::store_verify_configuration_not_saved)) {
     if (cia301::Object* verify = od_->find(kVerifyConfigurationIndex)) {
@@ -396,7 +402,11 @@ void ReferenceDrive::sync_sdo_channels() {
     const auto index = static_cast<std::uint16_t>(kSdoServerParameterIndex + i + 1);
     const auto channel = cia301::read_sdo_server_channel(*od_, index);
     if (!channel) continue;
-    extra_sdo_[i]->set_channel(channel->request_cob_id, channel->response_cob_id, channel->valid);
+    // Deviation sdo-further-server-answers-on-default-cob-id: the answers go on 580h + N.
+    const std::uint32_t response = has(Deviation::sdo_further_server_answers_on_default_cob_id)
+                                       ? 0x580U + od_->node_id()
+                                       : channel->response_cob_id;
+    extra_sdo_[i]->set_channel(channel->request_cob_id, response, channel->valid);
     extra_sdo_runners_[i]->transmit({});  // re-arms (cancels) a dropped transfer's timer
   }
 }

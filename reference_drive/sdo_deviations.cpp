@@ -101,6 +101,7 @@ bool SdoDeviations::active() const {
                       Deviation::store_signature_ignored,
                       Deviation::restore_ignored,
                       Deviation::store_group_signature_ignored,
+                      Deviation::store_application_group_ignored,
                       Deviation::device_type_wrong,
                       Deviation::error_register_not_set,
                       Deviation::od_sub_ff_wrong,
@@ -182,6 +183,13 @@ SdoBefore SdoDeviations::before(const SdoRequestView& r, const cia301::ObjectDic
   // 1010h with any value: as if "save" had been written.
   if (has(Deviation::store_signature_ignored) && expedited_download(r, 0x1010)) {
     out.replaced.emplace(kSave.begin(), kSave.end());
+  }
+  // 1010h sub 03h "save" confirmed, nothing stored (store-application-group-ignored).
+  if (has(Deviation::store_application_group_ignored) && r.sub == 3 &&
+      expedited_download(r, 0x1010) &&
+      std::equal(r.data.begin(), r.data.end(), kSave.begin(), kSave.end())) {
+    out.answer = SdoAnswerView::confirmed(r.index, r.sub);
+    return out;
   }
   // 1010h/1011h sub 02h and above with any value: as if "save"/"load" had been written (only
   // sub 01h checks its signature).

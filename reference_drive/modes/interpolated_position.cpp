@@ -94,9 +94,13 @@ Expected<void, std::string> InterpolatedPositionMode::add_objects(cia301::Object
     if (max_buffer_ == 0) fifo_.clear();
     if (fifo_.size() < capacity()) fifo_.push_back(static_cast<std::int32_t>(e.as_signed()));
   });
+  // Deviation ip-actual-buffer-size-above-max-accepted: the check is off by one.
+  const std::uint64_t size_limit =
+      deviations_.has(Deviation::ip_actual_buffer_size_above_max_accepted) ? max_buffer_ + 1
+                                                                           : max_buffer_;
   od.find(0x60C4, 2)->set_write_validator(
-      [max = max_buffer_](const cia301::ObjectDictionary&, const cia301::Entry&,
-                          std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+      [max = size_limit](const cia301::ObjectDictionary&, const cia301::Entry&,
+                         std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
         const auto v = cia301::load_unsigned(data);
         // 1..max_buffer_size; without a buffer only 0 (Festo L6620-6626: value range 0).
         if (max == 0 ? v != 0 : (v < 1 || v > max)) {
@@ -105,13 +109,21 @@ Expected<void, std::string> InterpolatedPositionMode::add_objects(cia301::Object
         return {};
       });
   od.find(0x60C4, 2)->set_write_observer([this](cia301::ObjectDictionary&, cia301::Entry& e) {
-    buffer_size_ = static_cast<std::uint32_t>(e.as_unsigned());
+    buffer_size_ = std::min(static_cast<std::uint32_t>(e.as_unsigned()), max_buffer_);
     while (fifo_.size() > capacity())
       fifo_.pop_front();
+    // Deviation ip-buffer-resize-drops-record: the trim loop one record too eager.
+    if (deviations_.has(Deviation::ip_buffer_resize_drops_record) && !fifo_.empty()) {
+      fifo_.pop_front();
+    }
   });
   for (std::uint8_t sub : {std::uint8_t{3}, std::uint8_t{5}, std::uint8_t{6}}) {
-    const std::uint64_t max = sub == 6 ? 1 : (sub == 5 ? 1 : 0);
-    const std::uint64_t min = sub == 5 ? 1 : 0;
+    std::uint64_t max = sub == 6 ? 1 : (sub == 5 ? 1 : 0);
+    std::uint64_t min = sub == 5 ? 1 : 0;
+    // Deviations ip-buffer-clear-any-value-enables (sub 6: 2..255 taken as 1) and
+    // ip-record-size-zero-accepted (sub 5: the range starts at 0).
+    if (sub == 6 && deviations_.has(Deviation::ip_buffer_clear_any_value_enables)) max = 0xFF;
+    if (sub == 5 && deviations_.has(Deviation::ip_record_size_zero_accepted)) min = 0;
     od.find(0x60C4, sub)
         ->set_write_validator(
             [min, max](const cia301::ObjectDictionary&, const cia301::Entry&,

@@ -23,7 +23,9 @@
 // where it is. Bit 13 following error (the application's check). Halt: the PDS stops the axis,
 // the FIFO is kept.
 // Records written before bit 4 is set wait in the FIFO (only 60C4h sub 6 = 0 clears it).
-// Deviations: ip-active-bit-never-set, ip-records-cleared-on-enable.
+// Deviations: ip-active-bit-never-set, ip-records-cleared-on-enable, and of 60C4h
+// ip-buffer-clear-any-value-enables, ip-record-size-zero-accepted,
+// ip-actual-buffer-size-above-max-accepted, ip-buffer-resize-drops-record.
 #pragma once
 
 #include <algorithm>
@@ -46,8 +48,11 @@ class InterpolatedPositionMode final : public OperationMode {
   // interpolation; a personality's manufacturer value, Festo -2, runs the same interpolation).
   // `max_buffer`: 60C4h sub 01h, 0..kMaxBuffer; 0: no buffer (one record, the last written,
   // taken at the next SYNC; 60C4h sub 02h then reads and accepts 0 only).
-  explicit InterpolatedPositionMode(std::int16_t submode = 0, std::uint32_t max_buffer = kMaxBuffer)
-      : submode_(submode), max_buffer_(std::min(max_buffer, kMaxBuffer)) {}
+  // `deviations`: the ones its objects' checks show (the rows of 60C4h; the others are read
+  // from the ModeContext at run time).
+  explicit InterpolatedPositionMode(std::int16_t submode = 0, std::uint32_t max_buffer = kMaxBuffer,
+                                    DeviationSet deviations = {})
+      : submode_(submode), max_buffer_(std::min(max_buffer, kMaxBuffer)), deviations_(deviations) {}
 
   std::int8_t mode() const override { return 7; }
   Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override;
@@ -71,6 +76,7 @@ class InterpolatedPositionMode final : public OperationMode {
   std::uint16_t bits_ = 0;
   std::int16_t submode_ = 0;
   std::uint32_t max_buffer_ = kMaxBuffer;
+  DeviationSet deviations_;
   // The records the FIFO holds at most: the buffer size, or one without a buffer.
   std::size_t capacity() const { return max_buffer_ == 0 ? 1 : buffer_size_; }
 };
