@@ -183,8 +183,14 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
       }
       trajectory_.step(dt);
       if (running_ && trajectory_.profile_done() && !buffered_.empty()) {
-        running_ = buffered_.front();
-        buffered_.pop_front();
+        // Deviation pp-set-point-buffer-newest-first: the last set-point queued runs next.
+        if (ctx.has(Deviation::pp_set_point_buffer_newest_first)) {
+          running_ = buffered_.back();
+          buffered_.pop_back();
+        } else {
+          running_ = buffered_.front();
+          buffered_.pop_front();
+        }
         last_target_ = running_->target;
         last_clamped_ = running_->clamped;
         reached_ = false;

@@ -33,8 +33,9 @@
 // Deviations: pp-set-point-ack-never-cleared, pp-target-reached-before-window-time,
 // pp-change-immediately-ignored, pp-relative-as-absolute, pp-halt-target-reached-missing,
 // pp-max-profile-velocity-ignored, pp-set-point-ack-cleared-while-buffer-full,
-// pp-positioning-option-relative-ignored. (quick-stop-target-reached-missing is the PDS's: bit 10
-// in QUICK STOP ACTIVE, power_drive_system.cpp.)
+// pp-positioning-option-relative-ignored, pp-set-point-buffer-newest-first (a buffer deeper than
+// one: the cia402-alternative personality's 4). (quick-stop-target-reached-missing is the PDS's:
+// bit 10 in QUICK STOP ACTIVE, power_drive_system.cpp.)
 #pragma once
 
 #include <cstdint>
