@@ -460,7 +460,11 @@ void Cia402Application::on_cycle(ReferenceDrive& drive, can::TimePoint now) {
 
   const std::int8_t display = pds_.mode_display();
   OperationMode* next = mode(display);
-  if (next != active_ || display != active_value_) {
+  // Deviation mode-display-ahead-of-mode: 6061h already shows the new mode, but the old one
+  // runs on while the axis moves.
+  const bool held = config_.deviations.has(Deviation::mode_display_ahead_of_mode) &&
+                    active_ != nullptr && cycle.drive_enabled && !axis_.is_stopped();
+  if ((next != active_ || display != active_value_) && !held) {
     if (active_ != nullptr) active_->leave(*context_, cycle);
     active_ = next;
     active_value_ = display;

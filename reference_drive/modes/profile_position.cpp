@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <span>
 
 namespace drivecheck::reference_drive {
 namespace {
@@ -16,11 +17,37 @@ constexpr std::uint16_t kTargetReached = 0x0400;
 constexpr std::uint16_t kSetPointAcknowledge = 0x1000;
 constexpr std::uint16_t kFollowingError = 0x2000;
 
+constexpr std::uint64_t kRelativeOption = 0x0003;  // 60F2h bits 1..0
+constexpr std::uint64_t kRelativeToDemand = 0x0001;
+constexpr std::uint64_t kRelativeToActual = 0x0002;
+
 double seconds(can::Duration d) {
   return std::chrono::duration<double>(d).count();
 }
 
 }  // namespace
+
+Expected<void, std::string> ProfilePositionMode::add_objects(cia301::ObjectDictionary& od) {
+  if (od.find(cia402::kPositioningOptionCode.index, 0) == nullptr) {
+    auto added = od.add_var(cia402::kPositioningOptionCode.index, "positioning option code",
+                            cia301::DataType::unsigned16, cia301::AccessType::rw,
+                            cia301::Value::of_unsigned(0), true);
+    if (!added) return Unexpected(added.error());
+  }
+  if (cia301::Entry* e = od.find(cia402::kPositioningOptionCode.index, 0)) {
+    e->set_write_validator(
+        [](const cia301::ObjectDictionary&, const cia301::Entry&,
+           std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+          const std::uint64_t v = cia301::load_unsigned(data);
+          // Only the relative option is implemented, and 11 is reserved.
+          if ((v & ~kRelativeOption) != 0 || (v & kRelativeOption) == kRelativeOption) {
+            return Unexpected(cia301::SdoAbort::invalid_value);
+          }
+          return {};
+        });
+  }
+  return {};
+}
 
 void ProfilePositionMode::on_reset(ModeContext& ctx) {
   trajectory_.reset(ctx.axis.position());
@@ -62,9 +89,17 @@ ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& c
   if ((controlword & kRelative) != 0 && !ctx.has(Deviation::pp_relative_as_absolute)) {
     // Relative to the demand position 6062h (Festo L5407-5412), here in internal units; the
     // demand of the buffered set-point's start is the running one's target.
-    const double base = !buffered_.empty() ? buffered_.back().target
-                        : running_         ? running_->target
-                                           : trajectory_.position();
+    // The base 60F2h bits 1..0 select (deviation pp-positioning-option-relative-ignored: always
+    // the preceding target).
+    const std::uint64_t option =
+        ctx.has(Deviation::pp_positioning_option_relative_ignored)
+            ? 0
+            : ctx.read_unsigned(cia402::kPositioningOptionCode) & kRelativeOption;
+    const double base = option == kRelativeToDemand   ? trajectory_.position()
+                        : option == kRelativeToActual ? ctx.axis.position()
+                        : !buffered_.empty()          ? buffered_.back().target
+                        : running_                    ? running_->target
+                                                      : trajectory_.position();
     sp.target = base + f.position_to_internal(target) - f.position_to_internal(0.0);
   } else {
     sp.target = f.position_to_internal(target);
@@ -113,8 +148,11 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
       if (immediately || !running_) {
         running_ = sp;
         buffered_.clear();
-      } else {
+      } else if (buffered_.size() < std::max<std::size_t>(1, ctx.setpoint_buffer)) {
         buffered_.push_back(sp);  // room: an edge while the buffer is full is not taken (ack_)
+      } else {
+        // Only with pp-set-point-ack-cleared-while-buffer-full: the buffered one is lost.
+        buffered_.back() = sp;
       }
       last_target_ = running_->target;
       last_clamped_ = sp.clamped;
@@ -145,8 +183,14 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
       }
       trajectory_.step(dt);
       if (running_ && trajectory_.profile_done() && !buffered_.empty()) {
-        running_ = buffered_.front();
-        buffered_.pop_front();
+        // Deviation pp-set-point-buffer-newest-first: the last set-point queued runs next.
+        if (ctx.has(Deviation::pp_set_point_buffer_newest_first)) {
+          running_ = buffered_.back();
+          buffered_.pop_back();
+        } else {
+          running_ = buffered_.front();
+          buffered_.pop_front();
+        }
         last_target_ = running_->target;
         last_clamped_ = running_->clamped;
         reached_ = false;
@@ -170,7 +214,9 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
     }
   }
   // The buffer has room once it holds fewer than setpoint_buffer (1: empty).
-  const bool room = buffered_.size() < std::max<std::size_t>(1, ctx.setpoint_buffer);
+  // Deviation pp-set-point-ack-cleared-while-buffer-full: room or not.
+  const bool room = buffered_.size() < std::max<std::size_t>(1, ctx.setpoint_buffer) ||
+                    ctx.has(Deviation::pp_set_point_ack_cleared_while_buffer_full);
   if (ack_shown && !bit4 && room && !ctx.has(Deviation::pp_set_point_ack_never_cleared)) {
     ack_ = false;
   }

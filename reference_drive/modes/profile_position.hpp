@@ -25,11 +25,17 @@
 //   10 target reached  the demand has reached the target and |6064h - target| <= 6067h for
 //                     6068h ms; cleared by a new set-point; with halt: 1 once the axis stands
 //   13 following error  |60F4h| > 6065h for 6066h (the application's check)
+//   6 with 60F2h     the base of a relative target (bits 1..0): 00 the preceding target (the
+//                     buffered or running one; with none yet the demand position, where CiA
+//                     402-2 says 0: the vectors give a preceding target first), 01 the demand
+//                     position, 10 the actual position 6064h
 // Targets are clamped to the software position limits 607Dh (bit 11 while clamped).
 // Deviations: pp-set-point-ack-never-cleared, pp-target-reached-before-window-time,
 // pp-change-immediately-ignored, pp-relative-as-absolute, pp-halt-target-reached-missing,
-// pp-max-profile-velocity-ignored. (quick-stop-target-reached-missing is the PDS's: bit 10 in
-// QUICK STOP ACTIVE, power_drive_system.cpp.)
+// pp-max-profile-velocity-ignored, pp-set-point-ack-cleared-while-buffer-full,
+// pp-positioning-option-relative-ignored, pp-set-point-buffer-newest-first (a buffer deeper than
+// one: the cia402-alternative personality's 4). (quick-stop-target-reached-missing is the PDS's:
+// bit 10 in QUICK STOP ACTIVE, power_drive_system.cpp.)
 #pragma once
 
 #include <cstdint>
@@ -44,6 +50,11 @@ namespace drivecheck::reference_drive {
 class ProfilePositionMode final : public OperationMode {
  public:
   std::int8_t mode() const override { return 1; }
+  // 60F2h positioning option code (optional in CiA 402-2): relative option bits 1..0 (00
+  // relative to the preceding target, 01 to the position demand value, 10 to the position
+  // actual value 6064h); every other bit (change-immediately, request-response, rotary axis
+  // direction options, reserved) must be 0: other values are refused with 06090030h.
+  Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override;
   void on_reset(ModeContext& ctx) override;
   void enter(ModeContext& ctx, const ModeCycle& cycle) override;
   void cycle(ModeContext& ctx, const ModeCycle& cycle) override;

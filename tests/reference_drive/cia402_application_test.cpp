@@ -370,6 +370,62 @@ TEST(ProfilePosition, RelativeMoveIsRelativeToTheDemand) {
   EXPECT_NEAR(d.value(0x6064), 4000, 2);
 }
 
+TEST(ProfilePosition, PositioningOptionCodeTakesOnlyTheRelativeOption) {
+  // Given the drive with 60F2h (positioning option code)
+  Cia402Drive d;
+  // When the relative options 00, 01, 10, the reserved 11 and other bits are written
+  // Then 00..10 are taken and the rest refused with 06090030h (value range)
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0001, 2), 0u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0002, 2), 0u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0003, 2), 0x06090030u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x00C0, 2), 0x06090030u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0000, 2), 0u);
+}
+
+TEST(ProfilePosition, RelativeOptionDemandAddsToTheDemandAtTheEdge) {
+  // Given 60F2h = 01 (relative to the position demand value) and a move to 20000 running
+  Cia402Drive d;
+  d.write(0x60F2, 0, 0x0001, 2);
+  d.write(0x6081, 0, 1000, 4);
+  d.enable(1);
+  d.write(0x607A, 0, 20000, 4);
+  d.controlword(0x001F);
+  d.controlword(0x000F);
+  d.rig().run(300ms);
+  // When 500 is started relative and at once (007Fh) with the demand at `demand`
+  const std::int64_t demand = d.value(0x6062);
+  d.write(0x607A, 0, 500, 4);
+  d.controlword(0x007F);
+  d.controlword(0x006F);
+  // Then the axis ends 500 past that demand (the SDO exchange moves it a few increments on)
+  ASSERT_TRUE(d.wait_for(kTargetReached, kTargetReached, 3s));
+  EXPECT_NEAR(d.value(0x6064), demand + 500, 20);
+}
+
+TEST(ProfilePosition, RelativeOptionIgnoredDeviationAddsToThePrecedingTarget) {
+  // Given 60F2h = 10 (relative to 6064h) with pp-positioning-option-relative-ignored, and a
+  // move to 20000 running
+  Cia402ApplicationConfig config;
+  config.deviations.add(Deviation::pp_positioning_option_relative_ignored);
+  Cia402Drive d(std::move(config));
+  d.write(0x60F2, 0, 0x0002, 2);
+  d.write(0x6081, 0, 1000, 4);
+  d.enable(1);
+  d.write(0x607A, 0, 20000, 4);
+  d.controlword(0x001F);
+  d.controlword(0x000F);
+  d.rig().run(300ms);
+  // When 500 is started relative and at once with the axis at `actual`
+  const std::int64_t actual = d.value(0x6064);
+  d.write(0x607A, 0, 500, 4);
+  d.controlword(0x007F);
+  d.controlword(0x006F);
+  // Then the axis runs on towards the preceding target + 500 (20500), far past actual + 500
+  d.rig().run(1s);
+  EXPECT_FALSE(d.statusword() & kTargetReached);
+  EXPECT_GT(d.value(0x6064), actual + 900);
+}
+
 TEST(ProfilePosition, SetOfSetPointsBuffersTheSecond) {
   // Given a long move A to 20000 running
   Cia402Drive d;
