@@ -6,6 +6,7 @@
 #include <chrono>
 #include <span>
 
+#include "conformance/ethercat_port.hpp"
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/data_type.hpp"
 #include "protocol/cia301/error_control.hpp"
@@ -284,6 +285,30 @@ StepStatus VectorRun::setup() {
     if (can_link) {
       if (auto s = reach_nmt_state(*vector_.nmt); s != StepStatus::ok) return s;
     } else {
+      // The cyclic set-points into the process data outputs, in PREOP before the AL state
+      // (FORMAT.md "Cyclic set-points").
+      if (auto* port = dynamic_cast<EthercatPort*>(&context_.port)) {
+        if (vector_.has_cyclic_step()) {
+          can::Duration period = std::chrono::milliseconds(1);
+          for (const Step& step : vector_.steps) {
+            if (const auto* cyclic = std::get_if<CyclicStep>(&step.action)) {
+              period = resolve(cyclic->period);
+              break;
+            }
+          }
+          const auto mapped = port->prepare_cyclic(vector_.cyclic_set_points(), period);
+          if (!mapped.error.empty()) return harness_error("setup cyclic set-points", mapped.error);
+          if (!mapped.not_applicable.empty()) {
+            message_ = mapped.not_applicable;
+            return StepStatus::not_applicable;
+          }
+          if (!mapped.done.empty())
+            check("setup cyclic set-points",
+                  "the set-points in the process data outputs, SM-synchronous where supported, "
+                  "the vector's cycle",
+                  mapped.done, true);
+        }
+      }
       const std::string name(cia301::to_string(*vector_.nmt));
       if (auto error = context_.port.enter_state(*vector_.nmt); !error.empty())
         return harness_error("setup nmt", fmt::format("{} not reached: {}", name, error));
@@ -467,6 +492,15 @@ void VectorRun::run_finally() {
 
 void VectorRun::restore() {
   tracking_writes_ = false;
+  // The PDO mapping and sync mode the setup gave the cyclic steps (FORMAT.md "Cyclic
+  // set-points") go back in PREOP (the next reset would too; a run's last vector has none).
+  if (auto* port = dynamic_cast<EthercatPort*>(&context_.port);
+      port != nullptr && port->cyclic_configured() && !context_.stalled.load()) {
+    std::string error = context_.port.enter_state(cia301::NmtState::pre_operational);
+    if (error.empty()) error = port->restore_cyclic();
+    if (!error.empty())
+      note(fmt::format("vector {}: putting the cyclic configuration back: {}", vector_.id, error));
+  }
   if (!context_.options.isolation || context_.stalled.load()) return;
   if (restored_defaults_ && context_.options.real_bus) {
     note(
