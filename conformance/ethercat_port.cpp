@@ -2,6 +2,7 @@
 #include "conformance/ethercat_port.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <utility>
@@ -9,7 +10,9 @@
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/sdo_abort.hpp"
 #include "protocol/cia301/sdo_client.hpp"
+#include "protocol/ethercat/coe_objects.hpp"
 #include "protocol/ethercat/esc.hpp"
+#include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
 namespace {
@@ -139,6 +142,13 @@ std::string EthercatPort::reset(bool node) {
     done = master_.request_state(ethercat::AlState::init);
     if (done) done = master_.request_state(ethercat::AlState::preop);
   }
+  if (node && power_cycle_) {
+    mapping_change_.reset();  // the slave's defaults and a fresh SII
+    sync_mode_before_.reset();
+  } else if (done) {
+    if (auto error = restore_cyclic(); !error.empty())
+      return fmt::format("putting the cyclic configuration back: {}", error);
+  }
   next_cycle_ = master_.port().link().now();
   emergencies_.clear();
   raw_open_ = false;  // INIT stops the slave's mailbox: no reply of before can come
@@ -199,6 +209,306 @@ SdoOutcome EthercatPort::download(VectorRun& run, const SdoRequest& request,
   if (answered(outcome)) run.note_dut_answer();
   collect_emergencies(false);
   return outcome;
+}
+
+// ---- cyclic set-points ----
+
+namespace {
+
+std::uint32_t little_u32(std::span<const std::uint8_t> data) {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < data.size() && i < 4; ++i)
+    v |= std::uint32_t{data[i]} << (8 * i);
+  return v;
+}
+
+std::vector<std::uint8_t> le(std::uint32_t value, std::size_t size) {
+  std::vector<std::uint8_t> out(size);
+  for (std::size_t i = 0; i < size; ++i)
+    out[i] = static_cast<std::uint8_t>(value >> (8 * i));
+  return out;
+}
+
+// A mapping entry (CiA 301 §7.5.2.36: index << 16 | sub-index << 8 | length in bits).
+std::uint32_t mapping_entry(std::uint16_t index, std::uint8_t sub, std::uint8_t bits) {
+  return std::uint32_t{index} << 16 | std::uint32_t{sub} << 8 | bits;
+}
+
+ethercat::SiiPdoEntry sii_entry(std::uint32_t mapping) {
+  ethercat::SiiPdoEntry entry;
+  entry.index = static_cast<std::uint16_t>(mapping >> 16);
+  entry.subindex = static_cast<std::uint8_t>(mapping >> 8);
+  entry.bit_length = static_cast<std::uint8_t>(mapping);
+  return entry;
+}
+
+std::string sdo_error(const ethercat::MasterError& error) {
+  if (error.code == ethercat::make_error_code(ethercat::MasterErrc::sdo_abort))
+    return fmt::format("abort {:08X}h ({})", error.abort_code,
+                       cia301::describe_sdo_abort(error.abort_code));
+  return error.message();
+}
+
+}  // namespace
+
+EthercatPort::CyclicSetup EthercatPort::prepare_cyclic(std::span<const CyclicSetPoint> points,
+                                                       can::Duration period) {
+  CyclicSetup result;
+  if (master_.slaves().empty()) {
+    result.error = "no slave";
+    return result;
+  }
+  if (!cycle_before_) cycle_before_ = cycle_;
+  cycle_ = period;
+  if (master_.held_state() != ethercat::AlState::init &&
+      master_.held_state() != ethercat::AlState::preop) {
+    result.error = fmt::format("the RxPDO mapping is configured in PREOP, the slave is in {}",
+                               ethercat::al_state_name(master_.held_state()));
+    return result;
+  }
+  if (master_.held_state() == ethercat::AlState::init) {
+    if (auto up = master_.request_state(ethercat::AlState::preop); !up) {
+      result.error = fmt::format("PREOP: {}", up.error().message());
+      return result;
+    }
+  }
+  const auto read = [this](std::uint16_t index, std::uint8_t sub,
+                           std::string& why) -> std::optional<std::uint32_t> {
+    auto value = master_.sdo_upload(0, {index, sub});
+    if (!value) {
+      why = fmt::format("{:04X}h sub {}: {}", index, sub, sdo_error(value.error()));
+      return std::nullopt;
+    }
+    return little_u32(*value);
+  };
+  std::string why;
+  // SM-synchronous outputs where the slave supports them (1C32h:04 bit 1, ETG.1020).
+  std::string sync;
+  const auto mode = read(ethercat::kSmOutputParameter, 1, why);
+  const auto supported = mode ? read(ethercat::kSmOutputParameter, 4, why) : std::nullopt;
+  if (!mode || !supported) {
+    sync = fmt::format("synchronisation as the slave has it (1C32h: {})", why);
+  } else if (*mode == 1) {
+    sync = "SM-synchronous (1C32h:01 = 1)";
+  } else if ((*supported & 0x0002) == 0) {
+    sync = fmt::format("1C32h:01 = {} kept: 1C32h:04 = {:04X}h, no SM-synchronous mode", *mode,
+                       *supported);
+  } else if (auto done = master_.sdo_download(0, {ethercat::kSmOutputParameter, 1}, le(1, 2));
+             !done) {
+    sync = fmt::format("1C32h:01 = {} kept: 1C32h:01 := 1 refused ({})", *mode,
+                       sdo_error(done.error()));
+  } else {
+    sync_mode_before_ = static_cast<std::uint16_t>(*mode);
+    sync = fmt::format("SM-synchronous: 1C32h:01 := 1 (was {})", *mode);
+  }
+  why.clear();
+  // The RxPDOs the slave assigns now and their mappings (as a master reads them over CoE).
+  const auto assigned_count = read(0x1C12, 0, why);
+  if (!assigned_count) {
+    result.not_applicable = fmt::format(
+        "the RxPDO assignment 1C12h cannot be read ({}): the set-points must be in the process "
+        "data outputs",
+        why);
+    return result;
+  }
+  std::vector<ethercat::SiiPdo> pdos;
+  const auto read_pdo = [&](std::uint16_t index,
+                            std::string& error) -> std::optional<ethercat::SiiPdo> {
+    const auto count = read(index, 0, error);
+    if (!count) return std::nullopt;
+    ethercat::SiiPdo pdo;
+    pdo.index = index;
+    pdo.sync_manager = 2;  // the outputs' SM (SII SyncM type outputs)
+    for (std::uint8_t sub = 1; sub <= *count; ++sub) {
+      const auto entry = read(index, sub, error);
+      if (!entry) return std::nullopt;
+      pdo.entries.push_back(sii_entry(*entry));
+    }
+    return pdo;
+  };
+  for (std::uint8_t i = 1; i <= *assigned_count; ++i) {
+    const auto index = read(0x1C12, i, why);
+    auto pdo = index ? read_pdo(static_cast<std::uint16_t>(*index), why) : std::nullopt;
+    if (!pdo) {
+      result.error = fmt::format("reading the RxPDO assignment: {}", why);
+      return result;
+    }
+    pdos.push_back(std::move(*pdo));
+  }
+  const auto mapped = [&pdos](const CyclicSetPoint& point) {
+    for (const auto& pdo : pdos)
+      for (const auto& entry : pdo.entries)
+        if (entry.index == point.index && entry.subindex == point.sub) return true;
+    return false;
+  };
+  std::vector<const CyclicSetPoint*> missing;
+  std::vector<std::string> names;
+  for (const CyclicSetPoint& point : points) {
+    if (mapped(point)) continue;
+    missing.push_back(&point);
+    names.push_back(
+        fmt::format("{:04X}h sub {} ({} bits)", point.index, point.sub, 8 * point.size));
+  }
+  const auto before = master_.slaves()[0].sii.image.rx_pdos;
+  if (missing.empty()) {
+    // The master plans by what the slave assigns (the SII lists the default).
+    if (pdos != before) {
+      if (auto planned = master_.set_pdos(0, true, pdos); !planned) {
+        result.error = planned.error().message();
+        return result;
+      }
+    }
+    result.done = fmt::format(
+        "the set-points already in the outputs; {}; a process data cycle "
+        "every {}",
+        sync, profile::format_duration(period));
+    return result;
+  }
+  // Another RxPDO for the missing ones (ETG.1000.6: PDO configuration in PREOP): an unassigned
+  // one that maps them already (a fixed mapping: only assigned), else the first unassigned
+  // one, its mapping written.
+  std::optional<ethercat::SiiPdo> chosen;
+  bool rewrite = false;
+  std::optional<ethercat::SiiPdo> first_free;
+  for (std::uint16_t index = 0x1600; index <= 0x160F && !chosen; ++index) {
+    if (std::any_of(pdos.begin(), pdos.end(),
+                    [index](const ethercat::SiiPdo& p) { return p.index == index; }))
+      continue;
+    std::string ignored;
+    auto pdo = read_pdo(index, ignored);
+    if (!pdo) continue;
+    const bool holds = std::all_of(missing.begin(), missing.end(), [&](const CyclicSetPoint* p) {
+      return std::any_of(pdo->entries.begin(), pdo->entries.end(), [p](const auto& e) {
+        return e.index == p->index && e.subindex == p->sub;
+      });
+    });
+    if (holds) {
+      chosen = std::move(*pdo);
+    } else if (!first_free) {
+      first_free = std::move(*pdo);
+    }
+  }
+  if (!chosen && first_free) {
+    chosen = first_free;
+    rewrite = true;
+  }
+  if (!chosen) {
+    result.not_applicable = fmt::format(
+        "no RxPDO among 1600h-160Fh beside the assigned ones to carry {} (the set-points must "
+        "be in the process data outputs)",
+        fmt::join(names, ", "));
+    return result;
+  }
+  CyclicChange change;
+  change.master_before = before;
+  change.assigned = static_cast<std::uint8_t>(*assigned_count);
+  change.pdo = chosen->index;
+  change.pdo_entries = chosen->entries;
+  change.rewritten = rewrite;
+  mapping_change_ = change;
+  const auto write = [this](std::uint16_t index, std::uint8_t sub, std::uint32_t value,
+                            std::size_t size) -> std::string {
+    auto done = master_.sdo_download(0, {index, sub}, le(value, size));
+    return done ? std::string()
+                : fmt::format("{:04X}h sub {} := {:X}h: {}", index, sub, value,
+                              sdo_error(done.error()));
+  };
+  std::string refused;
+  if (rewrite) {
+    // sub 0 := 0, the entries, sub 0 := their count (CiA 301 §7.5.2.36, ETG.1000.6).
+    std::vector<ethercat::SiiPdoEntry> entries;
+    refused = write(chosen->index, 0, 0, 1);
+    for (std::size_t i = 0; refused.empty() && i < missing.size(); ++i) {
+      const auto* p = missing[i];
+      const auto value = mapping_entry(p->index, p->sub, static_cast<std::uint8_t>(8 * p->size));
+      refused = write(chosen->index, static_cast<std::uint8_t>(i + 1), value, 4);
+      entries.push_back(sii_entry(value));
+    }
+    if (refused.empty())
+      refused = write(chosen->index, 0, static_cast<std::uint32_t>(missing.size()), 1);
+    chosen->entries = entries;
+  }
+  // 1C12h: sub 0 := 0, the PDO after the assigned ones, sub 0 := their count.
+  if (refused.empty()) {
+    std::string ignored;
+    mapping_change_->assignment_overwritten =
+        read(0x1C12, static_cast<std::uint8_t>(change.assigned + 1), ignored);
+    refused = write(0x1C12, 0, 0, 1);
+  }
+  if (refused.empty())
+    refused = write(0x1C12, static_cast<std::uint8_t>(change.assigned + 1), chosen->index, 2);
+  if (refused.empty())
+    refused = write(0x1C12, 0, static_cast<std::uint32_t>(change.assigned + 1), 1);
+  if (!refused.empty()) {
+    (void)restore_mapping();
+    result.not_applicable = fmt::format(
+        "the slave refused the RxPDO {:04X}h for {}: {} (the set-points must be in the process "
+        "data outputs)",
+        chosen->index, fmt::join(names, ", "), refused);
+    return result;
+  }
+  pdos.push_back(*chosen);
+  if (auto planned = master_.set_pdos(0, true, pdos); !planned) {
+    (void)restore_mapping();
+    result.not_applicable =
+        fmt::format("{} in the RxPDO {:04X}h, but the master cannot use it: {}",
+                    fmt::join(names, ", "), chosen->index, planned.error().message());
+    return result;
+  }
+  result.done = fmt::format(
+      "{} {} the RxPDO {:04X}h, assigned in 1C12h after {} RxPDO(s); {}; a process data cycle "
+      "every {}",
+      fmt::join(names, ", "), rewrite ? "mapped into" : "already in", chosen->index,
+      change.assigned, sync, profile::format_duration(period));
+  return result;
+}
+
+std::string EthercatPort::restore_cyclic() {
+  std::vector<std::string> errors;
+  if (cycle_before_) {
+    cycle_ = *cycle_before_;
+    cycle_before_.reset();
+  }
+  if (auto error = restore_mapping(); !error.empty()) errors.push_back(error);
+  if (sync_mode_before_) {
+    const auto mode = *sync_mode_before_;
+    sync_mode_before_.reset();
+    if (auto done = master_.sdo_download(0, {ethercat::kSmOutputParameter, 1}, le(mode, 2)); !done)
+      errors.push_back(fmt::format("1C32h sub 1 := {}: {}", mode, sdo_error(done.error())));
+  }
+  return fmt::format("{}", fmt::join(errors, "; "));
+}
+
+std::string EthercatPort::restore_mapping() {
+  if (!mapping_change_) return {};
+  const CyclicChange change = *mapping_change_;
+  mapping_change_.reset();
+  std::vector<std::string> errors;
+  const auto write = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t value,
+                         std::size_t size) {
+    auto done = master_.sdo_download(0, {index, sub}, le(value, size));
+    if (!done)
+      errors.push_back(fmt::format("{:04X}h sub {}: {}", index, sub, sdo_error(done.error())));
+  };
+  // 1C12h as it was (the entry past the old count only when it could be read), then the
+  // mapping of the PDO when it was written.
+  write(0x1C12, 0, 0, 1);
+  if (change.assignment_overwritten)
+    write(0x1C12, static_cast<std::uint8_t>(change.assigned + 1), *change.assignment_overwritten,
+          2);
+  write(0x1C12, 0, change.assigned, 1);
+  if (change.rewritten) {
+    write(change.pdo, 0, 0, 1);
+    for (std::size_t i = 0; i < change.pdo_entries.size(); ++i) {
+      const auto& e = change.pdo_entries[i];
+      write(change.pdo, static_cast<std::uint8_t>(i + 1),
+            mapping_entry(e.index, e.subindex, e.bit_length), 4);
+    }
+    write(change.pdo, 0, static_cast<std::uint32_t>(change.pdo_entries.size()), 1);
+  }
+  if (auto planned = master_.set_pdos(0, true, change.master_before); !planned)
+    errors.push_back(planned.error().message());
+  return fmt::format("{}", fmt::join(errors, "; "));
 }
 
 void EthercatPort::collect_emergencies(bool poll) {

@@ -124,6 +124,37 @@ class EthercatPort final : public DutPort {
   void collect_emergencies(bool poll);
   std::vector<Emergency>& emergencies() { return emergencies_; }
 
+  // ---- cyclic set-points (the `cyclic` step, FORMAT.md "Cyclic set-points") ----
+  // Before the AL state of a vector with `cyclic` steps, in INIT or PREOP, as a master sets up
+  // cyclic operation in PREOP:
+  // - every one of `points` into the process data outputs. The RxPDOs 1C12h assigns and their
+  //   mappings are read; the set-points none of them maps go into one more RxPDO (1600h-160Fh,
+  //   not assigned): one that maps them already (a fixed mapping), else the first one there,
+  //   its mapping written as ETG.1000.6 has it (sub 0 := 0, the entries, sub 0 := the count).
+  //   It is assigned after the others (1C12h sub 0 := 0, the entry, sub 0 := the count), and
+  //   the master plans its image from what the slave now assigns (Master::set_pdos);
+  // - the outputs SM-synchronous (1C32h:01 := 1, ETG.1020 as public) when 1C32h:04 says the
+  //   slave supports it: each process data frame is then the cyclic modes' SYNC. A slave
+  //   without it keeps its own synchronisation (free run: it takes the outputs every cycle);
+  // - the process data cycle every `period` (the vector's cycle) instead of every 1 ms, so
+  //   that N cycles of a `cyclic` step are N process data frames, as on CAN N SYNCs.
+  // `not_applicable`: the slave cannot carry the set-points (no 1C12h, no free RxPDO, a mapping
+  // or an assignment it refuses), and why; `error`: anything else; `done`: what was
+  // configured. Everything is put back at the next reset (on a power cycle the slave and the
+  // SII give the defaults again).
+  struct CyclicSetup {
+    std::string not_applicable;
+    std::string error;
+    std::string done;
+  };
+  CyclicSetup prepare_cyclic(std::span<const CyclicSetPoint> points, can::Duration period);
+  // prepare_cyclic changed the mapping or the sync mode; restore_cyclic() puts both back (in
+  // INIT or PREOP): "" or why not.
+  bool cyclic_configured() const { return mapping_change_ || sync_mode_before_ || cycle_before_; }
+  // When the next process data cycle is due.
+  can::TimePoint next_cycle() const { return next_cycle_; }
+  std::string restore_cyclic();
+
   // ---- raw SDO (sdo_request / expect_sdo_response, conformance/raw_sdo_steps.cpp) ----
   // `sdo` (the 8 octets of a CiA 301 SDO request) as one CoE SDO request: CoE header number 0,
   // service SDO request (ETG.1000.6), then the octets, in the write mailbox with the master's
@@ -155,6 +186,22 @@ class EthercatPort final : public DutPort {
   // otherwise runs the process data cycle that is due.
   bool before_transfer(VectorRun& run, SdoOutcome& outcome);
   void run_cycle();
+  // What prepare_cyclic changed: the RxPDO it assigned after the `assigned` ones in 1C12h
+  // (the 1C12h entry it overwrote, when readable), that PDO's entries before and whether it
+  // wrote them, and the master's RxPDO list before.
+  struct CyclicChange {
+    std::uint8_t assigned = 0;
+    std::optional<std::uint32_t> assignment_overwritten;
+    std::uint16_t pdo = 0;
+    std::vector<ethercat::SiiPdoEntry> pdo_entries;
+    bool rewritten = false;
+    std::vector<ethercat::SiiPdo> master_before;
+  };
+  // The mapping and the sync mode of before back (in PREOP): "" or why not.
+  std::string restore_mapping();
+  std::optional<CyclicChange> mapping_change_;
+  std::optional<std::uint16_t> sync_mode_before_;  // 1C32h:01 before prepare_cyclic wrote it
+  std::optional<can::Duration> cycle_before_;      // the cycle before prepare_cyclic set it
   ethercat::Master& master_;
   can::Duration cycle_;
   can::TimePoint next_cycle_{};

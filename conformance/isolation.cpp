@@ -82,6 +82,9 @@ void for_each_written(const Vector& vector, std::uint8_t node, Visit&& visit) {
       if (const auto* write = std::get_if<SdoWriteStep>(&step.action)) {
         visit(ObjectRef{write->index, write->sub},
               write->value ? std::optional<Bytes>{} : std::optional<Bytes>{write->data});
+      } else if (const auto* cyclic = std::get_if<CyclicStep>(&step.action)) {
+        for (const CyclicSetPoint& point : cyclic->set)
+          visit(ObjectRef{point.index, point.sub}, std::optional<Bytes>{});
       } else if (const auto* repeat = std::get_if<MailboxRepeatStep>(&step.action)) {
         visit(ObjectRef{repeat->index, repeat->sub}, std::optional<Bytes>{});
       } else if (const auto* send = frame_sent(step)) {  // send, sdo_request

@@ -338,6 +338,7 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     set_mark(mark->name, now(), received_.size());
     return StepStatus::ok;
   }
+  if (const auto* cyclic = std::get_if<CyclicStep>(&action)) return run_cyclic(step, *cyclic);
   if (is_ethercat_step(action)) return run_ethercat_step(step);
   return StepStatus::ok;  // an expectation: expectations.cpp
 }

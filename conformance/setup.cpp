@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <optional>
 #include <span>
 
+#include "conformance/ethercat_port.hpp"
 #include "conformance/vector_run.hpp"
 #include "protocol/cia301/data_type.hpp"
 #include "protocol/cia301/error_control.hpp"
@@ -63,25 +65,86 @@ StepStatus VectorRun::reach_drive_state(cia402::State target) {
   };
   // From wherever the drive is: fault reset if in FAULT (15), then disable voltage to SWITCH ON
   // DISABLED (7, 9, 10 or 12), then the standard path 2, 3, 4 (and 11 for QUICK STOP ACTIVE).
-  const auto read = sdo_upload({0x6041, 0});
-  if (!read.ok) return harness_error(action, "statusword 6041h unreadable: " + read.describe());
-  if (read.data.size() == 2) {
-    const auto sw = static_cast<std::uint16_t>(read.data[0] | read.data[1] << 8);
+  const auto statusword = [&]() -> std::optional<std::uint16_t> {
+    const auto read = sdo_upload({0x6041, 0});
+    if (!read.ok || read.data.size() != 2) return std::nullopt;
+    return static_cast<std::uint16_t>(read.data[0] | read.data[1] << 8);
+  };
+  const auto is_fault = [](std::uint16_t sw) {
     const auto state = cia402::decode_statusword(sw);
-    if (state == cia402::State::fault || state == cia402::State::fault_reaction_active) {
-      if (auto s = write_controlword(0x0000, action); s != StepStatus::ok)
-        return harness_error(action,
-                             "controlword 0000h refused in FAULT: " + result_.checks.back().actual);
-      if (auto s =
-              transition("15", cia402::Command::fault_reset, cia402::State::switch_on_disabled);
+    return state == cia402::State::fault || state == cia402::State::fault_reaction_active;
+  };
+  // FAULT (or a fault reaction, which ends by itself in FAULT: transition 14; a fault reset
+  // counts only in FAULT, an edge during the reaction is lost) to SWITCH ON DISABLED.
+  const auto clear_fault = [&](std::uint16_t sw) -> StepStatus {
+    if (cia402::decode_statusword(sw) == cia402::State::fault_reaction_active) {
+      const auto& fault = cia402::pattern_of(cia402::State::fault);
+      if (auto s = poll_statusword(action, fault.mask, fault.value,
+                                   fmt::format("fault reaction ended (transition 14: {}) within {}",
+                                               fault.name, profile::format_duration(state_change)),
+                                   now() + state_change);
+          s != StepStatus::ok)
+        return harness_error(action, fmt::format("the fault reaction did not end within {}: {}",
+                                                 profile::format_duration(state_change),
+                                                 result_.checks.back().actual));
+    }
+    if (auto s = write_controlword(0x0000, action); s != StepStatus::ok)
+      return harness_error(action,
+                           "controlword 0000h refused in FAULT: " + result_.checks.back().actual);
+    return transition("15", cia402::Command::fault_reset, cia402::State::switch_on_disabled);
+  };
+  const auto first = statusword();
+  if (!first) return harness_error(action, "statusword 6041h unreadable");
+  if (is_fault(*first)) {
+    if (auto s = clear_fault(*first); s != StepStatus::ok) return s;
+    if (auto s = transition("7/9/10/12", cia402::Command::disable_voltage,
+                            cia402::State::switch_on_disabled);
+        s != StepStatus::ok)
+      return s;
+  } else {
+    // Disable voltage; a fault that shows meanwhile (one the drive raised before this vector,
+    // e.g. its abort connection reaction 6007h when the previous vector left EtherCAT OP, and
+    // takes at its next control cycle) is reset first, then disable voltage again.
+    if (auto s =
+            write_controlword(cia402::controlword_of(cia402::Command::disable_voltage), action);
+        s != StepStatus::ok)
+      return harness_error(action, fmt::format("disable voltage: controlword refused: {}",
+                                               result_.checks.back().actual));
+    const auto& off = cia402::pattern_of(cia402::State::switch_on_disabled);
+    const auto deadline = now() + state_change;
+    bool faulted = false;
+    for (;;) {
+      const auto sw = statusword();
+      if (sw && (*sw & off.mask) == off.value) {
+        check(action,
+              fmt::format("state {} within {}", off.name, profile::format_duration(state_change)),
+              fmt::format("statusword {:04X}h ({})", *sw, off.name), true);
+        break;
+      }
+      if (sw && is_fault(*sw)) {
+        if (auto s = clear_fault(*sw); s != StepStatus::ok) return s;
+        faulted = true;
+        break;
+      }
+      if (now() >= deadline || vector_timed_out()) {
+        return harness_error(
+            action, fmt::format("transition 7/9/10/12 ({:04X}h {}) to {} did not happen within "
+                                "{}: statusword {} at the deadline",
+                                cia402::controlword_of(cia402::Command::disable_voltage),
+                                cia402::describe_controlword(
+                                    cia402::controlword_of(cia402::Command::disable_voltage)),
+                                off.name, profile::format_duration(state_change),
+                                sw ? fmt::format("{:04X}h", *sw) : std::string("unreadable")));
+      }
+      wait_until(std::min(deadline, now() + resolve({{}, "poll"})));
+    }
+    if (faulted) {
+      if (auto s = transition("7/9/10/12", cia402::Command::disable_voltage,
+                              cia402::State::switch_on_disabled);
           s != StepStatus::ok)
         return s;
     }
   }
-  if (auto s = transition("7/9/10/12", cia402::Command::disable_voltage,
-                          cia402::State::switch_on_disabled);
-      s != StepStatus::ok)
-    return s;
   if (target == cia402::State::switch_on_disabled) return StepStatus::ok;
   if (auto s = transition("2", cia402::Command::shutdown, cia402::State::ready_to_switch_on);
       s != StepStatus::ok)
@@ -284,6 +347,30 @@ StepStatus VectorRun::setup() {
     if (can_link) {
       if (auto s = reach_nmt_state(*vector_.nmt); s != StepStatus::ok) return s;
     } else {
+      // The cyclic set-points into the process data outputs, in PREOP before the AL state
+      // (FORMAT.md "Cyclic set-points").
+      if (auto* port = dynamic_cast<EthercatPort*>(&context_.port)) {
+        if (vector_.has_cyclic_step()) {
+          can::Duration period = std::chrono::milliseconds(1);
+          for (const Step& step : vector_.steps) {
+            if (const auto* cyclic = std::get_if<CyclicStep>(&step.action)) {
+              period = resolve(cyclic->period);
+              break;
+            }
+          }
+          const auto mapped = port->prepare_cyclic(vector_.cyclic_set_points(), period);
+          if (!mapped.error.empty()) return harness_error("setup cyclic set-points", mapped.error);
+          if (!mapped.not_applicable.empty()) {
+            message_ = mapped.not_applicable;
+            return StepStatus::not_applicable;
+          }
+          if (!mapped.done.empty())
+            check("setup cyclic set-points",
+                  "the set-points in the process data outputs, SM-synchronous where supported, "
+                  "the vector's cycle",
+                  mapped.done, true);
+        }
+      }
       const std::string name(cia301::to_string(*vector_.nmt));
       if (auto error = context_.port.enter_state(*vector_.nmt); !error.empty())
         return harness_error("setup nmt", fmt::format("{} not reached: {}", name, error));
@@ -467,6 +554,23 @@ void VectorRun::run_finally() {
 
 void VectorRun::restore() {
   tracking_writes_ = false;
+  // The PDO mapping and sync mode the setup gave the cyclic steps (FORMAT.md "Cyclic
+  // set-points") go back in PREOP (the next reset would too; a run's last vector has none).
+  if (auto* port = dynamic_cast<EthercatPort*>(&context_.port);
+      port != nullptr && port->cyclic_configured() && !context_.stalled.load()) {
+    const bool was_op = port->master().held_state() == ethercat::AlState::op;
+    std::string error = context_.port.enter_state(cia301::NmtState::pre_operational);
+    // Leaving OP is a loss of the master's connection to the drive (its 6007h reaction, e.g. a
+    // fault): let the drive take it now, not in the next vector's setup or steps.
+    if (error.empty() && was_op) {
+      const auto settle = resolve({{}, "state_change"});
+      deadline_ = std::max(deadline_, now() + settle);  // the vector's own may have passed
+      wait_until(now() + settle);
+    }
+    if (error.empty()) error = port->restore_cyclic();
+    if (!error.empty())
+      note(fmt::format("vector {}: putting the cyclic configuration back: {}", vector_.id, error));
+  }
   if (!context_.options.isolation || context_.stalled.load()) return;
   if (restored_defaults_ && context_.options.real_bus) {
     note(

@@ -295,6 +295,30 @@ struct ExpectSdoResponseStep {
   ExpectFrameStep expect;  // 580+N#<pattern>; `since:` is refused by the loader
   friend bool operator==(const ExpectSdoResponseStep&, const ExpectSdoResponseStep&) = default;
 };
+// ---- the cyclic modes' set-points on every link (FORMAT.md "Cyclic set-points") ----
+
+// One set-point of a `cyclic` step: an object the master delivers every cycle (607Ah, 60FFh,
+// 6071h, the offsets 60B0h-60B2h, 60C1h:01), `size` octets (its PDO mapping length on EtherCAT).
+struct CyclicSetPoint {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  ValueSpec value;
+  std::size_t size = 4;
+  friend bool operator==(const CyclicSetPoint&, const CyclicSetPoint&) = default;
+};
+// `cyclic: {cycles: N, period: D}` with `set:` (optional): N synchronisation cycles `period`
+// apart, the set-points given from the first one on. On CAN each set-point is an SDO download
+// (expect ok) before the first cycle and each cycle a SYNC (080h) and a wait of `period` (the
+// frames and timing the vectors had as sdo_write, send "080#", wait). On EtherCAT the
+// set-points go into the process data outputs (the setup maps them into the first RxPDO of
+// 1C12h in PREOP: ethercat_port.hpp) and the process data cycle carries them for N x `period`.
+struct CyclicStep {
+  std::size_t cycles = 1;
+  DurationSpec period;
+  std::vector<CyclicSetPoint> set;
+  friend bool operator==(const CyclicStep&, const CyclicStep&) = default;
+};
+
 // ---- EtherCAT only (FORMAT.md "EtherCAT steps"): a vector with one is `transports:
 // [ethercat]` in effect (not applicable on CAN, verdict.hpp) ----
 
@@ -356,7 +380,7 @@ using Action =
                  ExpectHeartbeatStep, ExpectEmcyStep, ExpectStateStep, ExpectStatuswordStep,
                  PollStep, MeasureStep, ExpectPeriodicStep, BusOffStep, AlRequestStep, ExpectAlStep,
                  ProcessDataStep, PauseProcessDataStep, MailboxRepeatStep, SdoRequestStep,
-                 ExpectSdoResponseStep>;
+                 ExpectSdoResponseStep, CyclicStep>;
 
 // The action key of each alternative, in variant order ("send", "nmt", ...).
 std::string_view action_name(const Action& action);
@@ -421,6 +445,9 @@ struct Vector {
   bool has_bus_off_step() const;
   // The first EtherCAT-only step (steps: then finally:) as "steps: step 2 (al_request)", or "".
   std::string ethercat_only_step() const;
+  // The set-points of the vector's `cyclic` steps (steps: then finally:), each object once.
+  std::vector<CyclicSetPoint> cyclic_set_points() const;
+  bool has_cyclic_step() const;
 };
 
 }  // namespace drivecheck::conformance

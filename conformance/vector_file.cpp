@@ -50,7 +50,8 @@ std::string_view action_name(const Action& action) {
                                                                              "pause_process_data",
                                                                              "mailbox_repeat",
                                                                              "sdo_request",
-                                                                             "expect_sdo_response"};
+                                                                             "expect_sdo_response",
+                                                                             "cyclic"};
   return kNames[action.index()];
 }
 
@@ -88,6 +89,30 @@ std::string Vector::ethercat_only_step() const {
   };
   if (auto step = check(steps, "steps:"); !step.empty()) return step;
   return check(finally_steps, "finally:");
+}
+
+std::vector<CyclicSetPoint> Vector::cyclic_set_points() const {
+  std::vector<CyclicSetPoint> out;
+  for (const auto* list : {&steps, &finally_steps}) {
+    for (const Step& step : *list) {
+      const auto* cyclic = std::get_if<CyclicStep>(&step.action);
+      if (cyclic == nullptr) continue;
+      for (const CyclicSetPoint& point : cyclic->set) {
+        const bool known = std::any_of(out.begin(), out.end(), [&](const CyclicSetPoint& p) {
+          return p.index == point.index && p.sub == point.sub;
+        });
+        if (!known) out.push_back(point);
+      }
+    }
+  }
+  return out;
+}
+
+bool Vector::has_cyclic_step() const {
+  for (const auto* list : {&steps, &finally_steps})
+    for (const Step& step : *list)
+      if (std::holds_alternative<CyclicStep>(step.action)) return true;
+  return false;
 }
 
 bool Vector::has_bus_off_step() const {
@@ -430,6 +455,7 @@ const std::vector<StepSyntax>& step_syntax() {
       {"mailbox_repeat", {}},
       {"sdo_request", {}},
       {"expect_sdo_response", {"within", "mark", "abort", "clause", "or"}},
+      {"cyclic", {"set"}},
   };
   return kSyntax;
 }
@@ -1080,6 +1106,55 @@ class Parser {
       step.expect = std::move(*expect);
       if (const auto node = modifier("within"))
         step.within = duration(node, "within").value_or(step.within);
+      return step;
+    }
+    if (action == "cyclic") {
+      CyclicStep step;
+      if (!check_map(value, "cyclic", {"cycles", "period"})) return std::nullopt;
+      if (!value["cycles"] || !value["period"]) {
+        error(value, "cyclic: 'cycles' and 'period' are required");
+        return std::nullopt;
+      }
+      auto cycles = integer<std::size_t>(value["cycles"], "cycles", 1, 10000);
+      auto period = duration(value["period"], "period");
+      if (!cycles || !period) return std::nullopt;
+      if (!period->is_timing() && (period->value <= can::Duration::zero() ||
+                                   period->value > std::chrono::milliseconds(50))) {
+        // On EtherCAT the period is the process data cycle: within the SM watchdog (100 ms
+        // by default, ESC 0420h) with room to spare.
+        error(value["period"], "cyclic: 'period' above 0 and at most 50ms");
+        return std::nullopt;
+      }
+      step.cycles = *cycles;
+      step.period = *period;
+      if (const auto set = modifier("set")) {
+        const auto one = [&](const YAML::Node& item) -> bool {
+          if (!check_map(item, "cyclic set", {"index", "sub", "value", "size"})) return false;
+          if (!item["value"] || !item["size"]) {
+            error(item, "cyclic set: 'value' and 'size' are required");
+            return false;
+          }
+          auto idx = index(item, "cyclic set");
+          auto sb = sub(item, "cyclic set");
+          auto v = value_spec(item["value"], "value");
+          auto size = integer<std::size_t>(item["size"], "size", 1, 8);
+          if (!idx || !sb || !v || !size) return false;
+          for (const auto& other : step.set) {
+            if (other.index == *idx && other.sub == *sb) {
+              error(item, fmt::format("cyclic set: {:04X}h sub {} twice", *idx, *sb));
+              return false;
+            }
+          }
+          step.set.push_back(CyclicSetPoint{*idx, *sb, *v, *size});
+          return true;
+        };
+        if (set.IsSequence()) {
+          for (const auto& item : set)
+            if (!one(item)) return std::nullopt;
+        } else if (!one(set)) {
+          return std::nullopt;
+        }
+      }
       return step;
     }
     if (action == "process_data") {

@@ -66,6 +66,9 @@ std::vector<Touch> touches(const Vector& vector) {
         found.push_back({read->index, read->sub, step.line, "sdo_read"});
     } else if (const auto* poll = std::get_if<PollStep>(&step.action)) {
       found.push_back({poll->index, poll->sub, step.line, "poll"});
+    } else if (const auto* cyclic = std::get_if<CyclicStep>(&step.action)) {
+      for (const CyclicSetPoint& point : cyclic->set)
+        found.push_back({point.index, point.sub, step.line, "cyclic set"});
     } else if (std::holds_alternative<ControlwordStep>(step.action)) {
       found.push_back({0x6040, 0, step.line, "controlword"});
     } else if (std::holds_alternative<ExpectStateStep>(step.action) ||

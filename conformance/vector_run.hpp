@@ -143,6 +143,9 @@ class VectorRun {
                           Transfer transfer = Transfer::automatic,
                           std::optional<can::Duration> timeout = std::nullopt);
   StepStatus run_stimulus(const Step& step);
+  // ---- cyclic_steps.cpp ----
+  // `cyclic`: the cyclic modes' set-points and synchronisation on either link.
+  StepStatus run_cyclic(const Step& step, const CyclicStep& cyclic);
 
   // ---- expectations.cpp ----
   StepStatus run_expectation(const Step& step);

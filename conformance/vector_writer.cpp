@@ -437,6 +437,27 @@ class Writer {
     plain(fmt::format("{}", s.cycles));
     out_ << YAML::EndMap;
   }
+  void action(const CyclicStep& s) {
+    key("cyclic");
+    out_ << YAML::Flow << YAML::BeginMap;
+    key("cycles");
+    plain(fmt::format("{}", s.cycles));
+    duration_key("period", s.period);
+    out_ << YAML::EndMap;
+    if (s.set.empty()) return;
+    key("set");
+    out_ << YAML::BeginSeq;
+    for (const CyclicSetPoint& point : s.set) {
+      out_ << YAML::Flow << YAML::BeginMap;
+      index_sub(point.index, point.sub);
+      key("value");
+      quoted(value_text(point.value));
+      key("size");
+      plain(fmt::format("{}", point.size));
+      out_ << YAML::EndMap;
+    }
+    out_ << YAML::EndSeq;
+  }
   void action(const PauseProcessDataStep& s) {
     if (s.duration) {
       duration_key("pause_process_data", *s.duration);

@@ -71,6 +71,35 @@ Expected<void, MasterError> Master::scan() {
   return {};
 }
 
+Expected<void, MasterError> Master::set_pdos(std::size_t slave, bool outputs,
+                                             std::vector<SiiPdo> pdos) {
+  if (auto ok = check_slave(slave); !ok) return ok;
+  if (cycling_ || rank(held_) > rank(AlState::preop)) {
+    return master_error(MasterErrc::not_configured,
+                        "a PDO configuration only in INIT or PREOP (the SMs are set on the way "
+                        "to SAFEOP)");
+  }
+  std::vector<SlaveLayout> layouts;
+  for (std::size_t i = 0; i < slaves_.size(); ++i) {
+    SiiImage image = slaves_[i].sii.image;
+    if (i == slave) (outputs ? image.rx_pdos : image.tx_pdos) = pdos;
+    auto layout = plan_slave(image, slaves_[i].info.station);
+    if (!layout) return Unexpected(layout.error());
+    layouts.push_back(std::move(*layout));
+  }
+  const std::size_t size = assign_logical_addresses(layouts, config_.logical_base);
+  if (size + 2 * kDatagramOverhead + 2 > kMaxDatagramBytes) {
+    return master_error(MasterErrc::frame_too_long,
+                        fmt::format("the process image of {} bytes does not fit one frame", size));
+  }
+  auto& image = slaves_[slave].sii.image;
+  (outputs ? image.rx_pdos : image.tx_pdos) = std::move(pdos);
+  for (std::size_t i = 0; i < slaves_.size(); ++i)
+    slaves_[i].layout = layouts[i];
+  image_ = ProcessImage(layouts, config_.logical_base, size);
+  return {};
+}
+
 void Master::restart_mailbox(std::size_t slave) {
   if (slaves_[slave].mailbox) slaves_[slave].mailbox->protocol().reset();
 }

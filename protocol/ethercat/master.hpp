@@ -104,6 +104,14 @@ class Master {
   std::optional<std::uint64_t> input(std::size_t slave, Multiplexer mux) const;
   bool set_output(std::size_t slave, Multiplexer mux, std::uint64_t value);
 
+  // A PDO configuration the slave was given over CoE in PREOP (ETG.1000.6: 1600h+/1A00h+
+  // mapping, 1C12h/1C13h assignment): `pdos` (each with its SM and entries, in assignment
+  // order) replace the RxPDOs (`outputs`) or TxPDOs the SII lists for the slave, and the SMs,
+  // FMMUs and process image are planned again (they are written on the way to SAFEOP). Only
+  // while every slave is in INIT or PREOP. Errors: not_configured (no such slave, or past
+  // PREOP), sii_unsupported (no SM room), frame_too_long.
+  Expected<void, MasterError> set_pdos(std::size_t slave, bool outputs, std::vector<SiiPdo> pdos);
+
   // AL status and code of every slave now.
   Expected<std::vector<AlReading>, MasterError> read_states();
 

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -167,6 +168,116 @@ TEST_F(EthercatIsolationTest, CompleteAccessVectorFailsWhenTheBitIsIgnored) {
   EXPECT_TRUE(result.vectors[0].warning);
   EXPECT_NE(result.vectors[0].message.find("step 4"), std::string::npos)
       << result.vectors[0].message;
+}
+
+// ---- cyclic set-points (FORMAT.md "Cyclic set-points") ----
+
+// A vector whose `cyclic` step gives 60B0h (not in the default RxPDO 1600h) only through the
+// process data, then reads it back by SDO.
+constexpr const char* kCyclicOffset = R"(- id: t/cyclic
+  title: t
+  source: "CiA 402-2 §1"
+  transports: [ethercat]
+  setup: reset-node
+  nmt: operational
+  steps:
+    - cyclic: {cycles: 3, period: 10ms}
+      set: {index: 0x60B0, sub: 0, value: 77, size: 4}
+    - sdo_read: {index: 0x60B0, sub: 0}
+      expect: {value: 77}
+)";
+
+std::uint64_t read_value(ethercat::Master& master, std::uint16_t index, std::uint8_t sub) {
+  auto value = master.sdo_upload(0, {index, sub});
+  EXPECT_TRUE(value) << fmt::format("{:04X}h sub {}", index, sub);
+  return value ? cia301::load_unsigned(*value) : 0xDEADBEEF;
+}
+
+TEST_F(EthercatIsolationTest, CyclicSetPointTravelsInTheOutputsAndTheMappingGoesBack) {
+  // Given a vector that gives the position offset 60B0h only in the cyclic outputs, and the
+  // slave's RxPDO 1600h (2 entries), 1C32h:01 (free run) and 60B0h before
+  ASSERT_EQ(read_value(rig_.master(), 0x1C12, 0), 1U);
+  ASSERT_EQ(read_value(rig_.master(), 0x1601, 1), 0x60FF0020U);
+  ASSERT_EQ(read_value(rig_.master(), 0x1C32, 1), 0U);
+  const auto offset_before = read_value(rig_.master(), 0x60B0, 0);
+  ASSERT_NE(offset_before, 77U);
+  // When it runs on EtherCAT (no power cycle: only the engine can put things back)
+  Engine engine(rig_.clock(), rig_.port(), profile_, {});
+  const RunResult result = engine.run(parse(kCyclicOffset));
+  // Then the setup mapped 60B0h into 1601h (assigned after 1600h) and made the outputs
+  // SM-synchronous, the drive took 77 from the process data, and afterwards assignment,
+  // mapping, sync mode and 60B0h are as before
+  ASSERT_EQ(result.vectors.size(), 1U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::pass) << result.vectors[0].message;
+  bool mapped = false;
+  for (const auto& check : result.vectors[0].checks) {
+    mapped |= check.ok && check.action == "setup cyclic set-points" &&
+              check.actual.find("60B0h sub 0 (32 bits) mapped into the RxPDO 1601h") !=
+                  std::string::npos &&
+              check.actual.find("1C32h:01 := 1") != std::string::npos;
+  }
+  EXPECT_TRUE(mapped);
+  EXPECT_EQ(read_value(rig_.master(), 0x1C12, 0), 1U);
+  EXPECT_EQ(read_value(rig_.master(), 0x1601, 0), 1U);
+  EXPECT_EQ(read_value(rig_.master(), 0x1601, 1), 0x60FF0020U);
+  EXPECT_EQ(read_value(rig_.master(), 0x1C32, 1), 0U);
+  EXPECT_EQ(read_value(rig_.master(), 0x60B0, 0), offset_before);
+  EXPECT_FALSE(rig_.master().locate(0, {0x60B0, 0}));
+  EXPECT_TRUE(result.harness_notes.empty());
+}
+
+TEST_F(EthercatIsolationTest, CyclicSetPointWithoutAMappableRxPdoIsNotApplicable) {
+  // Given a slave whose RxPDO assignment 1C12h does not exist over CoE (no PDO configuration)
+  reference_drive::ethercat::EthercatDriveOptions options;
+  profile::CoeRules rules;
+  rules.absent_objects = {{0x1C12, 0x1C12}};
+  rules.sources = {"t"};
+  options.coe = rules;
+  test_support::EthercatRig rig(options);
+  ASSERT_TRUE(rig.ready());
+  // When the vector runs on it
+  Engine engine(rig.clock(), rig.port(), profile_, {});
+  const RunResult result = engine.run(parse(kCyclicOffset));
+  // Then it is not applicable, naming the assignment and the abort
+  ASSERT_EQ(result.vectors.size(), 1U);
+  EXPECT_EQ(result.vectors[0].verdict, Verdict::not_applicable) << result.vectors[0].message;
+  EXPECT_NE(result.vectors[0].message.find("1C12h"), std::string::npos)
+      << result.vectors[0].message;
+  EXPECT_NE(result.vectors[0].message.find("06020000h"), std::string::npos)
+      << result.vectors[0].message;
+}
+
+// The vectors of vectors/cia402/<file> whose id starts with `prefix`.
+std::vector<Vector> tree_vectors(const std::string& file, const std::string& prefix) {
+  std::ifstream in(std::string(DRIVECHECK_VECTORS_DIR) + "/cia402/" + file);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::vector<Vector> out;
+  for (auto& vector : parse(text.str())) {
+    if (vector.id.rfind(prefix, 0) == 0) out.push_back(std::move(vector));
+  }
+  return out;
+}
+
+TEST_F(EthercatIsolationTest, CyclicModeVectorsRunBackToBackWithoutPowerCycle) {
+  // Given the csp/csv/cst and ip vectors and the reference profile, on a slave that is not
+  // power-cycled between them (as over veth)
+  auto reference = profile::find_profile("cia402-reference",
+                                         std::filesystem::path(DRIVECHECK_VECTORS_DIR) / "drives");
+  ASSERT_TRUE(reference) << reference.error().to_string();
+  auto vectors = tree_vectors("cyclic.yaml", "cia402/c");
+  auto ip = tree_vectors("ip.yaml", "cia402/ip/");
+  vectors.insert(vectors.end(), ip.begin(), ip.end());
+  ASSERT_GT(vectors.size(), 20U);
+  // When they run one after the other
+  Engine engine(rig_.clock(), rig_.port(), *reference, {});
+  const RunResult result = engine.run(vectors);
+  // Then none fails or errors (each one's cyclic configuration went back before the next)
+  for (const auto& v : result.vectors) {
+    EXPECT_TRUE(v.verdict == Verdict::pass || v.verdict == Verdict::not_applicable)
+        << v.id << ": " << v.message;
+  }
+  EXPECT_TRUE(result.harness_notes.empty());
 }
 
 }  // namespace

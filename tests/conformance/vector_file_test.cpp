@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -457,6 +458,53 @@ TEST(VectorFile, EthercatStepErrorsNameTheLine) {
             "execution could not be seen)");
   EXPECT_EQ(only_error(steps + "    - pause_process_data: 11s\n"),
             "v.yaml:6: pause_process_data: 'watchdog', or a duration above 0 and at most 10s");
+}
+
+TEST(VectorFile, CyclicStepTakesCyclesPeriodAndSetPoints) {
+  // Given a cyclic step with two set-points, one of them a saved value
+  const auto set = parse_vectors(std::string(kHead) +
+                                     "  steps:\n"
+                                     "    - sdo_read: {index: 0x6064, sub: 0}\n"
+                                     "      save: p\n"
+                                     "    - cyclic: {cycles: 5, period: 10ms}\n"
+                                     "      set:\n"
+                                     "        - {index: 0x607A, sub: 0, value: $p+10, size: 4}\n"
+                                     "        - {index: 0x60B2, sub: 0, value: -100, size: 2}\n",
+                                 "v.yaml");
+  // When it is parsed
+  // Then the step holds them, and the vector lists them as its set-points
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& v = set.vectors.front();
+  const auto& cyclic = std::get<CyclicStep>(v.steps[1].action);
+  EXPECT_EQ(cyclic.cycles, 5U);
+  EXPECT_EQ(cyclic.period.value, std::chrono::milliseconds(10));
+  ASSERT_EQ(cyclic.set.size(), 2U);
+  EXPECT_EQ(cyclic.set[0].value.saved, "p");
+  EXPECT_EQ(cyclic.set[0].value.offset, 10);
+  EXPECT_EQ(cyclic.set[1].size, 2U);
+  EXPECT_TRUE(v.has_cyclic_step());
+  EXPECT_EQ(v.cyclic_set_points().size(), 2U);
+  EXPECT_TRUE(v.ethercat_only_step().empty());
+}
+
+TEST(VectorFile, CyclicStepErrorsNameTheLine) {
+  // Given cyclic steps without a period, with a period past 50 ms, with a set-point twice and
+  // with a set-point without its size
+  // When each is parsed
+  // Then each is one error at the step's line
+  const std::string steps = std::string(kHead) + "  steps:\n";
+  EXPECT_EQ(only_error(steps + "    - cyclic: {cycles: 5}\n"),
+            "v.yaml:6: cyclic: 'cycles' and 'period' are required");
+  EXPECT_EQ(only_error(steps + "    - cyclic: {cycles: 5, period: 100ms}\n"),
+            "v.yaml:6: cyclic: 'period' above 0 and at most 50ms");
+  EXPECT_EQ(only_error(steps + "    - cyclic: {cycles: 1, period: 10ms}\n"
+                               "      set:\n"
+                               "        - {index: 0x607A, sub: 0, value: 1, size: 4}\n"
+                               "        - {index: 0x607A, sub: 0, value: 2, size: 4}\n"),
+            "v.yaml:9: cyclic set: 607Ah sub 0 twice");
+  EXPECT_EQ(only_error(steps + "    - cyclic: {cycles: 1, period: 10ms}\n"
+                               "      set: {index: 0x607A, sub: 0, value: 1}\n"),
+            "v.yaml:7: cyclic set: 'value' and 'size' are required");
 }
 
 TEST(VectorFile, ValueMustFitItsSize) {

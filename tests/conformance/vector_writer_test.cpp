@@ -135,6 +135,11 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
       within: $timing.response
     - expect_al: {state: preop}
     - process_data: {cycles: 100000}
+    - cyclic: {cycles: 3, period: 10ms}
+    - cyclic: {cycles: 1, period: $timing.poll}
+      set:
+        - {index: 0x607A, sub: 0, value: $mode_seen+10, size: 4}
+        - {index: 0x60B2, sub: 0, value: -100, size: 2}
     - pause_process_data: watchdog
     - pause_process_data: 150ms
     - mailbox_repeat: {index: 0x6083, sub: 0, size: 4, value: -1, repeat: 4294967295}
