@@ -164,7 +164,7 @@ class Engine::Impl {
       result.warning = false;
       result.message = fmt::format(
           "interrupted by the user {}: no verdict (the checks and frames so far are kept)",
-          step < vector.steps.size() ? fmt::format("in step {}", step + 1)
+          step < vector.steps.size() ? fmt::format("in {}", step_place(vector.steps, step))
                                      : std::string("in the setup"));
       keep_head_and_tail(result);
       result.finished = bus_.now();

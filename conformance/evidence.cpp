@@ -111,7 +111,7 @@ void VectorRun::on_echo(can::TimePoint at) {
 }
 
 void VectorRun::note_harness_late(std::string why) {
-  if (harness_late_.empty()) harness_late_ = fmt::format("step {}: {}", step_index_ + 1, why);
+  if (harness_late_.empty()) harness_late_ = fmt::format("{}: {}", current_place(), why);
 }
 
 void VectorRun::drain() {
@@ -173,9 +173,9 @@ StepStatus VectorRun::fail_timed(std::string action, std::string expected, std::
   if (harness_late_.empty())
     return fail(std::move(action), std::move(expected), std::move(actual), std::move(observed));
   message_ = fmt::format(
-      "error: harness late in step {} {} (line {}): {}; the check is not charged to the device:\n"
+      "error: harness late in {} {} (line {}): {}; the check is not charged to the device:\n"
       "  Expected: {}\n  Actual:   {}",
-      step_index_ + 1, action,
+      current_place(), action,
       step_index_ < vector_.steps.size() ? vector_.steps[step_index_].line : vector_.line,
       harness_late_, expected, actual);
   check(std::move(action), std::move(expected),
@@ -211,20 +211,32 @@ void VectorRun::sample(std::uint16_t index, std::uint8_t sub, std::span<const st
   if (index == 0x6041) last_statusword_ = static_cast<std::uint16_t>(raw);
 }
 
-// Steps are numbered from 1 as the vector file lists them; 0 is the setup (step_index_ is past
-// the steps while setup and teardown run). The message, the checks and every report use this.
-static std::size_t step_number(std::size_t index, std::size_t steps) {
-  return index < steps ? index + 1 : 0;
+// Steps are numbered from 1 as the vector file lists them (Step::number: a `repeat:` and each
+// step in it counted once), a step in a repeat with its iteration; 0 is the setup (step_index_
+// is past the steps while setup and teardown run). The message, the checks and every report
+// use this.
+std::size_t VectorRun::current_number() const {
+  return step_index_ < vector_.steps.size() ? step_number(vector_.steps, step_index_) : 0;
+}
+
+std::vector<Iteration> VectorRun::current_iterations() const {
+  return step_index_ < vector_.steps.size() ? iterations_of(vector_.steps[step_index_])
+                                            : std::vector<Iteration>{};
+}
+
+std::string VectorRun::current_place() const {
+  return step_label(current_number(), current_iterations());
 }
 
 void VectorRun::check(std::string action, std::string expected, std::string actual, bool ok) {
-  result_.checks.push_back(Check{step_number(step_index_, vector_.steps.size()),
+  result_.checks.push_back(Check{current_number(),
                                  std::move(action),
                                  std::move(expected),
                                  std::move(actual),
                                  ok,
                                  now(),
-                                 {}});
+                                 {},
+                                 current_iterations()});
 }
 
 std::string VectorRun::recent_frames(std::size_t from_index, std::size_t max) const {
@@ -265,9 +277,9 @@ StepStatus VectorRun::fail(std::string action, std::string expected, std::string
                           profile::format_duration(resolve(vector_.timeout)));
   // The first line says it all on one line (CI systems show only that, as JUnit's failure
   // message): where in the vector file, which step, Expected and Actual. The block follows.
-  const std::size_t step = step_number(step_index_, vector_.steps.size());
   const std::size_t line = step_line();
-  const std::string where = step != 0 ? fmt::format("step {} {}", step, action) : action;
+  const std::string where =
+      current_number() != 0 ? fmt::format("{} {}", current_place(), action) : action;
   message_ = fmt::format("{}:{}: {}: Expected {}; Actual {}\n  Expected: {}\n  Actual:   {}",
                          vector_.file, line, where, expected, actual, expected, actual);
   check(std::move(action), std::move(expected), std::move(actual), false);
@@ -283,10 +295,10 @@ std::size_t VectorRun::step_line() const {
 }
 
 StepStatus VectorRun::harness_error(std::string action, std::string message) {
-  const std::size_t step = step_number(step_index_, vector_.steps.size());
+  const bool in_step = current_number() != 0;
   message_ = fmt::format("{}:{}: harness error in {}: {}", vector_.file,
-                         step != 0 ? vector_.steps[step_index_].line : vector_.line,
-                         step != 0 ? fmt::format("step {} {}", step, action) : action, message);
+                         in_step ? vector_.steps[step_index_].line : vector_.line,
+                         in_step ? fmt::format("{} {}", current_place(), action) : action, message);
   check(std::move(action), "a step the harness can carry out", std::move(message), false);
   return StepStatus::harness_error;
 }

@@ -92,6 +92,32 @@ struct Observation {
   friend bool operator==(const Observation&, const Observation&) = default;
 };
 
+// The pass of a `repeat:` a step ran in (FORMAT.md "Repeated steps"): `number` of `of`.
+struct Iteration {
+  std::size_t number = 0;  // 1..of
+  std::size_t of = 0;
+  friend bool operator==(const Iteration&, const Iteration&) = default;
+};
+
+// "iteration 117 of 254"; nested, innermost first: "iteration 2 of 5 in iteration 117 of 254".
+inline std::string iteration_text(const std::vector<Iteration>& iterations) {
+  std::string text;
+  for (auto it = iterations.rbegin(); it != iterations.rend(); ++it) {
+    if (!text.empty()) text += " in ";
+    text += "iteration " + std::to_string(it->number) + " of " + std::to_string(it->of);
+  }
+  return text;
+}
+
+// How every report and message names a step: "setup" (0), "step 19", "step 19 (iteration 117
+// of 254)".
+inline std::string step_label(std::size_t step, const std::vector<Iteration>& iterations) {
+  if (step == 0) return "setup";
+  std::string text = "step " + std::to_string(step);
+  if (!iterations.empty()) text += " (" + iteration_text(iterations) + ")";
+  return text;
+}
+
 // One checked expectation: what the step required and what was seen.
 struct Check {
   // The step, numbered from 1 as the vector file lists them (the same number as in the
@@ -105,6 +131,8 @@ struct Check {
   // (the timing diagram and the transcript mark it for a failed check). Absent: not recorded.
   std::optional<can::TimePoint> at = std::nullopt;
   Observation observed;  // failed checks: what the DUT did, typed
+  // A step inside `repeat:`: the pass of each repeat it ran in, outermost first (empty: none).
+  std::vector<Iteration> iterations = {};
 };
 
 // A timing the vector measured (measure, expect_periodic, within-bounds of interest).

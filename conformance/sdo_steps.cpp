@@ -177,10 +177,10 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
           value = fmt::format("{}", *resolved);
       }
       message_ = fmt::format(
-          "device refused {:04X}h{} = {} ({:08X}h), a value it may refuse ({}): step {}, "
+          "device refused {:04X}h{} = {} ({:08X}h), a value it may refuse ({}): {}, "
           "{}:{}",
           write->index, write->sub == 0 ? std::string() : fmt::format(" sub {}", write->sub), value,
-          *outcome.abort, step.clause, step_index_ + 1, vector_.file, step.line);
+          *outcome.abort, step.clause, current_place(), vector_.file, step.line);
       return StepStatus::not_applicable;
     }
     const auto expected = fmt::format("{}: ok", what);

@@ -538,12 +538,12 @@ void VectorRun::run_finally() {
     StepStatus status = run_stimulus(step);
     if (status == StepStatus::ok) status = run_expectation(step);
     if (status != StepStatus::ok) {
-      note(fmt::format("vector {}: finally step {} ({}, line {}) did not succeed: {}", vector_.id,
-                       i + 1, action_, step.line, message_));
+      note(fmt::format("vector {}: finally {} ({}, line {}) did not succeed: {}", vector_.id,
+                       step_place(vector_.finally_steps, i), action_, step.line, message_));
     }
     if (vector_timed_out()) {
-      note(fmt::format("vector {}: finally: its time budget ({}) ran out at step {}", vector_.id,
-                       profile::format_duration(budget), i + 1));
+      note(fmt::format("vector {}: finally: its time budget ({}) ran out at {}", vector_.id,
+                       profile::format_duration(budget), step_place(vector_.finally_steps, i)));
       break;
     }
     if (context_.stalled.load()) break;

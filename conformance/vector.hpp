@@ -385,6 +385,24 @@ using Action =
 // The action key of each alternative, in variant order ("send", "nmt", ...).
 std::string_view action_name(const Action& action);
 
+// A `repeat:` a step ran in (FORMAT.md "Repeated steps"): the loader unrolls `repeat: {times,
+// steps}` into `times` copies of its steps, each copy knowing the repeat and the pass it is.
+struct StepRepeat {
+  std::size_t number = 0;     // the repeat's own step number (Step::number)
+  std::size_t times = 0;      // 1..kMaxRepeatTimes
+  std::size_t iteration = 0;  // 1..times
+  std::string note;           // the repeat's `note:`
+  std::size_t line = 0;       // YAML line of the repeat
+  // Equal in meaning (the YAML line is not compared).
+  friend bool operator==(const StepRepeat& a, const StepRepeat& b) {
+    return a.number == b.number && a.times == b.times && a.iteration == b.iteration &&
+           a.note == b.note;
+  }
+};
+inline constexpr std::size_t kMaxRepeatTimes = 1000;
+inline constexpr std::size_t kMaxRepeatDepth = 2;        // a repeat in a repeat, no deeper
+inline constexpr std::size_t kMaxUnrolledSteps = 10000;  // per step list, after unrolling
+
 struct Step {
   Action action;
   std::string note;
@@ -393,7 +411,20 @@ struct Step {
   // (FORMAT.md "Timing"), and for expect_frame also its literal abort code. Last, so that the
   // aggregate initialisations {action, note, line} keep their meaning.
   std::string clause;
+  // The step's number as the file lists the steps, from 1, a `repeat:` and each step in it
+  // counted once (in document order); every report and message uses it. 0: not set (a step
+  // made in code: its position + 1, see step_number).
+  std::size_t number = 0;
+  // The repeats it runs in, outermost first (empty: none), with the pass of each.
+  std::vector<StepRepeat> repeats = {};
 };
+
+// The number of steps[index] as messages and reports give it (Step::number, else index + 1).
+std::size_t step_number(const std::vector<Step>& steps, std::size_t index);
+// The passes of the repeats a step runs in, outermost first (result.hpp Iteration).
+std::vector<Iteration> iterations_of(const Step& step);
+// "step 19" or "step 19 (iteration 117 of 254)" (result.hpp step_label).
+std::string step_place(const std::vector<Step>& steps, std::size_t index);
 
 // The CAN form of a step: the SendStep of a `send` or an `sdo_request`, the ExpectFrameStep of
 // an `expect_frame` or an `expect_sdo_response` (nullptr otherwise).

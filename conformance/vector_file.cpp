@@ -68,6 +68,24 @@ const ExpectFrameStep* frame_expected(const Step& step) {
   return nullptr;
 }
 
+std::size_t step_number(const std::vector<Step>& steps, std::size_t index) {
+  if (index < steps.size() && steps[index].number != 0) return steps[index].number;
+  return index + 1;
+}
+
+std::vector<Iteration> iterations_of(const Step& step) {
+  std::vector<Iteration> iterations;
+  iterations.reserve(step.repeats.size());
+  for (const StepRepeat& repeat : step.repeats)
+    iterations.push_back(Iteration{repeat.iteration, repeat.times});
+  return iterations;
+}
+
+std::string step_place(const std::vector<Step>& steps, std::size_t index) {
+  return step_label(step_number(steps, index),
+                    index < steps.size() ? iterations_of(steps[index]) : std::vector<Iteration>{});
+}
+
 std::string Vector::ethercat_only_step() const {
   const auto check = [](const std::vector<Step>& list, const char* where) -> std::string {
     for (std::size_t i = 0; i < list.size(); ++i) {
@@ -77,12 +95,12 @@ std::string Vector::ethercat_only_step() const {
           std::holds_alternative<ProcessDataStep>(action) ||
           std::holds_alternative<PauseProcessDataStep>(action) ||
           std::holds_alternative<MailboxRepeatStep>(action))
-        return fmt::format("{} step {} ({})", where, i + 1, action_name(action));
+        return fmt::format("{} {} ({})", where, step_place(list, i), action_name(action));
       const auto* write = std::get_if<SdoWriteStep>(&action);
       const auto* read = std::get_if<SdoReadStep>(&action);
       if ((write != nullptr && write->transfer == Transfer::complete_access) ||
           (read != nullptr && read->transfer == Transfer::complete_access))
-        return fmt::format("{} step {} ({} with complete access)", where, i + 1,
+        return fmt::format("{} {} ({} with complete access)", where, step_place(list, i),
                            action_name(action));
     }
     return {};
@@ -1570,6 +1588,91 @@ class Parser {
     return std::nullopt;
   }
 
+  // A list of steps (`steps:`, `finally:`, a repeat's `steps:`) with its repeats unrolled
+  // (FORMAT.md "Repeated steps"). `number`: the last step number given, in document order (a
+  // repeat and each step in it counted once); `depth`: the repeats around the list.
+  void parse_step_list(const YAML::Node& list, std::vector<Step>& out, std::size_t depth,
+                       std::size_t& number) {
+    for (const auto& item : list) {
+      if (item.IsMap() && item["repeat"]) {
+        parse_repeat(item, out, depth, number);
+        continue;
+      }
+      ++number;
+      if (auto step = parse_step(item)) {
+        step->number = number;
+        out.push_back(std::move(*step));
+      }
+    }
+  }
+
+  // `- repeat: {times: N, steps: [...]}` (with an optional `note:`): its steps N times over.
+  void parse_repeat(const YAML::Node& node, std::vector<Step>& out, std::size_t depth,
+                    std::size_t& number) {
+    const std::size_t own = ++number;
+    bool ok = true;
+    for (const auto& entry : node) {
+      const auto key = entry.first.Scalar();
+      if (key != "repeat" && key != "note") {
+        error(entry.first, fmt::format("repeat: unknown key '{}' (allowed: repeat, note)", key));
+        ok = false;
+      }
+    }
+    std::string note;
+    if (const auto node_note = node["note"]) note = scalar(node_note, "note").value_or("");
+    const YAML::Node value = node["repeat"];
+    if (!value.IsMap()) {
+      error(value, "repeat: expected a map {times: N, steps: [...]}");
+      return;
+    }
+    for (const auto& entry : value) {
+      const auto key = entry.first.Scalar();
+      if (key != "times" && key != "steps") {
+        error(entry.first, fmt::format("repeat: unknown key '{}' (allowed: times, steps)", key));
+        ok = false;
+      }
+    }
+    if (depth >= kMaxRepeatDepth) {
+      error(node, fmt::format("repeat: nested too deep (at most {} repeats inside each other)",
+                              kMaxRepeatDepth));
+      return;
+    }
+    std::optional<std::size_t> times;
+    if (const auto times_node = value["times"]) {
+      times = integer<std::size_t>(times_node, "repeat: times", 1,
+                                   static_cast<std::int64_t>(kMaxRepeatTimes));
+    } else {
+      error(value, "repeat: 'times:' is required (1..1000)");
+    }
+    const YAML::Node steps = value["steps"];
+    if (!steps) {
+      error(value, "repeat: 'steps:' is required (a non-empty list of steps)");
+      return;
+    }
+    if (!steps.IsSequence() || steps.size() == 0) {
+      error(steps, "repeat: steps: expected a non-empty list of steps");
+      return;
+    }
+    std::vector<Step> body;
+    const std::size_t errors_before = out_.errors.size();
+    parse_step_list(steps, body, depth + 1, number);
+    if (!ok || !times || out_.errors.size() != errors_before || body.empty()) return;
+    if (out.size() + *times * body.size() > kMaxUnrolledSteps) {
+      error(node, fmt::format("repeat: {} x {} steps make more than {} steps in this list", *times,
+                              body.size(), kMaxUnrolledSteps));
+      return;
+    }
+    const std::size_t line = line_of(node);
+    out.reserve(out.size() + *times * body.size());
+    for (std::size_t iteration = 1; iteration <= *times; ++iteration) {
+      for (const Step& step : body) {
+        Step copy = step;
+        copy.repeats.insert(copy.repeats.begin(), StepRepeat{own, *times, iteration, note, line});
+        out.push_back(std::move(copy));
+      }
+    }
+  }
+
   std::optional<Step> parse_step(const YAML::Node& node) {
     if (!node.IsMap()) {
       error(node, "a step is a map with one action key, e.g. '- send: \"600+N#...\"'");
@@ -1599,6 +1702,7 @@ class Parser {
       std::vector<std::string_view> actions;
       for (const auto& candidate : step_syntax())
         actions.push_back(candidate.action);
+      actions.push_back("repeat");
       error(node, fmt::format("step has no action (one of: {})", fmt::join(actions, ", ")));
       return std::nullopt;
     }
@@ -1773,9 +1877,8 @@ class Parser {
       if (!steps.IsSequence() || steps.size() == 0) {
         error(steps, "steps: expected a non-empty list of steps");
       } else {
-        for (const auto& item : steps) {
-          if (auto step = parse_step(item)) vector.steps.push_back(std::move(*step));
-        }
+        std::size_t number = 0;
+        parse_step_list(steps, vector.steps, 0, number);
       }
     }
     // `finally:` after `steps:` (its steps may use the marks and saved values of the steps).
@@ -1783,9 +1886,8 @@ class Parser {
       if (!finally.IsSequence() || finally.size() == 0) {
         error(finally, "finally: expected a non-empty list of steps");
       } else {
-        for (const auto& item : finally) {
-          if (auto step = parse_step(item)) vector.finally_steps.push_back(std::move(*step));
-        }
+        std::size_t number = 0;
+        parse_step_list(finally, vector.finally_steps, 0, number);
       }
     }
     return vector;
@@ -1806,6 +1908,7 @@ std::vector<std::string_view> vector_file_keys() {
     keys.push_back(step.action);
     keys.insert(keys.end(), step.modifiers.begin(), step.modifiers.end());
   }
+  keys.insert(keys.end(), {"repeat", "times"});  // FORMAT.md "Repeated steps"
   return keys;
 }
 

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <tuple>
 #include <type_traits>
 #include <variant>
 
@@ -160,6 +161,31 @@ void lint_isolation(const Vector& vector, LintReport& report) {
                        vector.id)});
     }
   }
+}
+
+// FORMAT.md "Repeated steps": a repeat of one pass says nothing a plain step list would not.
+void lint_repeats(const Vector& vector, LintReport& report) {
+  for (const auto* steps : {&vector.steps, &vector.finally_steps}) {
+    for (const Step& step : *steps) {
+      for (const StepRepeat& repeat : step.repeats) {
+        if (repeat.times == 1 && repeat.iteration == 1) {
+          report.warnings.push_back(
+              {vector.file, static_cast<int>(repeat.line),
+               fmt::format("vector {}: repeat: times: 1 repeats nothing; write its steps out",
+                           vector.id)});
+        }
+      }
+    }
+  }
+}
+
+// The same finding at the same line once: a step in a `repeat:` is unrolled into one copy per
+// pass, and each copy is checked like any step.
+void drop_repeated_findings(std::vector<TextError>& findings) {
+  std::set<std::tuple<std::string, int, std::string>> seen;
+  std::erase_if(findings, [&](const TextError& finding) {
+    return !seen.insert({finding.file, finding.line, finding.message}).second;
+  });
 }
 
 // DESIGN.md "Safety on real drives": while a motion vector runs, the DUT consumes the harness
@@ -637,6 +663,7 @@ LintReport lint_vector_tree(const LintOptions& options) {
     }
     lint_isolation(vector, report);
     lint_dead_harness(vector, report);
+    lint_repeats(vector, report);
   }
 
   // Drive profiles: the tree's, then each user directory's.
@@ -741,6 +768,8 @@ LintReport lint_vector_tree(const LintOptions& options) {
                                              vector.id, name, fmt::join(drives_dirs, ", "))});
     }
   }
+  drop_repeated_findings(report.errors);
+  drop_repeated_findings(report.warnings);
   report.vectors = std::move(set.vectors);
   return report;
 }

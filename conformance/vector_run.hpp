@@ -211,6 +211,11 @@ class VectorRun {
   void note_download_request(cia301::Multiplexer mux, std::optional<std::size_t> size);
   void note_confirmed_download(cia301::Multiplexer mux);
   std::size_t current_step() const { return step_index_; }
+  // The current step's number (0: not in `steps:`), its repeats' passes, and both as messages
+  // name them: "step 19 (iteration 117 of 254)", "setup".
+  std::size_t current_number() const;
+  std::vector<Iteration> current_iterations() const;
+  std::string current_place() const;
 
  private:
   struct Mark {

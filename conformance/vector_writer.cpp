@@ -202,22 +202,57 @@ class Writer {
     key("timeout");
     quoted(duration_text(v.timeout));
     key("steps");
-    out_ << YAML::BeginSeq;
-    for (const Step& step : v.steps)
-      this->step(step);
-    out_ << YAML::EndSeq;
+    step_list(v.steps, 0, v.steps.size(), 0);
     if (!v.finally_steps.empty()) {
       key("finally");
-      out_ << YAML::BeginSeq;
-      for (const Step& step : v.finally_steps)
-        this->step(step);
-      out_ << YAML::EndSeq;
+      step_list(v.finally_steps, 0, v.finally_steps.size(), 0);
     }
     if (!v.note.empty()) {
       key("note");
       quoted(v.note);
     }
     out_ << YAML::EndMap;
+  }
+
+  // steps[begin, end) at `depth` repeats: the loader's unrolled repeats written back as
+  // `repeat: {times, steps}` with the steps of their first iteration.
+  void step_list(const std::vector<Step>& steps, std::size_t begin, std::size_t end,
+                 std::size_t depth) {
+    out_ << YAML::BeginSeq;
+    std::size_t i = begin;
+    while (i < end) {
+      if (steps[i].repeats.size() <= depth) {
+        step(steps[i]);
+        ++i;
+        continue;
+      }
+      const StepRepeat& repeat = steps[i].repeats[depth];
+      const auto in_repeat = [&](std::size_t k) {
+        return steps[k].repeats.size() > depth && steps[k].repeats[depth].number == repeat.number;
+      };
+      std::size_t first_end = i;
+      while (first_end < end && in_repeat(first_end) &&
+             steps[first_end].repeats[depth].iteration == steps[i].repeats[depth].iteration)
+        ++first_end;
+      std::size_t last = first_end;
+      while (last < end && in_repeat(last))
+        ++last;
+      out_ << YAML::BeginMap;
+      key("repeat");
+      out_ << YAML::BeginMap;
+      key("times");
+      plain(fmt::format("{}", repeat.times));
+      key("steps");
+      step_list(steps, i, first_end, depth + 1);
+      out_ << YAML::EndMap;
+      if (!repeat.note.empty()) {
+        key("note");
+        quoted(repeat.note);
+      }
+      out_ << YAML::EndMap;
+      i = last;
+    }
+    out_ << YAML::EndSeq;
   }
 
   void step(const Step& step) {
@@ -681,7 +716,8 @@ std::string to_yaml(const std::vector<Vector>& vectors) {
 
 bool same_content(const Vector& a, const Vector& b) {
   const auto same_step = [](const Step& x, const Step& y) {
-    return x.action == y.action && x.note == y.note && x.clause == y.clause;
+    return x.action == y.action && x.note == y.note && x.clause == y.clause &&
+           x.repeats == y.repeats;
   };
   return a.id == b.id && a.title == b.title &&
          std::equal(a.sources.begin(), a.sources.end(), b.sources.begin(), b.sources.end(),

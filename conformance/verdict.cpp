@@ -72,7 +72,7 @@ std::string can_only_step(const Vector& vector) {
       if (const auto* r = std::get_if<SdoReadStep>(&action);
           r != nullptr && r->transfer == Transfer::block)
         can = true;
-      if (can) return fmt::format("{} step {} ({})", where, i + 1, action_name(action));
+      if (can) return fmt::format("{} {} ({})", where, step_place(steps, i), action_name(action));
     }
     return {};
   };

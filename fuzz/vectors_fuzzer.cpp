@@ -3,7 +3,8 @@
 // Input: the text of a vector file. Oracles:
 //   - every error names the file and a line of the input (or 0), with a message;
 //   - nothing is dropped silently: a text that loads without errors gives one vector per item
-//     of the YAML sequence and one step per item of each vector's `steps`;
+//     of the YAML sequence and one step per item of each vector's `steps` (a `repeat:` item its
+//     steps `times` over);
 //   - the vectors that loaded (with or without errors elsewhere in the file) are written by
 //     to_yaml to text that loads without errors to vectors of the same content (same_content:
 //     all but file and line), and writing those again gives the same text.
@@ -34,8 +35,32 @@ std::string head(const std::string& text) {
   return text.size() <= 2000 ? text : text.substr(0, 2000) + "\n...";
 }
 
-// The item counts of the YAML itself: vectors, and steps of each; nullopt when the text is not
-// a sequence of maps with a `steps` sequence (the loader reports an error then anyway).
+// The steps a list of step items makes, a `repeat: {times, steps}` item its steps `times` over
+// (FORMAT.md "Repeated steps"); nullopt when a repeat is not of that shape.
+std::optional<std::size_t> unrolled_count(const YAML::Node& list) {
+  std::size_t count = 0;
+  for (const auto& item : list) {
+    if (!item.IsMap() || !item["repeat"]) {
+      ++count;
+      continue;
+    }
+    const YAML::Node repeat = item["repeat"];
+    if (!repeat.IsMap() || !repeat["times"] || !repeat["steps"] || !repeat["steps"].IsSequence())
+      return std::nullopt;
+    const auto inner = unrolled_count(repeat["steps"]);
+    if (!inner) return std::nullopt;
+    try {
+      count += repeat["times"].as<std::size_t>() * *inner;
+    } catch (const YAML::Exception&) {
+      return std::nullopt;
+    }
+  }
+  return count;
+}
+
+// The item counts of the YAML itself: vectors, and steps of each (repeats unrolled); nullopt
+// when the text is not a sequence of maps with a `steps` sequence (the loader reports an error
+// then anyway).
 std::optional<std::vector<std::size_t>> step_counts(std::string_view text) {
   try {
     const YAML::Node root = YAML::Load(std::string(text));
@@ -44,7 +69,9 @@ std::optional<std::vector<std::size_t>> step_counts(std::string_view text) {
     std::vector<std::size_t> counts;
     for (const auto& vector : root) {
       if (!vector.IsMap() || !vector["steps"] || !vector["steps"].IsSequence()) return std::nullopt;
-      counts.push_back(vector["steps"].size());
+      const auto count = unrolled_count(vector["steps"]);
+      if (!count) return std::nullopt;
+      counts.push_back(*count);
     }
     return counts;
   } catch (const YAML::Exception&) {

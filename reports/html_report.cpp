@@ -583,7 +583,7 @@ void render_timing_svg(std::string& out, const VectorResult& vector) {
                         static_cast<std::uint64_t>(t_min);
     const double x = x_of(static_cast<std::int64_t>(std::min<std::uint64_t>(offset, INT64_MAX)));
     const std::string what =
-        check->step == 0 ? std::string("setup failed") : fmt::format("step {} failed", check->step);
+        fmt::format("{} failed", conformance::step_label(check->step, check->iterations));
     fmt::format_to(std::back_inserter(out),
                    "<g class=\"failure-mark\" data-step=\"{0}\"><title>{1}: Expected {2}; Actual "
                    "{3}</title><line x1=\"{4:.1f}\" y1=\"{5}\" x2=\"{4:.1f}\" y2=\"{6}\" "
@@ -867,8 +867,8 @@ void render_transcript(std::string& out, const VectorResult& vector) {
                      check->step,
                      fmt::format("({:11.6f})",
                                  static_cast<double>((*check->at - vector.started).count()) / 1e9),
-                     check->step == 0 ? std::string("setup") : fmt::format("step {}", check->step),
-                     esc(check->expected), esc(check->actual));
+                     conformance::step_label(check->step, check->iterations), esc(check->expected),
+                     esc(check->actual));
     }
   };
   RepeatLines repeats;
@@ -951,12 +951,16 @@ void render_vector(std::string& out, const VectorResult& vector, const RunResult
         "<table class=\"checks\"><thead><tr><th>step</th><th>action</th><th>Expected</th>"
         "<th>Actual</th><th></th></tr></thead><tbody>";
     for (const auto& check : vector.checks) {
-      fmt::format_to(std::back_inserter(out),
-                     "<tr><td>{}</td><td>{}</td><td class=\"mono\">{}</td><td "
-                     "class=\"mono\">{}</td><td class=\"{}\">{}</td></tr>",
-                     check.step == 0 ? std::string("setup") : std::to_string(check.step),
-                     esc(check.action), esc(check.expected), esc(check.actual),
-                     check.ok ? "ok" : "bad", check.ok ? "ok" : "FAILED");
+      fmt::format_to(
+          std::back_inserter(out),
+          "<tr><td>{}</td><td>{}</td><td class=\"mono\">{}</td><td "
+          "class=\"mono\">{}</td><td class=\"{}\">{}</td></tr>",
+          check.step == 0 ? std::string("setup")
+          : check.iterations.empty()
+              ? std::to_string(check.step)
+              : fmt::format("{} ({})", check.step, conformance::iteration_text(check.iterations)),
+          esc(check.action), esc(check.expected), esc(check.actual), check.ok ? "ok" : "bad",
+          check.ok ? "ok" : "FAILED");
     }
     out += "</tbody></table>\n";
   }

@@ -101,6 +101,12 @@ json vector_json(const VectorResult& vector) {
               {"ok", check.ok}};
     if (check.at) c["t_ns"] = ns_of(*check.at);
     if (!check.observed.empty()) c["observed"] = observation_json(check.observed);
+    if (!check.iterations.empty()) {
+      json iterations = json::array();
+      for (const auto& iteration : check.iterations)
+        iterations.push_back({{"iteration", iteration.number}, {"of", iteration.of}});
+      c["iterations"] = std::move(iterations);
+    }
     checks.push_back(std::move(c));
   }
   out["checks"] = std::move(checks);
@@ -373,6 +379,19 @@ VectorResult read_vector(Reader& reader, const json& in, std::int64_t version) {
     check.actual = reader.string(item, "actual");
     check.ok = reader.boolean(item, "ok");
     if (item.contains("observed")) check.observed = read_observation(reader, item);
+    // Absent for a step outside any `repeat:` (and in reports written before repeats).
+    if (item.contains("iterations")) {
+      std::size_t k = 0;
+      for (const json& pass : reader.array(item, "iterations")) {
+        Scope pass_scope(reader, fmt::format("iterations[{}]", k++));
+        if (!pass.is_object()) throw ReadError{reader.where("") + ": expected an object"};
+        conformance::Iteration iteration{size_of(reader, pass, "iteration"),
+                                         size_of(reader, pass, "of")};
+        if (iteration.number == 0 || iteration.number > iteration.of)
+          throw ReadError{reader.where("iteration") + ": not within 1..of"};
+        check.iterations.push_back(iteration);
+      }
+    }
     vector.checks.push_back(std::move(check));
   }
   vector.frames = read_frames(reader, in, "frames");

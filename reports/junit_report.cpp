@@ -115,8 +115,8 @@ std::string checks_text(const VectorResult& vector) {
   for (const auto& check : vector.checks) {
     body +=
         fmt::format("{} {} ({})\n  Expected: {}\n  Actual:   {}\n", check.ok ? "ok    " : "FAILED",
-                    check.step == 0 ? std::string("setup") : fmt::format("step {}", check.step),
-                    check.action, check.expected, check.actual);
+                    conformance::step_label(check.step, check.iterations), check.action,
+                    check.expected, check.actual);
   }
   for (const auto& timing : vector.timings) {
     body += fmt::format("{} timing {}: measured {}", timing.ok ? "ok    " : "FAILED", timing.name,
@@ -134,7 +134,9 @@ std::string failure_body(const VectorResult& vector, const RunResult& result) {
   std::string body = vector_header(vector, result) + "\n" + vector.message + "\n";
   for (const auto& check : vector.checks) {
     if (check.ok) continue;
-    body += fmt::format("\nstep {} ({})\n  Expected: {}\n  Actual:   {}\n", check.step,
+    body += fmt::format("\n{} ({})\n  Expected: {}\n  Actual:   {}\n",
+                        check.step == 0 ? std::string("step 0")
+                                        : conformance::step_label(check.step, check.iterations),
                         check.action, check.expected, check.actual);
   }
   for (const auto& timing : vector.timings) {

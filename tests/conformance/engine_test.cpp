@@ -321,6 +321,34 @@ TEST_F(EngineTest, SdoReadValueWithMask) {
   EXPECT_EQ(pass.samples[0].value, 0x240);
 }
 
+TEST_F(EngineTest, FailureInsideARepeatNamesTheStepAndItsIteration) {
+  // Given a peer answering 6041h reads with 0040h three times, then with 0027h
+  test_support::ScriptedPeer peer(*peer_port_);
+  for (int i = 0; i < 3; ++i)
+    peer.expect("601#4041600000000000").reply("581#4B41600040000000");
+  peer.expect("601#4041600000000000").reply("581#4B41600027000000");
+  // When a repeat of four reads expects state bits 0040h
+  const auto result =
+      run(make_vector("    - wait: 1ms\n"
+                      "    - repeat:\n"
+                      "        times: 4\n"
+                      "        steps:\n"
+                      "          - sdo_read: {index: 0x6041, sub: 0}\n"
+                      "            expect: {value: 0x40, mask: 0x4F}\n"));
+  // Then it fails in step 3 (the read; the repeat is step 2), iteration 4 of 4, at the read's
+  // line, and the failed check carries the same place
+  EXPECT_EQ(result.verdict, Verdict::fail);
+  EXPECT_NE(result.message.find("t.yaml:11: step 3 (iteration 4 of 4) sdo_read: Expected"),
+            std::string::npos)
+      << result.message;
+  ASSERT_FALSE(result.checks.empty());
+  EXPECT_EQ(result.checks.back().step, 3U);
+  EXPECT_EQ(result.checks.back().iterations, (std::vector<Iteration>{{4, 4}}));
+  EXPECT_EQ(step_label(result.checks.back().step, result.checks.back().iterations),
+            "step 3 (iteration 4 of 4)");
+  EXPECT_EQ(result.checks.front().iterations, (std::vector<Iteration>{{1, 4}}));
+}
+
 TEST_F(EngineTest, ExpectFrameTimesOut) {
   // Given a peer that never answers
   test_support::ScriptedPeer peer(*peer_port_);

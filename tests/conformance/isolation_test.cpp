@@ -64,6 +64,24 @@ TEST(IsolationSnapshot, WritesRawDownloadsAndFinallyStepsCommandsLeftOut) {
                                              "1A00h sub 0", "1A00h sub 1", "6060h sub 0"}));
 }
 
+TEST(IsolationSnapshot, WritesInsideARepeatAreLearnedAsOutside) {
+  // Given a vector whose only writes are inside a repeat (an sdo_write and a raw download)
+  const auto vector = parse_one(
+      "  steps:\n"
+      "    - repeat:\n"
+      "        times: 3\n"
+      "        steps:\n"
+      "          - sdo_write: {index: 0x1017, sub: 0, value: 50, size: 2}\n"
+      "          - send: \"600+N#2F001802FE000000\"\n");  // 1800h sub 2, FEh
+  // When the snapshot objects are listed for node 5
+  const auto objects = snapshot_objects(vector, 5);
+  // Then they are the objects the repeat writes, each once
+  std::vector<std::string> names;
+  for (const auto& ref : objects)
+    names.push_back(to_string(ref));
+  EXPECT_EQ(names, (std::vector<std::string>{"1017h sub 0", "1800h sub 1", "1800h sub 2"}));
+}
+
 TEST(IsolationSnapshot, RawDownloadToAnotherNodeIsNotTheDuts) {
   // Given a raw download to 600h + 3; When the DUT is node 5; Then it writes nothing of it
   const auto vector = parse_one("  steps:\n    - send: \"603#2F001802FE000000\"\n");

@@ -106,6 +106,102 @@ TEST(VectorFile, EmptyOrBadFinallyIsAnErrorWithItsLine) {
   EXPECT_GT(bad.errors.front().line, 0);
 }
 
+TEST(VectorFile, RepeatUnrollsItsStepsNumberedAsTheFileListsThem) {
+  // Given a step, a repeat of two steps three times over, and a step after it
+  const std::string yaml = std::string(kHead) + R"(  steps:
+    - wait: 1ms
+    - repeat:
+        times: 3
+        steps:
+          - send: "77D#05"
+          - expect_emcy: {code: 0x8130}
+      note: "three losses"
+    - wait: 2ms
+)";
+  // When it is parsed
+  const auto set = parse_vectors(yaml, "v.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& steps = set.vectors.front().steps;
+  // Then the repeat's steps come three times, numbered 3 and 4 (the repeat is step 2), each
+  // with its pass; the step after it is step 5
+  ASSERT_EQ(steps.size(), 8U);
+  std::vector<std::size_t> numbers;
+  for (const auto& step : steps)
+    numbers.push_back(step.number);
+  EXPECT_EQ(numbers, (std::vector<std::size_t>{1, 3, 4, 3, 4, 3, 4, 5}));
+  EXPECT_TRUE(steps[0].repeats.empty());
+  ASSERT_EQ(steps[5].repeats.size(), 1U);
+  EXPECT_EQ(steps[5].repeats[0].number, 2U);
+  EXPECT_EQ(steps[5].repeats[0].iteration, 3U);
+  EXPECT_EQ(steps[5].repeats[0].times, 3U);
+  EXPECT_EQ(steps[5].repeats[0].note, "three losses");
+  EXPECT_EQ(steps[5].repeats[0].line, 7U);
+  EXPECT_EQ(steps[5].line, 10U);
+  EXPECT_TRUE(std::holds_alternative<SendStep>(steps[5].action));
+  EXPECT_EQ(step_place(steps, 6), "step 4 (iteration 3 of 3)");
+  EXPECT_EQ(step_place(steps, 7), "step 5");
+}
+
+TEST(VectorFile, NestedRepeatUnrollsInsideOut) {
+  // Given a repeat of 2 holding a send and a repeat of 3 waits
+  const std::string yaml = std::string(kHead) + R"(  steps:
+    - repeat:
+        times: 2
+        steps:
+          - send: "080#"
+          - repeat: {times: 3, steps: [{wait: 1ms}]}
+)";
+  // When it is parsed
+  const auto set = parse_vectors(yaml, "v.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& steps = set.vectors.front().steps;
+  // Then there are 2 x (1 + 3) steps; a wait knows both passes, outermost first
+  ASSERT_EQ(steps.size(), 8U);
+  EXPECT_EQ(steps[7].number, 4U);
+  ASSERT_EQ(steps[7].repeats.size(), 2U);
+  EXPECT_EQ(steps[7].repeats[0].iteration, 2U);
+  EXPECT_EQ(steps[7].repeats[1].iteration, 3U);
+  EXPECT_EQ(step_place(steps, 7), "step 4 (iteration 3 of 3 in iteration 2 of 2)");
+}
+
+TEST(VectorFile, MalformedRepeatIsAnErrorWithItsLine) {
+  // Given repeats with times 0, times above 1000, no times, no steps, empty steps, unknown
+  // keys inside and beside, a non-map, too deep a nesting and too many steps in all
+  const auto steps = [](const std::string& body) {
+    return std::string(kHead) + "  steps:\n" + body;
+  };
+  // When each is parsed; Then its single error names the line and what is wrong
+  EXPECT_EQ(only_error(steps("    - repeat: {times: 0, steps: [{wait: 1ms}]}\n")),
+            "v.yaml:6: repeat: times: 0 is out of range 1..1000");
+  EXPECT_EQ(only_error(steps("    - repeat: {times: 1001, steps: [{wait: 1ms}]}\n")),
+            "v.yaml:6: repeat: times: 1001 is out of range 1..1000");
+  EXPECT_EQ(only_error(steps("    - repeat: {steps: [{wait: 1ms}]}\n")),
+            "v.yaml:6: repeat: 'times:' is required (1..1000)");
+  EXPECT_EQ(only_error(steps("    - repeat: {times: 2}\n")),
+            "v.yaml:6: repeat: 'steps:' is required (a non-empty list of steps)");
+  EXPECT_EQ(only_error(steps("    - repeat: {times: 2, steps: []}\n")),
+            "v.yaml:6: repeat: steps: expected a non-empty list of steps");
+  EXPECT_EQ(
+      only_error(steps("    - repeat: {times: 2, step: [{wait: 1ms}], steps: [{wait: 1ms}]}\n")),
+      "v.yaml:6: repeat: unknown key 'step' (allowed: times, steps)");
+  EXPECT_EQ(only_error(steps("    - repeat: {times: 2, steps: [{wait: 1ms}]}\n      within: 1s\n")),
+            "v.yaml:7: repeat: unknown key 'within' (allowed: repeat, note)");
+  EXPECT_EQ(only_error(steps("    - repeat: 3\n")),
+            "v.yaml:6: repeat: expected a map {times: N, steps: [...]}");
+  EXPECT_EQ(only_error(steps("    - repeat:\n        times: 2\n        steps:\n"
+                             "          - repeat:\n              times: 2\n              steps:\n"
+                             "                - repeat: {times: 2, steps: [{wait: 1ms}]}\n")),
+            "v.yaml:12: repeat: nested too deep (at most 2 repeats inside each other)");
+  EXPECT_EQ(only_error(steps("    - repeat:\n        times: 1000\n        steps:\n"
+                             "          - repeat: {times: 11, steps: [{wait: 1ms}]}\n")),
+            "v.yaml:6: repeat: 1000 x 11 steps make more than 10000 steps in this list");
+  // A bad step inside names its own line
+  EXPECT_EQ(only_error(steps("    - repeat:\n        times: 2\n        steps:\n"
+                             "          - wait: 1 ms\n"))
+                .substr(0, 10),
+            "v.yaml:9: ");
+}
+
 TEST(VectorFile, UnknownVectorKeyNamesLine) {
   // Given a typo in a vector key; When parsed; Then file:line and the allowed keys
   const auto error = only_error(std::string(kHead) + "  stpes: []\n  steps: [{wait: 1ms}]\n");

@@ -260,6 +260,45 @@ TEST_F(LintTree, RestoreDefaultsOnlyForRestoreOrDefaultsAndCleanUpInFinally) {
   EXPECT_NE(report.warnings[0].message.find("move it to finally:"), std::string::npos);
 }
 
+TEST_F(LintTree, RepeatedStepIsJudgedOnceAndARepeatOfOneIsAWarning) {
+  // Given a repeat of 50 passes holding a raw abort frame with a fixed code (an error), and a
+  // repeat of one pass, and a repeat whose body is malformed
+  write("manuals.yaml", manuals(sha256_hex(std::string_view("one\ntwo\nthree\n"))));
+  write("v.yaml", R"(- id: a/repeated
+  title: t
+  source: "CiA 301 §1"
+  steps:
+    - repeat:
+        times: 50
+        steps:
+          - expect_frame: "580+N#8000100002000106"
+    - repeat: {times: 1, steps: [{wait: 1ms}]}
+- id: a/malformed
+  title: t
+  source: "CiA 301 §1"
+  steps:
+    - repeat: {times: 0, steps: [{wait: 1ms}]}
+)");
+  // When linted
+  const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals", {}});
+  // Then the fixed code is one error at its line (not 50), the repeat of one a warning at the
+  // repeat's line, and the malformed repeat a load error at its line
+  ASSERT_EQ(report.errors.size(), 2U);
+  EXPECT_NE(report.errors[0].to_string().find("v.yaml:14: repeat: times: 0 is out of range"),
+            std::string::npos)
+      << report.errors[0].to_string();
+  EXPECT_NE(report.errors[1].to_string().find(
+                "v.yaml:8: vector a/repeated: expect_frame '580+N#8000100002000106' is an SDO "
+                "abort with a fixed code"),
+            std::string::npos)
+      << report.errors[1].to_string();
+  ASSERT_EQ(report.warnings.size(), 1U);
+  EXPECT_NE(report.warnings[0].to_string().find("v.yaml:9: vector a/repeated: repeat: times: 1 "
+                                                "repeats nothing"),
+            std::string::npos)
+      << report.warnings[0].to_string();
+}
+
 TEST_F(LintTree, MotionVectorResetsOnlyInItsSetup) {
   // Given a motion vector with a reset node step, one sending a raw reset communication, a
   // motion vector without a reset, and a vector without motion that resets

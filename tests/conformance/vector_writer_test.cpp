@@ -156,6 +156,37 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
   note: ""
 )";
 
+TEST(VectorWriter, RepeatsAreWrittenBackAsRepeats) {
+  // Given a vector with a repeat holding a nested repeat, with notes, in steps: and finally:
+  const auto set = parse_vectors(R"(- id: t/x
+  title: t
+  source: "CiA 301 §1"
+  steps:
+    - wait: 1ms
+    - repeat:
+        times: 3
+        steps:
+          - send: "080#"
+          - repeat: {times: 2, steps: [{wait: 1ms}, {send: "77D#05"}]}
+            note: "inner"
+      note: "outer"
+    - repeat: {times: 2, steps: [{wait: 2ms}]}
+  finally:
+    - repeat: {times: 2, steps: [{nmt: start}]}
+)",
+                                 "t.yaml");
+  ASSERT_TRUE(set.ok()) << errors_of(set);
+  // When written and read back; Then the content, the repeats and the numbering are the same
+  expect_round_trip(set.vectors, "repeats");
+  const std::string written = to_yaml(set.vectors);
+  EXPECT_NE(written.find("times: 3"), std::string::npos) << written;
+  const auto again = parse_vectors(written, "w.yaml");
+  ASSERT_TRUE(again.ok()) << errors_of(again);
+  ASSERT_EQ(again.vectors.front().steps.size(), set.vectors.front().steps.size());
+  for (std::size_t i = 0; i < set.vectors.front().steps.size(); ++i)
+    EXPECT_EQ(again.vectors.front().steps[i].number, set.vectors.front().steps[i].number) << i;
+}
+
 TEST(VectorWriter, EveryActionRoundTrips) {
   // Given a vector file with every action and modifier of the vocabulary
   const VectorSet set = parse_vectors(kEveryAction, "every.yaml");

@@ -133,6 +133,29 @@ TEST(JsonReport, RepeatedPatternsAreWrittenAndReadBack) {
   EXPECT_TRUE(parse_json_report(older.dump()));
 }
 
+TEST(JsonReport, IterationOfARepeatedStepIsWrittenAndReadBack) {
+  // Given a failed check in iteration 117 of 254 of a repeat inside pass 2 of 3 of another
+  auto run = valid_utf8_run();
+  auto& check = run.vectors.at(1).checks.at(0);
+  check.iterations = {{2, 3}, {117, 254}};
+  // When written and read back
+  const json document = json::parse(render_json(run));
+  const auto read = parse_json_report(document.dump());
+  // Then the check has iterations outermost first, checks outside a repeat have none, and the
+  // pass comes back the same; a pass beyond its count is an error naming its place
+  EXPECT_EQ(document["vectors"][1]["checks"][0]["iterations"],
+            json::parse(R"([{"iteration": 2, "of": 3}, {"iteration": 117, "of": 254}])"));
+  EXPECT_FALSE(document["vectors"][0]["checks"][0].contains("iterations"));
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(read->vectors.at(1).checks.at(0).iterations, check.iterations);
+  EXPECT_EQ(conformance::step_label(check.step, check.iterations),
+            "step " + std::to_string(check.step) + " (iteration 117 of 254 in iteration 2 of 3)");
+  json bad = document;
+  bad["vectors"][1]["checks"][0]["iterations"][1]["iteration"] = 255;
+  EXPECT_EQ(parse_json_report(bad.dump()).error().message,
+            "vectors[1].checks[0].iterations[1].iteration: not within 1..of");
+}
+
 TEST(JsonReport, CommissioningIsListedUnderTheProfileAndReadBack) {
   // Given a run whose profile commissions the drive (festo-cmmp.yaml `commissioning:`)
   // When written as JSON and read back
