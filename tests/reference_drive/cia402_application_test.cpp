@@ -382,21 +382,28 @@ TEST(ProfilePosition, PositioningOptionCodeTakesOnlyTheRelativeOption) {
   EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0000, 2), 0u);
 }
 
-TEST(ProfilePosition, RelativeOptionDemandAddsToTheDemandAtTheEdge) {
-  // Given 60F2h = 01 (relative to the position demand value) and a move to 20000 running
-  Cia402Drive d;
-  d.write(0x60F2, 0, 0x0001, 2);
+// With 60F2h = `option` (a relative option), a pp move to 20000 at 1000/s for 300 ms, then
+// 500 started relative and at once (007Fh); returns `reference` read just before that edge.
+std::int64_t move_then_relative_500(Cia402Drive& d, std::uint16_t option, std::uint16_t reference) {
+  d.write(0x60F2, 0, option, 2);
   d.write(0x6081, 0, 1000, 4);
   d.enable(1);
   d.write(0x607A, 0, 20000, 4);
   d.controlword(0x001F);
   d.controlword(0x000F);
   d.rig().run(300ms);
-  // When 500 is started relative and at once (007Fh) with the demand at `demand`
-  const std::int64_t demand = d.value(0x6062);
+  const std::int64_t at_edge = d.value(reference);
   d.write(0x607A, 0, 500, 4);
   d.controlword(0x007F);
   d.controlword(0x006F);
+  return at_edge;
+}
+
+TEST(ProfilePosition, RelativeOptionDemandAddsToTheDemandAtTheEdge) {
+  // Given 60F2h = 01 (relative to the position demand value) and a move to 20000 running
+  Cia402Drive d;
+  // When 500 is started relative and at once (007Fh) with the demand at `demand`
+  const std::int64_t demand = move_then_relative_500(d, 0x0001, 0x6062);
   // Then the axis ends 500 past that demand (the SDO exchange moves it a few increments on)
   ASSERT_TRUE(d.wait_for(kTargetReached, kTargetReached, 3s));
   EXPECT_NEAR(d.value(0x6064), demand + 500, 20);
@@ -408,18 +415,8 @@ TEST(ProfilePosition, RelativeOptionIgnoredDeviationAddsToThePrecedingTarget) {
   Cia402ApplicationConfig config;
   config.deviations.add(Deviation::pp_positioning_option_relative_ignored);
   Cia402Drive d(std::move(config));
-  d.write(0x60F2, 0, 0x0002, 2);
-  d.write(0x6081, 0, 1000, 4);
-  d.enable(1);
-  d.write(0x607A, 0, 20000, 4);
-  d.controlword(0x001F);
-  d.controlword(0x000F);
-  d.rig().run(300ms);
   // When 500 is started relative and at once with the axis at `actual`
-  const std::int64_t actual = d.value(0x6064);
-  d.write(0x607A, 0, 500, 4);
-  d.controlword(0x007F);
-  d.controlword(0x006F);
+  const std::int64_t actual = move_then_relative_500(d, 0x0002, 0x6064);
   // Then the axis runs on towards the preceding target + 500 (20500), far past actual + 500
   d.rig().run(1s);
   EXPECT_FALSE(d.statusword() & kTargetReached);
