@@ -93,6 +93,12 @@ EthernetPcapRead read_ethernet_pcap(std::span<const std::uint8_t> bytes) {
     const std::uint32_t sec = get32(bytes, at, swap);
     const std::uint32_t frac = get32(bytes, at + 4, swap);
     const std::uint32_t length = get32(bytes, at + 8, swap);
+    // The fraction of a second must be below one second: a larger one would also put the time
+    // past what a record can hold (1970..2106), so the capture could not be written back.
+    if (frac >= (nanoseconds ? 1'000'000'000U : 1'000'000U)) {
+      return fail(fmt::format("pcap: byte {}: timestamp fraction {} {} is not below one second",
+                              at + 4, frac, nanoseconds ? "ns" : "us"));
+    }
     if (length > bytes.size() - at - kRecordHeader) {
       return fail(fmt::format("pcap: byte {}: record of {} bytes runs past the end", at, length));
     }

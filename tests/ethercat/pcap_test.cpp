@@ -45,6 +45,25 @@ TEST(EthernetPcap, RoundTripsRecordsAndRejectsGarbage) {
   EXPECT_FALSE(encode_ethernet_pcap_record({-1ns, {}}));
 }
 
+TEST(EthernetPcap, AFractionOfOneSecondOrMoreIsRefused) {
+  // Given a record whose nanosecond field is 10^9 (one second) at the last second a record holds
+  // When the file is read
+  // Then it is an error naming the field's byte, not a record that cannot be written back
+  //      (found by the ethercat_pcap fuzz target in a 170 s run)
+  Bytes file = ethernet_pcap_file_header();
+  const auto record = encode_ethernet_pcap_record({0xFFFFFFFFLL * 1'000'000'000ns, Bytes(60, 1)});
+  ASSERT_TRUE(record);
+  file.insert(file.end(), record->begin(), record->end());
+  ASSERT_TRUE(parse_ethernet_pcap(file));
+  const std::uint32_t second = 1'000'000'000;
+  for (int i = 0; i < 4; ++i)
+    file[24 + 4 + i] = static_cast<std::uint8_t>(second >> (8 * i));
+  const auto read = read_ethernet_pcap(file);
+  ASSERT_TRUE(read.error);
+  EXPECT_NE(read.error->find("byte 28"), std::string::npos) << *read.error;
+  EXPECT_TRUE(read.records.empty());
+}
+
 std::string run_tshark(const std::string& args) {
   std::string output;
   FILE* pipe = ::popen(("tshark " + args + " 2>&1").c_str(), "r");
