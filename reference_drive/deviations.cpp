@@ -345,64 +345,63 @@ std::optional<std::uint32_t> DeviationPort::emcy_cob_id() const {
   return entry->can_id;
 }
 
-bool DeviationPort::is_tpdo(std::uint32_t id, bool synchronous_only) const {
-  if (od_ == nullptr) return false;
+std::optional<std::uint16_t> DeviationPort::pdo_number_of(cia301::PdoDirection direction,
+                                                          std::uint32_t id) const {
+  if (od_ == nullptr) return std::nullopt;
   for (std::uint16_t number = 1; number <= 512; ++number) {
-    const std::uint16_t index =
-        cia301::pdo_communication_index(cia301::PdoDirection::transmit, number);
+    const std::uint16_t index = cia301::pdo_communication_index(direction, number);
     const cia301::Entry* cob = od_->find(index, cia301::pdo_sub::kCobId);
     if (cob == nullptr) break;
     const auto decoded = cia301::decode_pdo_cob_id(static_cast<std::uint32_t>(cob->as_unsigned()));
-    if (!decoded || !decoded->valid || decoded->extended || decoded->can_id != id) continue;
-    if (!synchronous_only) return true;
-    const cia301::Entry* type = od_->find(index, cia301::pdo_sub::kTransmissionType);
-    return type != nullptr && type->as_unsigned() <= 240;
+    if (decoded && decoded->valid && !decoded->extended && decoded->can_id == id) return number;
   }
-  return false;
+  return std::nullopt;
+}
+
+bool DeviationPort::is_tpdo(std::uint32_t id, bool synchronous_only) const {
+  const auto number = pdo_number_of(cia301::PdoDirection::transmit, id);
+  if (!number) return false;
+  if (!synchronous_only) return true;
+  const cia301::Entry* type =
+      od_->find(cia301::pdo_communication_index(cia301::PdoDirection::transmit, *number),
+                cia301::pdo_sub::kTransmissionType);
+  return type != nullptr && type->as_unsigned() <= 240;
 }
 
 std::optional<can::Frame> DeviationPort::without_dummy_bits(const can::Frame& frame) const {
-  if (od_ == nullptr) return std::nullopt;
-  for (std::uint16_t number = 1; number <= 512; ++number) {
-    const std::uint16_t index =
-        cia301::pdo_communication_index(cia301::PdoDirection::receive, number);
-    const cia301::Entry* cob = od_->find(index, cia301::pdo_sub::kCobId);
-    if (cob == nullptr) break;
-    const auto decoded = cia301::decode_pdo_cob_id(static_cast<std::uint32_t>(cob->as_unsigned()));
-    if (!decoded || !decoded->valid || decoded->extended || decoded->can_id != frame.id) continue;
-    const std::uint16_t mapping = cia301::pdo_mapping_index(cia301::PdoDirection::receive, number);
-    const cia301::Entry* count = od_->find(mapping, 0);
-    if (count == nullptr) return std::nullopt;
-    std::uint64_t payload = 0;
-    for (std::size_t i = 0; i < frame.length() && i < 8; ++i)
-      payload |= static_cast<std::uint64_t>(frame.data[i]) << (8 * i);
-    std::uint64_t packed = 0;
-    unsigned from = 0;
-    unsigned to = 0;
-    bool dummy = false;
-    for (unsigned sub = 1; sub <= count->as_unsigned(); ++sub) {
-      const cia301::Entry* entry = od_->find(mapping, static_cast<std::uint8_t>(sub));
-      if (entry == nullptr) return std::nullopt;
-      const auto value = static_cast<std::uint32_t>(entry->as_unsigned());
-      const unsigned bits = value & 0xFF;
-      const unsigned object = value >> 16;
-      if (bits == 0 || from + bits > 64) return std::nullopt;
-      if (object >= 0x0001 && object <= 0x0007) {
-        dummy = true;  // takes no room: the next entry is read from here
-      } else {
-        const std::uint64_t mask = bits == 64 ? ~0ULL : ((1ULL << bits) - 1);
-        packed |= ((payload >> from) & mask) << to;
-        to += bits;
-      }
-      from += bits;
+  const auto number = pdo_number_of(cia301::PdoDirection::receive, frame.id);
+  if (!number) return std::nullopt;
+  const std::uint16_t mapping = cia301::pdo_mapping_index(cia301::PdoDirection::receive, *number);
+  const cia301::Entry* count = od_->find(mapping, 0);
+  if (count == nullptr) return std::nullopt;
+  std::uint64_t payload = 0;
+  for (std::size_t i = 0; i < frame.length() && i < 8; ++i)
+    payload |= static_cast<std::uint64_t>(frame.data[i]) << (8 * i);
+  std::uint64_t packed = 0;
+  unsigned from = 0;
+  unsigned to = 0;
+  bool dummy = false;
+  for (unsigned sub = 1; sub <= count->as_unsigned(); ++sub) {
+    const cia301::Entry* entry = od_->find(mapping, static_cast<std::uint8_t>(sub));
+    if (entry == nullptr) return std::nullopt;
+    const auto value = static_cast<std::uint32_t>(entry->as_unsigned());
+    const unsigned bits = value & 0xFF;
+    const unsigned object = value >> 16;
+    if (bits == 0 || from + bits > 64) return std::nullopt;
+    if (object >= 0x0001 && object <= 0x0007) {
+      dummy = true;  // takes no room: the next entry is read from here
+    } else {
+      const std::uint64_t mask = bits == 64 ? ~0ULL : ((1ULL << bits) - 1);
+      packed |= ((payload >> from) & mask) << to;
+      to += bits;
     }
-    if (!dummy) return std::nullopt;
-    can::Frame out = frame;
-    for (std::size_t i = 0; i < 8; ++i)
-      out.data[i] = i < frame.length() ? static_cast<std::uint8_t>(packed >> (8 * i)) : 0;
-    return out;
+    from += bits;
   }
-  return std::nullopt;
+  if (!dummy) return std::nullopt;
+  can::Frame out = frame;
+  for (std::size_t i = 0; i < 8; ++i)
+    out.data[i] = i < frame.length() ? static_cast<std::uint8_t>(packed >> (8 * i)) : 0;
+  return out;
 }
 
 bool DeviationPort::restricted_cob_id_written(const can::Frame& abort) const {

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "protocol/can/bus.hpp"
+#include "protocol/cia301/pdo.hpp"
 #include "protocol/common/expected.hpp"
 
 namespace drivecheck::cia301 {
@@ -226,6 +227,9 @@ class DeviationPort final : public can::Bus {
   void babble();
   std::uint8_t node() const;
   std::optional<std::uint32_t> emcy_cob_id() const;
+  // The number (1..512) of the valid standard-ID PDO of `direction` on CAN-ID `id`.
+  std::optional<std::uint16_t> pdo_number_of(cia301::PdoDirection direction,
+                                             std::uint32_t id) const;
   bool is_tpdo(std::uint32_t id, bool synchronous_only) const;
   // pdo-dummy-entry-takes-no-room: the RPDO frame on `id` as the drive reads it, its dummy
   // entries' bits taken out (the entries after one read from where it is); nullopt when `id` is
