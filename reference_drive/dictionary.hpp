@@ -54,7 +54,7 @@
 //          06h timeout UNSIGNED16 rw, ms, 1..65535, default 1000: how long the client waits
 //              for each answer
 //          None is stored (kStoreNone); a reset communication ends a running transfer without
-//          a frame and sets 04h and 05h to 0.
+//          a frame and sets every entry to its default.
 //   2F01h  TIME received, RECORD ro (with 1012h; time_consumer.hpp): 01h ms after midnight
 //          UNSIGNED32, 02h days since 1 January 1984 UNSIGNED16, of the last TIME consumed;
 //          03h TIME frames consumed UNSIGNED32 (all 0 after power on and reset communication)

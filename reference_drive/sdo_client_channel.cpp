@@ -170,7 +170,11 @@ void SdoClientChannel::reset() {
   pending_ = false;
   if (transfer_ && transfer_->running()) transfer_->cancel();
   transfer_.reset();
-  if (present()) set_status(SdoClientStatus::idle, 0);
+  if (!present()) return;
+  // The request object is no parameter (stored in no group): every entry back to its default.
+  for (cia301::Entry& entry : request_->entries()) {
+    if (entry.sub_index() != 0) (void)entry.assign_bytes(entry.default_bytes(od_.node_id()));
+  }
 }
 
 std::vector<can::Frame> SdoClientChannel::finish(std::span<const can::Frame> frames) {

@@ -66,7 +66,7 @@ class SdoClientChannel {
   can::TimePoint next_deadline() const;
   // NMT Stopped: a running transfer ends without a frame (status failed, abort code 0).
   void stop();
-  // Reset communication: a running transfer ends without a frame; status and abort code 0.
+  // Reset communication: a running transfer ends without a frame; 2F00h back to its defaults.
   void reset();
 
  private:
