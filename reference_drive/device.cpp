@@ -190,6 +190,32 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   }
   sync_sdo_channels();
 
+  // The SDO client (1280h, 2F00h) and the TIME consumer (1012h, 2F01h), where the dictionary
+  // has their objects.
+  if (od_->find(kSdoClientParameterIndex) != nullptr) {
+    SdoClientChannelOptions client;
+    client.refuse_restricted = !has(Deviation::sdo_client_restricted_cob_id_accepted);
+    client.wrong_cob_id = has(Deviation::sdo_client_wrong_cob_id);
+    client.no_timeout = has(Deviation::sdo_client_no_timeout);
+    sdo_client_ = std::make_unique<SdoClientChannel>(*od_, client);
+    if (!sdo_client_->present()) sdo_client_.reset();
+  }
+  if (has(Deviation::sdo_client_parameter_not_stored)) {  // deviation: in no store group
+    if (cia301::Object* record = od_->find(kSdoClientParameterIndex)) {
+      for (cia301::Entry& entry : record->entries()) {
+        if (entry.sub_index() != 0) entry.set_store_group(cia301::kStoreNone);
+      }
+    }
+  }
+  if (od_->find(kTimeCobIdIndex) != nullptr) {
+    TimeConsumerOptions time;
+    time.refuse_restricted = !has(Deviation::time_restricted_cob_id_accepted);
+    time.refuse_producer_frame = !has(Deviation::time_cob_id_bits_not_checked);
+    time.consumer_bit_ignored = has(Deviation::time_consumer_bit_ignored);
+    time_consumer_ = std::make_unique<TimeConsumer>(*od_, time);
+    if (!time_consumer_->present()) time_consumer_.reset();
+  }
+
   cia301::DeviceServicesHandlers handlers;
   handlers.on_reset = [this](cia301::ResetKind kind) { on_reset(kind); };
   handlers.on_state_changed = [this](cia301::NmtState from, cia301::NmtState to) {
@@ -246,6 +272,8 @@ void ReferenceDrive::release_bus() {
   // The old bus is left first (timers, frame handler, filters), while it exists.
   timer_.disarm();
   services_.reset();
+  sdo_client_.reset();
+  time_consumer_.reset();
   extra_sdo_runners_.clear();
   extra_sdo_.clear();
   sdo_runner_.reset();
@@ -369,6 +397,12 @@ void ReferenceDrive::on_frame(const can::TimedFrame& timed) {
     rearm();
     return;
   }
+  if (time_consumer_ && time_consumer_->on_frame(timed.frame, state())) return;
+  if (sdo_client_ && sdo_client_->takes(timed.frame)) {
+    if (sdo_allowed()) send_all(sdo_client_->on_frame(timed.frame, timed.timestamp));
+    rearm();
+    return;
+  }
   cia301::SdoServerRunner* sdo = nullptr;
   if (sdo_->is_request(timed.frame)) {
     sdo = sdo_runner_.get();
@@ -381,6 +415,8 @@ void ReferenceDrive::on_frame(const can::TimedFrame& timed) {
     if (sdo_allowed()) {
       sdo->handle(timed);
       if (sdo_channels_changed_) sync_sdo_channels();
+      // A command of 2F00h: the client starts once the write that asked is answered.
+      if (sdo_client_ && sdo_client_->pending()) send_all(sdo_client_->start(timed.timestamp));
       // An SDO write may have changed a PDO (new timers, errors to clear): let the PDOs look.
       handle(pdos_->on_time(timed.timestamp));
       rearm();
@@ -409,6 +445,11 @@ void ReferenceDrive::sync_sdo_channels() {
     extra_sdo_[i]->set_channel(channel->request_cob_id, response, channel->valid);
     extra_sdo_runners_[i]->transmit({});  // re-arms (cancels) a dropped transfer's timer
   }
+}
+
+void ReferenceDrive::send_all(const std::vector<can::Frame>& frames) {
+  for (const can::Frame& frame : frames)
+    send(frame);
 }
 
 void ReferenceDrive::reset_sdo_servers() {
@@ -448,6 +489,8 @@ void ReferenceDrive::on_reset(cia301::ResetKind kind) {
     application_reset_ = true;
   } else {
     reset_sdo_servers();
+    if (sdo_client_) sdo_client_->reset();
+    if (time_consumer_) time_consumer_->reset();
     // Deviation: a reset communication on its own keeps the communication objects as written.
     if (!application_reset_ && stored_before_restore_) {
       // Deviation restore-communication-at-reset-node-only: the values stored before the
@@ -491,7 +534,10 @@ void ReferenceDrive::on_state_changed(cia301::NmtState from, cia301::NmtState to
   const can::TimePoint now = bus_.now();
   const bool sdo_in_stopped =
       has(Deviation::sdo_in_stopped) && to == cia301::NmtState::stopped;  // deviation
-  if (!cia301::nmt_allows(to, cia301::NmtService::sdo) && !sdo_in_stopped) reset_sdo_servers();
+  if (!cia301::nmt_allows(to, cia301::NmtService::sdo) && !sdo_in_stopped) {
+    reset_sdo_servers();
+    if (sdo_client_ && to == cia301::NmtState::stopped) sdo_client_->stop();
+  }
   // Deviations pdo-in-pre-operational, pdo-in-stopped: the PDOs run as if Operational.
   const bool pdo_in_pre_operational =
       has(Deviation::pdo_in_pre_operational) && to == cia301::NmtState::pre_operational;
@@ -577,13 +623,16 @@ void ReferenceDrive::tick() {
     }
   }
   handle(pdos_->on_time(now));
+  if (sdo_client_) send_all(sdo_client_->on_time(now));
   in_tick_ = false;
   rearm();
 }
 
 void ReferenceDrive::rearm() {
   if (in_tick_ || !powered_) return;
-  timer_.arm(std::min(next_cycle_, pdos_->next_deadline()));
+  can::TimePoint next = std::min(next_cycle_, pdos_->next_deadline());
+  if (sdo_client_) next = std::min(next, sdo_client_->next_deadline());
+  timer_.arm(next);
 }
 
 }  // namespace drivecheck::reference_drive

@@ -10,16 +10,19 @@
 // over one object dictionary (dictionary.hpp). Any number of drives share a SimBus, one port
 // each; on SocketCAN the port is the interface (`drivecheck drive`).
 //
-// Frames on the port go first to DeviceServices (NMT, error control, SYNC), then to the SDO
-// server (its request COB-ID, while the NMT state allows SDO), then to the PDO service (RPDOs
-// and TPDO RTRs, in Operational). The drive reacts to the NMT state as CiA 301 §7.3.2.2 says:
-// an open SDO transfer is dropped without a frame in Stopped and at every reset; PDOs run only
-// in Operational. Resets (and power on) apply the stored parameters (StoreRestore::apply):
-// reset node the application and manufacturer groups, then (every reset) the communication
-// group; then the PDOs are reconfigured and their EMCYs cleared. A write of a further SDO
-// channel's record takes effect once the frame that wrote it is answered (the answer leaves on
-// the old COB-ID); a channel on the default channel's request COB-ID gets nothing (the default
-// channel takes the frame).
+// Frames on the port go first to DeviceServices (NMT, error control, SYNC), then to the TIME
+// consumer (1012h, time_consumer.hpp), the SDO client (answers on 1280h sub 02h while a
+// transfer of it runs, sdo_client_channel.hpp), the SDO server (its request COB-ID, while the
+// NMT state allows SDO), then to the PDO service (RPDOs and TPDO RTRs, in Operational). The
+// SDO client starts a transfer the request object 2F00h asks for once the SDO write that asked
+// is answered; NMT Stopped and every reset end its transfer without a frame. The drive reacts to
+// the NMT state as CiA 301 §7.3.2.2 says: an open SDO transfer is dropped without a frame in
+// Stopped and at every reset; PDOs run only in Operational. Resets (and power on) apply the stored
+// parameters (StoreRestore::apply): reset node the application and manufacturer groups, then (every
+// reset) the communication group; then the PDOs are reconfigured and their EMCYs cleared. A write
+// of a further SDO channel's record takes effect once the frame that wrote it is answered (the
+// answer leaves on the old COB-ID); a channel on the default channel's request COB-ID gets nothing
+// (the default channel takes the frame).
 //
 // Bus-off: the owner of the port tells the drive what its CAN controller reports
 // (set_bus_off, as a controller's status interrupt would). CiA 301: at bus-off the
@@ -66,6 +69,8 @@
 #include "protocol/common/expected.hpp"
 #include "reference_drive/deviations.hpp"
 #include "reference_drive/dictionary.hpp"
+#include "reference_drive/sdo_client_channel.hpp"
+#include "reference_drive/time_consumer.hpp"
 
 namespace drivecheck::reference_drive {
 
@@ -274,6 +279,9 @@ class ReferenceDrive {
   std::vector<std::unique_ptr<cia301::SdoServer>> extra_sdo_;
   std::vector<std::unique_ptr<cia301::SdoServerRunner>> extra_sdo_runners_;  // after extra_sdo_
   bool sdo_channels_changed_ = false;
+  std::unique_ptr<SdoClientChannel> sdo_client_;  // 1280h, 2F00h (nullptr: none)
+  std::unique_ptr<TimeConsumer> time_consumer_;   // 1012h, 2F01h (nullptr: none)
+  void send_all(const std::vector<can::Frame>& frames);
   bool bus_off_ = false;
   bool transmitted_ = false;  // a frame of ours reached the wire since power on
   std::unique_ptr<cia301::DeviceServices> services_;

@@ -128,7 +128,77 @@ Expected<cia301::ObjectDictionary, std::string> build_dictionary(const Dictionar
     }
   }
 
+  if (options.time_consumer) {
+    if (auto ok = add(od, {kTimeCobIdIndex,
+                           "COB-ID time stamp object",
+                           ObjectCode::var,
+                           {u32(0, "COB-ID time stamp object", 0x80000100, AccessType::rw)}});
+        !ok) {
+      return Unexpected(ok.error());
+    }
+  }
+  if (options.sdo_client) {
+    if (auto ok =
+            add(od, {kSdoClientParameterIndex,
+                     "SDO client parameter",
+                     ObjectCode::record,
+                     {u8(0, "Highest sub-index supported", 3),
+                      u32(1, "COB-ID client to server (tx)", 0x80000000, AccessType::rw),
+                      u32(2, "COB-ID server to client (rx)", 0x80000000, AccessType::rw),
+                      EntryDefinition::unsigned_entry(3, "Node-ID of the SDO server",
+                                                      DataType::unsigned8, AccessType::rw, 0)}});
+        !ok) {
+      return Unexpected(ok.error());
+    }
+  }
+
   if (auto ok = cia301::add_pdo_objects(od, options.pdo); !ok) return Unexpected(ok.error());
+
+  // Manufacturer-specific objects of the CiA 301 part (the file comment of dictionary.hpp).
+  if (options.sdo_client) {
+    EntryDefinition data;
+    data.sub_index = 2;
+    data.name = "Data";
+    data.type = DataType::octet_string;
+    data.access = AccessType::rw;
+    data.max_size = 64;
+    data.default_value = Value::of_bytes({});
+    EntryDefinition command =
+        EntryDefinition::unsigned_entry(3, "Command", DataType::unsigned8, AccessType::rw, 0);
+    command.high_limit = Value::of_unsigned(3);
+    EntryDefinition timeout = EntryDefinition::unsigned_entry(
+        6, "Timeout (ms)", DataType::unsigned16, AccessType::rw, 1000);
+    timeout.low_limit = Value::of_unsigned(1);
+    if (auto ok =
+            add(od, {kSdoClientRequestIndex,
+                     "SDO client request",
+                     ObjectCode::record,
+                     {u8(0, "Highest sub-index supported", 6),
+                      u32(1, "Multiplexer", 0, AccessType::rw), std::move(data), std::move(command),
+                      u8(4, "Status", 0), u32(5, "Abort code", 0), std::move(timeout)}});
+        !ok) {
+      return Unexpected(ok.error());
+    }
+  }
+  if (options.time_consumer) {
+    if (auto ok = add(
+            od, {kTimeReceivedIndex,
+                 "TIME received",
+                 ObjectCode::record,
+                 {u8(0, "Highest sub-index supported", 3), u32(1, "Milliseconds after midnight", 0),
+                  EntryDefinition::unsigned_entry(2, "Days since 1 January 1984",
+                                                  DataType::unsigned16, AccessType::ro, 0),
+                  u32(3, "TIME frames consumed", 0)}});
+        !ok) {
+      return Unexpected(ok.error());
+    }
+  }
+  for (const std::uint16_t index : {kSdoClientRequestIndex, kTimeReceivedIndex}) {
+    if (cia301::Object* object = od.find(index)) {
+      for (cia301::Entry& entry : object->entries())
+        entry.set_store_group(cia301::kStoreNone);
+    }
+  }
   return od;
 }
 

@@ -494,6 +494,8 @@ profile::Personality standard_personality() {
   p.option_codes.emplace();
   p.identity.emplace();
   p.hardware_enable = profile::HardwareEnable::transition_3;
+  p.sdo_client = true;
+  p.time_consumer = true;
   return p;
 }
 
@@ -599,6 +601,8 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
   // Further SDO servers and the bus-off reaction (device.hpp).
   plan.drive.dictionary.extra_sdo_servers = p.extra_sdo_servers;
   plan.drive.dictionary.sdo_node_id_sub = p.sdo_server_node_id;
+  plan.drive.dictionary.sdo_client = p.sdo_client;
+  plan.drive.dictionary.time_consumer = p.time_consumer;
   plan.bus_off = p.bus_off;
   // Issue 17's permitted choices (personality.hpp).
   plan.cia402 = p.cia402;

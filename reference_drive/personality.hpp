@@ -107,6 +107,12 @@
 //       1201h.. (protocol/cia301/sdo_server_parameter.hpp), not valid until configured; sub 03h
 //       is the client's node-ID (CiA 301), the server's own node-ID (ESR: writing it moves the
 //       channel to 600h/580h + it at once, 0 disables it), or absent. Standard: 0, client.
+//   sdo_client: true | false, time_consumer: true | false
+//       DictionaryOptions::sdo_client / time_consumer (dictionary.hpp): the SDO client 1280h
+//       with the remote read/write request object 2F00h, and the TIME consumer 1012h with the
+//       received time 2F01h. Only the standard drive has them (the complete CiA 301 device);
+//       none of the four manuals lists 1280h, and Kollmorgen and Dunker say TIME is not
+//       supported. Standard: true, true; a profile's personality: false unless it says true.
 //   bus_off: cia301 | kollmorgen-f23 | esr-8180
 //       What the drive does when its CAN controller goes bus-off (device.hpp): cia301 = 1029h:01
 //       reaction and EMCY 8140h at recovery; kollmorgen-f23 (002 §2.9 L206-212) = fault 8182h

@@ -750,6 +750,8 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "guard_time_ms",
                      "life_time_factor",
                      "extra_sdo_servers",
+                     "sdo_client",
+                     "time_consumer",
                      "sdo_server_node_id",
                      "bus_off",
                      "manufacturer_objects",
@@ -820,6 +822,10 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
   }
   if (auto v = map.get("emcy_follow_up")) {
     p.emcy_follow_up = boolean(r, *v, "personality.emcy_follow_up");
+  }
+  if (auto v = map.get("sdo_client")) p.sdo_client = boolean(r, *v, "personality.sdo_client");
+  if (auto v = map.get("time_consumer")) {
+    p.time_consumer = boolean(r, *v, "personality.time_consumer");
   }
   auto choice = [&](std::string_view key, auto& out, auto... options) {
     auto v = map.get(key);
@@ -1486,6 +1492,8 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
   out << YAML::Key << "sdo_dlc" << YAML::Value << std::string(to_string(p.sdo_dlc));
   out << YAML::Key << "sdo_short_requests" << YAML::Value
       << std::string(to_string(p.sdo_short_requests));
+  if (p.sdo_client) out << YAML::Key << "sdo_client" << YAML::Value << "true";
+  if (p.time_consumer) out << YAML::Key << "time_consumer" << YAML::Value << "true";
   if (p.extra_sdo_servers != 0) {
     out << YAML::Key << "extra_sdo_servers" << YAML::Value << static_cast<int>(p.extra_sdo_servers);
     out << YAML::Key << "sdo_server_node_id" << YAML::Value

@@ -208,6 +208,8 @@ struct Personality {
   std::optional<std::uint16_t> guard_time_ms;      // 100Ch default
   std::optional<std::uint8_t> life_time_factor;    // 100Dh default
   std::uint8_t extra_sdo_servers = 0;              // further SDO server channels 1201h.. (0..127)
+  bool sdo_client = false;     // SDO client 1280h with its request object 2F00h (reference drive)
+  bool time_consumer = false;  // TIME consumer 1012h with 2F01h (reference drive)
   cia301::SdoNodeIdSub sdo_server_node_id = cia301::SdoNodeIdSub::client;  // their sub 03h
   BusOffReaction bus_off = BusOffReaction::cia301;
   ManufacturerObjects manufacturer_objects = ManufacturerObjects::none;
