@@ -365,7 +365,9 @@ EthercatPort::CyclicSetup EthercatPort::prepare_cyclic(std::span<const CyclicSet
     return result;
   }
   // Another RxPDO for the missing ones (ETG.1000.6: PDO configuration in PREOP): an unassigned
-  // one that maps them already (a fixed mapping: only assigned), else the first unassigned
+  // one that maps them already (a fixed mapping: only assigned) and nothing the assigned ones
+  // map (an object twice in the outputs would get two values each cycle, the later one stale:
+  // Festo's RPDO3 maps 6040h beside 607Ah, 000 §3.3.2 L1192-1202), else the first unassigned
   // one, its mapping written.
   std::optional<ethercat::SiiPdo> chosen;
   bool rewrite = false;
@@ -382,7 +384,15 @@ EthercatPort::CyclicSetup EthercatPort::prepare_cyclic(std::span<const CyclicSet
         return e.index == p->index && e.subindex == p->sub;
       });
     });
-    if (holds) {
+    const bool doubles = std::any_of(pdo->entries.begin(), pdo->entries.end(), [&](const auto& e) {
+      if (e.index < 0x1000) return false;  // a dummy entry (a data type index) maps no object
+      return std::any_of(pdos.begin(), pdos.end(), [&e](const ethercat::SiiPdo& assigned) {
+        return std::any_of(assigned.entries.begin(), assigned.entries.end(), [&e](const auto& a) {
+          return a.index == e.index && a.subindex == e.subindex;
+        });
+      });
+    });
+    if (holds && !doubles) {
       chosen = std::move(*pdo);
     } else if (!first_free) {
       first_free = std::move(*pdo);

@@ -73,6 +73,7 @@ class EthercatPort final : public DutPort {
   // harness power-cycles the emulated slave, as an operator would a real one).
   std::string reset(bool node) override;
   void set_power_cycle(std::function<void()> power_cycle) { power_cycle_ = std::move(power_cycle); }
+  bool can_power_cycle() const { return static_cast<bool>(power_cycle_); }
   // The AL state of Tab. 4.11 for `state`.
   std::string enter_state(cia301::NmtState state) override;
   // Runs the cycles that are due up to `deadline` and lets time pass (EthercatClock::receive).

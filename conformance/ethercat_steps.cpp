@@ -75,13 +75,15 @@ StepStatus VectorRun::expect_coe_emergency(const ExpectEmcyStep& e, can::TimePoi
   const auto within = resolve(e.within);
   const auto since = e.since.empty() ? base : marks_.at(e.since).at;
   const auto deadline = since + within;
-  auto expected = fmt::format("CoE emergency with code {{{:04X}h}}", fmt::join(e.codes, "h, "));
+  auto expected =
+      e.any_error ? std::string("CoE emergency with an error code (not 0000h)")
+                  : fmt::format("CoE emergency with code {{{:04X}h}}", fmt::join(e.codes, "h, "));
   if (e.register_mask)
     expected += fmt::format(", register & {:02X}h == {:02X}h", *e.register_mask, e.register_value);
   expected += fmt::format(" within {}", profile::format_duration(within));
   const auto matches = [&e](const ethercat::CoeEmergency& message) {
     const auto& emcy = message.emcy;
-    if (std::find(e.codes.begin(), e.codes.end(), emcy.error_code) == e.codes.end()) return false;
+    if (!e.accepts(emcy.error_code)) return false;
     if (e.register_mask && (emcy.error_register & *e.register_mask) != e.register_value)
       return false;
     for (std::size_t i = 0; i < e.manufacturer.size() && i < emcy.manufacturer.size(); ++i)
@@ -126,7 +128,8 @@ bool is_ethercat_step(const Action& action) {
          std::holds_alternative<ExpectAlStep>(action) ||
          std::holds_alternative<ProcessDataStep>(action) ||
          std::holds_alternative<PauseProcessDataStep>(action) ||
-         std::holds_alternative<MailboxRepeatStep>(action);
+         std::holds_alternative<MailboxRepeatStep>(action) ||
+         std::holds_alternative<PowerCycleStep>(action);
 }
 
 StepStatus VectorRun::run_ethercat_step(const Step& step) {
@@ -254,6 +257,19 @@ StepStatus VectorRun::run_ethercat_step(const Step& step) {
     port->pause_cycles(now() + duration);
     wait_until(now() + duration);
     check(name, fmt::format("no process data for {}", what), "paused", true);
+    return StepStatus::ok;
+  }
+
+  if (std::holds_alternative<PowerCycleStep>(action)) {
+    if (!port->can_power_cycle())
+      return harness_error(name,
+                           "this link cannot power-cycle the slave (only the emulated "
+                           "slave of ethercat:sim can be)");
+    if (auto failed = port->reset(true); !failed.empty())
+      return harness_error(name, fmt::format("power cycle and bring-up to PREOP: {}", failed));
+    check(name, "the slave switched off and on, then brought up to PREOP",
+          fmt::format("PREOP, AL status {}", ethercat::al_state_name(port->master().held_state())),
+          true);
     return StepStatus::ok;
   }
 

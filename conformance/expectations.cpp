@@ -248,8 +248,10 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     const auto within = resolve(e->within);
     const auto from = watch_start(e->since);
     const auto base = e->since.empty() ? request_time() : marks_.at(e->since).at;
-    auto expected =
-        fmt::format("EMCY {:03X} with code {{{:04X}h}}", 0x80 + node(), fmt::join(e->codes, "h, "));
+    auto expected = e->any_error
+                        ? fmt::format("EMCY {:03X} with an error code (not 0000h)", 0x80 + node())
+                        : fmt::format("EMCY {:03X} with code {{{:04X}h}}", 0x80 + node(),
+                                      fmt::join(e->codes, "h, "));
     if (e->register_mask)
       expected +=
           fmt::format(", register & {:02X}h == {:02X}h", *e->register_mask, e->register_value);
@@ -258,7 +260,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
       if (f.is_extended() || f.is_remote() || f.id != 0x80U + node() || f.length() != 8)
         return false;
       const auto code = static_cast<std::uint16_t>(f.data[0] | f.data[1] << 8);
-      if (std::find(e->codes.begin(), e->codes.end(), code) == e->codes.end()) return false;
+      if (!e->accepts(code)) return false;
       if (e->register_mask && (f.data[2] & *e->register_mask) != e->register_value) return false;
       for (std::size_t i = 0; i < e->manufacturer.size(); ++i) {
         if (e->manufacturer[i] && *e->manufacturer[i] != f.data[3 + i]) return false;

@@ -7,6 +7,7 @@
 // keeps its file line so that a harness error or a failed check can point at the YAML.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -217,13 +218,19 @@ struct ExpectHeartbeatStep {
   friend bool operator==(const ExpectHeartbeatStep&, const ExpectHeartbeatStep&) = default;
 };
 struct ExpectEmcyStep {
-  std::vector<std::uint16_t> codes;
+  std::vector<std::uint16_t> codes;  // empty with any_error
+  // `code: error`: any error code but 0000h (the error reset), for a vector whose subject is
+  // the EMCY's register, history or timing, not which code the device chose for its error.
+  bool any_error = false;
   std::optional<std::uint8_t> register_mask;
   std::uint8_t register_value = 0;
   std::vector<std::optional<std::uint8_t>> manufacturer;  // pattern over bytes 3..7
   DurationSpec within{{}, "response"};
   std::string mark;
   std::string since;
+  bool accepts(std::uint16_t code) const {
+    return any_error ? code != 0 : std::find(codes.begin(), codes.end(), code) != codes.end();
+  }
   friend bool operator==(const ExpectEmcyStep&, const ExpectEmcyStep&) = default;
 };
 struct ExpectStateStep {
@@ -373,6 +380,13 @@ struct MailboxRepeatStep {
   std::int64_t repeat = 0;
   friend bool operator==(const MailboxRepeatStep&, const MailboxRepeatStep&) = default;
 };
+// `power_cycle: {}`: the DUT is switched off and on again, then brought up to PREOP by the
+// master (scan, SII, INIT, PREOP): EtherCAT's counterpart of CANopen's reset node for what
+// is stored (1010h/1011h). Only the emulated slave of `ethercat:sim` can be power-cycled by
+// the harness: a vector with it requires `simulation`.
+struct PowerCycleStep {
+  friend bool operator==(const PowerCycleStep&, const PowerCycleStep&) = default;
+};
 
 using Action =
     std::variant<SendStep, NmtStep, SdoWriteStep, SdoReadStep, WaitStep, ControlwordStep,
@@ -380,7 +394,7 @@ using Action =
                  ExpectHeartbeatStep, ExpectEmcyStep, ExpectStateStep, ExpectStatuswordStep,
                  PollStep, MeasureStep, ExpectPeriodicStep, BusOffStep, AlRequestStep, ExpectAlStep,
                  ProcessDataStep, PauseProcessDataStep, MailboxRepeatStep, SdoRequestStep,
-                 ExpectSdoResponseStep, CyclicStep>;
+                 ExpectSdoResponseStep, CyclicStep, PowerCycleStep>;
 
 // The action key of each alternative, in variant order ("send", "nmt", ...).
 std::string_view action_name(const Action& action);

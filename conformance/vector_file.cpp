@@ -51,7 +51,8 @@ std::string_view action_name(const Action& action) {
                                                                              "mailbox_repeat",
                                                                              "sdo_request",
                                                                              "expect_sdo_response",
-                                                                             "cyclic"};
+                                                                             "cyclic",
+                                                                             "power_cycle"};
   return kNames[action.index()];
 }
 
@@ -94,7 +95,8 @@ std::string Vector::ethercat_only_step() const {
           std::holds_alternative<ExpectAlStep>(action) ||
           std::holds_alternative<ProcessDataStep>(action) ||
           std::holds_alternative<PauseProcessDataStep>(action) ||
-          std::holds_alternative<MailboxRepeatStep>(action))
+          std::holds_alternative<MailboxRepeatStep>(action) ||
+          std::holds_alternative<PowerCycleStep>(action))
         return fmt::format("{} {} ({})", where, step_place(list, i), action_name(action));
       const auto* write = std::get_if<SdoWriteStep>(&action);
       const auto* read = std::get_if<SdoReadStep>(&action);
@@ -474,6 +476,7 @@ const std::vector<StepSyntax>& step_syntax() {
       {"sdo_request", {}},
       {"expect_sdo_response", {"within", "mark", "abort", "clause", "or"}},
       {"cyclic", {"set"}},
+      {"power_cycle", {}},
   };
   return kSyntax;
 }
@@ -1235,6 +1238,13 @@ class Parser {
       if (!d) return std::nullopt;
       return WaitStep{*d};
     }
+    if (action == "power_cycle") {
+      if (!value.IsMap() || value.size() != 0) {
+        error(value, "power_cycle: the value is {} (nothing to give)");
+        return std::nullopt;
+      }
+      return PowerCycleStep{};
+    }
     if (action == "bus_off") {
       auto d = duration(value, "bus_off");
       if (!d) return std::nullopt;
@@ -1385,10 +1395,12 @@ class Parser {
           error(value["code"], "expect_emcy: the list of codes is empty");
           return std::nullopt;
         }
+      } else if (value["code"].IsScalar() && value["code"].Scalar() == "error") {
+        step.any_error = true;
       } else {
         one(value["code"]);
       }
-      if (step.codes.empty()) return std::nullopt;
+      if (step.codes.empty() && !step.any_error) return std::nullopt;
       if (const auto reg = value["register"]) {
         if (!check_map(reg, "register", {"mask", "value"}) || !reg["mask"] || !reg["value"]) {
           if (reg.IsMap()) error(reg, "register: 'mask' and 'value' are required");

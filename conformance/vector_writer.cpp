@@ -420,6 +420,10 @@ class Writer {
   }
   void action(const WaitStep& s) { duration_key("wait", s.duration); }
   void action(const BusOffStep& s) { duration_key("bus_off", s.duration); }
+  void action(const PowerCycleStep&) {
+    key("power_cycle");
+    out_ << YAML::Flow << YAML::BeginMap << YAML::EndMap;
+  }
   static std::string al_state_keyword(std::uint8_t state) {
     switch (state) {
       case 1:
@@ -597,10 +601,14 @@ class Writer {
     key("expect_emcy");
     out_ << YAML::Flow << YAML::BeginMap;
     key("code");
-    out_ << YAML::Flow << YAML::BeginSeq;
-    for (const std::uint16_t code : s.codes)
-      plain(fmt::format("0x{:04X}", code));
-    out_ << YAML::EndSeq;
+    if (s.any_error) {
+      plain("error");
+    } else {
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (const std::uint16_t code : s.codes)
+        plain(fmt::format("0x{:04X}", code));
+      out_ << YAML::EndSeq;
+    }
     if (s.register_mask) {
       key("register");
       out_ << YAML::Flow << YAML::BeginMap;

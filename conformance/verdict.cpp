@@ -16,7 +16,15 @@ namespace {
 // "" when the profile claims the feature or detected it (or could not tell); else why not.
 std::string missing_feature(std::string_view feature, const profile::DriveProfile& profile,
                             const ApplicabilityContext& context) {
-  if (profile.supports(feature)) return {};
+  if (profile.supports(feature)) {
+    // A mode the drive has on one link only (the profile's modes_only_on).
+    const auto only = profile.only_on(feature);
+    const auto link =
+        context.link == LinkKind::ethercat ? profile::Link::ethercat : profile::Link::can;
+    if (!only || *only == link) return {};
+    return fmt::format("requires {} (profile {} has it on {} only: modes_only_on)", feature,
+                       profile.name, *only == profile::Link::ethercat ? "EtherCAT" : "CAN");
+  }
   if (profile.detects(feature)) {
     if (context.capabilities == nullptr) return {};
     const Finding finding = context.capabilities->feature(feature);

@@ -499,9 +499,17 @@ profile::Personality standard_personality() {
   return p;
 }
 
-Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProfile* profile) {
-  const profile::Personality p =
+Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProfile* profile,
+                                                        profile::Link link) {
+  profile::Personality p =
       profile != nullptr ? profile->effective_personality() : standard_personality();
+  if (profile != nullptr && p.modes) {
+    std::erase_if(*p.modes, [&](int mode) {
+      return std::any_of(
+          profile->modes_only_on.begin(), profile->modes_only_on.end(),
+          [&](const profile::ModeOnlyOn& m) { return m.mode == mode && m.link != link; });
+    });
+  }
   PersonalityPlan plan;
   plan.name = profile != nullptr ? profile->name : "standard";
 

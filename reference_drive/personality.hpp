@@ -295,7 +295,10 @@ profile::Personality standard_personality();
 // homing_methods, timing and pdo_defaults); nullptr: the standard drive. Errors: a value the
 // reference drive cannot take at all (a mode value 5 or above 10, an option default the option
 // codes refuse, an object type other than 6060h/6061h INTEGER16, ack_latency_cycles 0).
-Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProfile* profile);
+// `link`: the link the drive is reached over; a mode the profile has on another link only
+// (modes_only_on) is left out (not in 6502h, 6060h refuses it).
+Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProfile* profile,
+                                                        profile::Link link = profile::Link::can);
 
 // Festo's parameters in internal units (`parameters_internal` above). attach() chains write
 // observers onto the parameters and the factor objects (6091h-6094h, 6097h, 607Eh) of `od`:

@@ -347,7 +347,7 @@ ServoDrive::~ServoDrive() = default;
 
 Expected<std::unique_ptr<ServoDrive>, std::string> ServoDrive::create(can::Bus& bus,
                                                                       ServoDriveOptions options) {
-  auto plan = plan_personality(options.profile);
+  auto plan = plan_personality(options.profile, options.link);
   if (!plan) {
     return Unexpected(fmt::format("personality {}: {}",
                                   options.profile != nullptr ? options.profile->name : "standard",

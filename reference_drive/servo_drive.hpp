@@ -57,6 +57,9 @@ struct ServoDriveOptions {
   cia301::ParameterStorage* storage = nullptr;
   // 1018h:04; 0: the node-ID (so that drives on one bus differ).
   std::uint32_t serial_number = 0;
+  // The link the drive is reached over: the profile's modes of another link only
+  // (modes_only_on) are left out.
+  profile::Link link = profile::Link::can;
   // Called with the planned DriveConfig just before ReferenceDrive::create (empty: none): a
   // front end for another transport adjusts it (reference_drive/ethercat: default PDO
   // mappings of CoE, no CAN-only limits).

@@ -1083,12 +1083,43 @@ CoeRules read_coe(const Reader& r, const YAML::Node& node) {
   return c;
 }
 
+// modes_only_on: [{mode, link, source}]: each a mode of `modes`, listed once.
+std::vector<ModeOnlyOn> read_modes_only_on(const Reader& r, const YAML::Node& node,
+                                           const std::vector<int>& modes) {
+  require_sequence(r, node, "modes_only_on");
+  std::vector<ModeOnlyOn> out;
+  for (const auto& item : node) {
+    const MapView map(r, item, "modes_only_on entry", {"mode", "link", "source"});
+    ModeOnlyOn m;
+    const YAML::Node mode = map.require("mode", "modes_only_on entry");
+    m.mode = static_cast<int>(integer(r, mode, "modes_only_on.mode", -128, 127));
+    if (std::find(modes.begin(), modes.end(), m.mode) == modes.end()) {
+      r.fail(mode, fmt::format("modes_only_on: {} is not in modes", m.mode));
+    }
+    for (const auto& seen : out) {
+      if (seen.mode == m.mode)
+        r.fail(mode, fmt::format("modes_only_on: {} is listed twice", m.mode));
+    }
+    const YAML::Node link = map.require("link", "modes_only_on entry");
+    const std::string text = scalar(r, link, "modes_only_on.link");
+    const auto parsed = parse_link(text);
+    if (!parsed) {
+      r.fail(link, fmt::format("modes_only_on.link: '{}' is not one of can, ethercat", text));
+    }
+    m.link = *parsed;
+    m.sources = sources(r, map.require("source", "modes_only_on entry"), "modes_only_on.source");
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
 DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOptions& options) {
   if (!root.IsDefined() || root.IsNull()) r.fail_at(0, "the profile is empty");
-  const MapView map(r, root, "profile",
-                    {"name", "title", "manual", "identity", "features", "detect", "modes",
-                     "homing_methods", "option_codes", "timing", "objects", "emcy_codes",
-                     "pdo_defaults", "deviations", "commissioning", "coe", "personality"});
+  const MapView map(
+      r, root, "profile",
+      {"name", "title", "manual", "identity", "features", "detect", "modes", "modes_only_on",
+       "homing_methods", "option_codes", "timing", "objects", "emcy_codes", "pdo_defaults",
+       "deviations", "commissioning", "coe", "personality"});
   DriveProfile p;
   const YAML::Node name_node = map.require("name", "profile");
   p.name = scalar(r, name_node, "name");
@@ -1105,6 +1136,7 @@ DriveProfile read_profile(const Reader& r, const YAML::Node& root, const ParseOp
   if (auto v = map.get("manual")) p.manual = nonempty_scalar(r, *v, "manual");
   if (auto v = map.get("identity")) p.identity = read_identity(r, *v, "identity");
   if (auto v = map.get("modes")) p.modes = int_list(r, *v, "modes", -128, 127);
+  if (auto v = map.get("modes_only_on")) p.modes_only_on = read_modes_only_on(r, *v, p.modes);
   if (auto v = map.get("homing_methods")) {
     p.homing_methods = int_list(r, *v, "homing_methods", -128, 127);
   }
@@ -1625,6 +1657,41 @@ std::optional<can::Duration> DriveProfile::timing_value(std::string_view key) co
   return std::nullopt;
 }
 
+std::string_view to_string(Link link) {
+  switch (link) {
+    case Link::can:
+      return "can";
+    case Link::ethercat:
+      return "ethercat";
+  }
+  return "?";
+}
+
+std::optional<Link> parse_link(std::string_view text) {
+  if (text == "can") return Link::can;
+  if (text == "ethercat") return Link::ethercat;
+  return std::nullopt;
+}
+
+std::optional<Link> DriveProfile::only_on(std::string_view feature) const {
+  for (const auto& m : modes_only_on) {
+    const auto f = mode_feature(m.mode);
+    if (f && *f == feature) return m.link;
+  }
+  return std::nullopt;
+}
+
+std::vector<int> DriveProfile::modes_on(Link link) const {
+  std::vector<int> out;
+  for (int mode : modes) {
+    const bool elsewhere =
+        std::any_of(modes_only_on.begin(), modes_only_on.end(),
+                    [&](const ModeOnlyOn& m) { return m.mode == mode && m.link != link; });
+    if (!elsewhere) out.push_back(mode);
+  }
+  return out;
+}
+
 std::string_view to_string(PdoConfigurationIn in) {
   switch (in) {
     case PdoConfigurationIn::preop:
@@ -1867,6 +1934,16 @@ std::string to_yaml(const DriveProfile& p) {
   }
   out << YAML::Key << "modes" << YAML::Value;
   emit_int_list(out, p.modes);
+  if (!p.modes_only_on.empty()) {
+    out << YAML::Key << "modes_only_on" << YAML::Value << YAML::BeginSeq;
+    for (const auto& m : p.modes_only_on) {
+      out << YAML::BeginMap << YAML::Key << "mode" << YAML::Value << m.mode;
+      out << YAML::Key << "link" << YAML::Value << std::string(to_string(m.link));
+      emit_sources(out, m.sources);
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
   out << YAML::Key << "homing_methods" << YAML::Value;
   emit_int_list(out, p.homing_methods);
   out << YAML::Key << "option_codes" << YAML::Value;

@@ -17,6 +17,9 @@
 //                                          vocabulary.hpp detectable_features(); none may also be
 //                                          in `features` (those are claims, tested as claimed)
 //   modes: [1, 3, 6, -1]                   6060h values, -128..127, no duplicates
+//   modes_only_on: [{mode, link, source}]  a mode of `modes` the drive has on one link only
+//                                          (link can | ethercat; source required); its mode.*
+//                                          feature is then supported on that link only
 //   homing_methods: [1, 2, 35, -1]         -128..127, no duplicates
 //   option_codes: {quick-stop: [0, 1, 2]}  object name -> accepted values (-32768..32767)
 //   timing: {response: 100ms}              overrides of the timing table, durations
@@ -227,6 +230,20 @@ struct CoeRules {
   friend bool operator==(const CoeRules&, const CoeRules&) = default;
 };
 
+// The links a drive is reached over (vectors/FORMAT.md "Transports").
+enum class Link : std::uint8_t { can, ethercat };
+std::string_view to_string(Link link);
+std::optional<Link> parse_link(std::string_view text);
+
+// A mode of operation the drive has on one link only (profile key `modes_only_on`), e.g.
+// Festo's csp, "only for EtherCAT" (000 §7.1.2 L5979).
+struct ModeOnlyOn {
+  int mode = 0;
+  Link link = Link::can;
+  std::vector<std::string> sources;  // required
+  friend bool operator==(const ModeOnlyOn&, const ModeOnlyOn&) = default;
+};
+
 struct DriveProfile {
   std::string name;
   std::string title;
@@ -235,6 +252,7 @@ struct DriveProfile {
   std::set<std::string> features;  // with the features implied by modes/homing/option codes
   std::set<std::string> detect;    // features the engine decides by probing (`detect:`)
   std::vector<int> modes;
+  std::vector<ModeOnlyOn> modes_only_on;  // each one of `modes`
   std::vector<int> homing_methods;
   std::map<OptionCode, std::vector<int>> option_codes;
   std::map<std::string, can::Duration> timing;  // overrides only
@@ -252,6 +270,11 @@ struct DriveProfile {
   // Claimed (features:). A detected feature is not claimed: see conformance/capabilities.hpp.
   bool supports(std::string_view feature) const { return features.contains(std::string(feature)); }
   bool detects(std::string_view feature) const { return detect.contains(std::string(feature)); }
+  // The one link a claimed feature is limited to (a mode of `modes_only_on`); nullopt: every
+  // link that has what the feature needs.
+  std::optional<Link> only_on(std::string_view feature) const;
+  // The modes the drive has on `link` (`modes` less those of `modes_only_on` for another link).
+  std::vector<int> modes_on(Link link) const;
   // The profile's value of a timing name, else its default; nullopt for an unknown name.
   std::optional<can::Duration> timing_value(std::string_view name) const;
   // The deviations that list `vector_id`, in file order (several may: the verdict takes the
@@ -263,11 +286,11 @@ struct DriveProfile {
   friend bool operator==(const DriveProfile& a, const DriveProfile& b) {
     return a.name == b.name && a.title == b.title && a.manual == b.manual &&
            a.identity == b.identity && a.features == b.features && a.detect == b.detect &&
-           a.modes == b.modes && a.homing_methods == b.homing_methods &&
-           a.option_codes == b.option_codes && a.timing == b.timing && a.objects == b.objects &&
-           a.emcy_codes == b.emcy_codes && a.pdo_defaults == b.pdo_defaults &&
-           a.deviations == b.deviations && a.commissioning == b.commissioning && a.coe == b.coe &&
-           a.personality == b.personality;
+           a.modes == b.modes && a.modes_only_on == b.modes_only_on &&
+           a.homing_methods == b.homing_methods && a.option_codes == b.option_codes &&
+           a.timing == b.timing && a.objects == b.objects && a.emcy_codes == b.emcy_codes &&
+           a.pdo_defaults == b.pdo_defaults && a.deviations == b.deviations &&
+           a.commissioning == b.commissioning && a.coe == b.coe && a.personality == b.personality;
   }
 };
 

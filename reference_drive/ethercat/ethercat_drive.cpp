@@ -126,6 +126,7 @@ Expected<void, std::string> EthercatDrive::build() {
   servo.deviations = options_.deviations;
   servo.storage = options_.storage;
   servo.serial_number = options_.serial_number;
+  servo.link = profile::Link::ethercat;
   servo.adjust_config = [this](DriveConfig& config) {
     application_ = std::make_unique<CoeObjectsApplication>(config.application);
     config.application = application_.get();

@@ -514,6 +514,7 @@ TEST(VectorFile, EthercatStepsParse) {
     - process_data: {cycles: 10}
     - pause_process_data: watchdog
     - mailbox_repeat: {index: 0x6083, sub: 0, size: 4, value: 1000, repeat: 2000}
+    - power_cycle: {}
 )";
   // When it is parsed
   const auto set = parse_vectors(yaml, "v.yaml");
@@ -529,6 +530,7 @@ TEST(VectorFile, EthercatStepsParse) {
   EXPECT_EQ(std::get<ProcessDataStep>(v.steps[2].action).cycles, 10U);
   EXPECT_FALSE(std::get<PauseProcessDataStep>(v.steps[3].action).duration);
   EXPECT_EQ(std::get<MailboxRepeatStep>(v.steps[4].action).repeat, 2000);
+  EXPECT_TRUE(std::holds_alternative<PowerCycleStep>(v.steps[5].action));
   EXPECT_EQ(v.ethercat_only_step(), "steps: step 1 (al_request)");
 }
 
@@ -554,6 +556,22 @@ TEST(VectorFile, EthercatStepErrorsNameTheLine) {
             "execution could not be seen)");
   EXPECT_EQ(only_error(steps + "    - pause_process_data: 11s\n"),
             "v.yaml:6: pause_process_data: 'watchdog', or a duration above 0 and at most 10s");
+  EXPECT_EQ(only_error(steps + "    - power_cycle: now\n"),
+            "v.yaml:6: power_cycle: the value is {} (nothing to give)");
+}
+
+TEST(VectorFile, ExpectEmcyTakesAnyErrorCode) {
+  // Given expect_emcy with `code: error` / When parsed / Then it accepts every code but 0000h
+  const std::string yaml = std::string(kHead) + R"(  steps:
+    - expect_emcy: {code: error, register: {mask: 0x01, value: 0x01}}
+)";
+  const auto set = parse_vectors(yaml, "v.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& e = std::get<ExpectEmcyStep>(set.vectors.front().steps[0].action);
+  EXPECT_TRUE(e.any_error);
+  EXPECT_TRUE(e.accepts(0x8130));
+  EXPECT_TRUE(e.accepts(0xFF00));
+  EXPECT_FALSE(e.accepts(0x0000));
 }
 
 TEST(VectorFile, CyclicStepTakesCyclesPeriodAndSetPoints) {

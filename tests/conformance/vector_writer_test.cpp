@@ -107,6 +107,7 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
       mark: e
       since: hb
     - expect_emcy: {code: 0x8130}
+    - expect_emcy: {code: error}
     - expect_state: quick-stop-active
       within: 1s
     - expect_statusword: {mask: 0x006F, value: 0x0027}
@@ -143,6 +144,7 @@ constexpr const char* kEveryAction = R"(- id: "cia301/x/every-action"
     - pause_process_data: watchdog
     - pause_process_data: 150ms
     - mailbox_repeat: {index: 0x6083, sub: 0, size: 4, value: -1, repeat: 4294967295}
+    - power_cycle: {}
     - sdo_request: "40 18 10 00 00 00 00 00"
     - expect_sdo_response: "80181000........"
       abort: any

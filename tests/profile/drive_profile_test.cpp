@@ -64,6 +64,43 @@ TEST(DriveProfileLoad, ListsImplyTheirFeatures) {
   EXPECT_TRUE(p->supports("emcy"));
 }
 
+TEST(DriveProfileLoad, ModeOnOneLinkIsClaimedThereOnly) {
+  // Given csp in modes and in modes_only_on for EtherCAT / When parsed / Then mode.csp is
+  // claimed, limited to EtherCAT, and the CAN modes lack 8
+  auto p = parse(R"(name: test-drive
+title: "A test drive"
+features: [cia402]
+modes: [1, 8]
+modes_only_on:
+  - {mode: 8, link: ethercat, source: "000_33c1d912b8b6010a.txt §7.1.2 L5979"}
+)");
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  EXPECT_TRUE(p->supports("mode.csp"));
+  EXPECT_EQ(p->only_on("mode.csp"), Link::ethercat);
+  EXPECT_FALSE(p->only_on("mode.pp").has_value());
+  EXPECT_EQ(p->modes_on(Link::can), (std::vector<int>{1}));
+  EXPECT_EQ(p->modes_on(Link::ethercat), (std::vector<int>{1, 8}));
+  auto again = parse(to_yaml(*p));
+  ASSERT_TRUE(again.has_value()) << again.error().to_string();
+  EXPECT_EQ(*again, *p);
+}
+
+TEST(DriveProfileLoad, ModeOnlyOnErrorsNameTheirLine) {
+  // Given a modes_only_on entry for a mode not in modes, one with an unknown link and one
+  // without a source / When parsed / Then each is an error at its line
+  const std::string head =
+      "name: test-drive\ntitle: \"t\"\nfeatures: [cia402]\nmodes: [1, 8]\n"
+      "modes_only_on:\n";
+  const auto e1 = error_of(head + "  - {mode: 9, link: ethercat, source: \"x\"}\n");
+  EXPECT_EQ(e1.line, 6) << e1.to_string();
+  EXPECT_NE(e1.message.find("not in modes"), std::string::npos) << e1.to_string();
+  const auto e2 = error_of(head + "  - {mode: 8, link: profinet, source: \"x\"}\n");
+  EXPECT_EQ(e2.line, 6) << e2.to_string();
+  EXPECT_NE(e2.message.find("can, ethercat"), std::string::npos) << e2.to_string();
+  const auto e3 = error_of(head + "  - {mode: 8, link: ethercat}\n");
+  EXPECT_EQ(e3.line, 6) << e3.to_string();
+}
+
 TEST(DriveProfileLoad, TheHardwareEnableTransitionImpliesTheInput) {
   // Given a personality whose transition 2 waits for the hardware enable
   auto p = parse(std::string(kMinimal) + "personality:\n  hardware_enable: transition-2\n");
@@ -769,12 +806,15 @@ TEST(ShippedProfiles, ReferenceHasNoDeviationsAndEveryOptionCode) {
 }
 
 TEST(ShippedProfiles, FestoQuickStopFixedNoTransition16) {
-  // Given the Festo profile / When loaded / Then 605Ah accepts 2 only and transition 16 is absent
+  // Given the Festo profile / When loaded / Then 605Ah accepts 2 only, transition 16 is absent
+  // and csp is there over EtherCAT only (000 §7.1.2 L5979)
   auto p = find_profile("festo-cmmp", kDrives);
   ASSERT_TRUE(p.has_value()) << p.error().to_string();
   EXPECT_EQ(p->option_codes.at(OptionCode::quick_stop), (std::vector<int>{2}));
   EXPECT_FALSE(p->supports("transition.16"));
-  EXPECT_FALSE(p->supports("mode.csp"));
+  EXPECT_TRUE(p->supports("mode.csp"));
+  EXPECT_EQ(p->only_on("mode.csp"), Link::ethercat);
+  EXPECT_EQ(p->modes_on(Link::can), (std::vector<int>{1, 3, 4, 6, 7}));
   // The deviation is documented; no vector observes it (transition.16 makes them N/A)
   const auto no16 = std::find_if(p->deviations.begin(), p->deviations.end(),
                                  [](const Deviation& d) { return d.id == "no-transition-16"; });

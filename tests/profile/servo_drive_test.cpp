@@ -50,6 +50,21 @@ TEST(ServoDriveStandard, HostsEveryModeAndEveryOptionCode) {
   EXPECT_TRUE(rig.drive().not_applied().empty());
 }
 
+TEST(ServoDrivePersonality, FestoHasCspOverEthercatOnly) {
+  // Given the Festo profile (csp in modes_only_on for EtherCAT) / When planned for CAN and for
+  // EtherCAT / Then 6502h bit 7 (csp) is set over EtherCAT only, the other modes on both
+  auto festo = profile::find_profile("festo-cmmp", kDrives);
+  ASSERT_TRUE(festo.has_value()) << festo.error().to_string();
+  auto can = plan_personality(&*festo, profile::Link::can);
+  auto ecat = plan_personality(&*festo, profile::Link::ethercat);
+  ASSERT_TRUE(can.has_value()) << can.error();
+  ASSERT_TRUE(ecat.has_value()) << ecat.error();
+  constexpr std::uint32_t kCsp = 1U << 7;
+  EXPECT_EQ(can->application.pds.supported_modes & kCsp, 0U);
+  EXPECT_EQ(ecat->application.pds.supported_modes & kCsp, kCsp);
+  EXPECT_EQ(ecat->application.pds.supported_modes & ~kCsp, can->application.pds.supported_modes);
+}
+
 TEST(ServoDriveStandard, PlanEqualsTheReferenceProfile) {
   // Given the standard drive and cia402-reference.yaml / When planned / Then the same drive
   auto reference = profile::find_profile("cia402-reference", kDrives);
