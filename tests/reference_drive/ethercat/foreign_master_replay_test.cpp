@@ -1,12 +1,13 @@
 // The emulated drive under a foreign master's bring-up: a table of datagrams in the order and
-// shape an independent open-source master sends them (SOEM's ecx_detect_slaves,
-// ecx_set_slaves_to_default, ecx_config_init, ecx_config_map_group, ecx_configdc and its cyclic
-// FRMW, as read in its public source; IgH's 12-octet base read; nothing of their code), each with
-// the answer a real ESC gives by the Beckhoff ESC datasheet (Section I "Technology", Section II
-// "Register Description", public) and the working counter. The table is replayed against the
-// reference drive's EthercatDrive on the simulated segment: every answer and every working
-// counter must match, the drive reaches OP and the CiA 402 state machine follows the
-// controlword through the process data.
+// shape independent open-source masters send them (ethercrab's reset_subdevices and EEPROM
+// reads; SOEM's ecx_detect_slaves, ecx_set_slaves_to_default, ecx_config_init,
+// ecx_config_map_group, ecx_mbxreceive's repeat request, ecx_configdc and its cyclic FRMW; IgH's
+// 12-octet base read and SII check/fetch; as read in their public source, nothing of their
+// code), each with the answer a real ESC gives by the Beckhoff ESC datasheet (Section I
+// "Technology", Section II "Register Description", public) and the working counter. The table
+// is replayed against the reference drive's EthercatDrive on the simulated segment: every
+// answer and every working counter must match, the drive reaches OP and the CiA 402 state
+// machine follows the controlword through the process data.
 //
 // Expected data: `expect` compared under `mask` (empty mask: every octet of `expect`); rows with
 // `sii_word` expect the drive's own SII octets from that word on (the SII the drive carries;
@@ -124,7 +125,84 @@ Bytes statusword(std::uint8_t state) {
 const Bytes kStatuswordMask = {0, 0, 0, 0, 0, 0, 0x6F, 0x00};
 
 // Section II: "ESC Section II" (Register Description); Section I: "Technology".
-std::vector<Row> bring_up_rows() {
+// ethercrab's reset_subdevices (MainDevice, as published): BWR INIT + acknowledge, then zeros
+// to every FMMU (0..15, 16 octets each) and SyncManager (0..15, 8 each) one at a time (registers
+// of FMMUs/SMs the ESC does not have are reserved: addressed, +1), the DC registers including
+// the read-only 092Ch, and the control loop parameters 0934h = 0C00h, then 0930h = 1000h.
+std::vector<Row> ethercrab_reset_rows() {
+  std::vector<Row> rows;
+  rows.push_back({"ethercrab: INIT + acknowledge",
+                  Command::bwr,
+                  0,
+                  0x0120,
+                  {0x11, 0x00},
+                  {},
+                  {},
+                  1,
+                  0,
+                  {},
+                  "II AL Control"});
+  for (unsigned n = 0; n < 16; ++n) {
+    rows.push_back({"ethercrab: FMMU n blanked",
+                    Command::bwr,
+                    0,
+                    ecat::reg::fmmu(n),
+                    zeros(16),
+                    {},
+                    {},
+                    1,
+                    0,
+                    {},
+                    "II FMMU 0600h + 16n (8 exist; 0680h.. reserved)"});
+  }
+  for (unsigned n = 0; n < 16; ++n) {
+    rows.push_back({"ethercrab: SM n blanked",
+                    Command::bwr,
+                    0,
+                    ecat::reg::sync_manager(n),
+                    zeros(8),
+                    {},
+                    {},
+                    1,
+                    0,
+                    {},
+                    "II SyncManager 0800h + 8n (8 exist)"});
+  }
+  const std::pair<std::uint16_t, std::size_t> dc[] = {{0x0980, 1}, {0x0910, 8}, {0x0920, 8},
+                                                      {0x0928, 4}, {0x092C, 4}, {0x0981, 1},
+                                                      {0x0990, 4}, {0x09A0, 4}, {0x09A4, 4}};
+  for (const auto& [address, size] : dc) {
+    rows.push_back({"ethercrab: DC register blanked",
+                    Command::bwr,
+                    0,
+                    address,
+                    zeros(size),
+                    {},
+                    {},
+                    1,
+                    0,
+                    {},
+                    "II 0900h+ (092Ch read-only: ignored, addressed)"});
+  }
+  rows.push_back(
+      {"ethercrab: control loop parameter 3", Command::bwr, 0, 0x0934, {0x00, 0x0C}, {}, {}, 1});
+  rows.push_back(
+      {"ethercrab: control loop parameter 1", Command::bwr, 0, 0x0930, {0x00, 0x10}, {}, {}, 1});
+  rows.push_back({"ethercrab: count by BRD of 0000h (1 octet)",
+                  Command::brd,
+                  0,
+                  0x0000,
+                  zeros(1),
+                  {0xD0},
+                  {},
+                  1,
+                  0,
+                  {},
+                  "II Type 0000h"});
+  return rows;
+}
+
+std::vector<Row> soem_rows() {
   const Bytes mbx_words = {0x00, 0x10, 0x80, 0x00, 0x80, 0x10, 0x80, 0x00};
   return {
       // ---- ecx_detect_slaves ----
@@ -1022,6 +1100,14 @@ std::vector<Row> bring_up_rows() {
   };
 }
 
+// ethercrab's reset first (a master that went before), then SOEM's whole bring-up.
+std::vector<Row> bring_up_rows() {
+  std::vector<Row> rows = ethercrab_reset_rows();
+  const std::vector<Row> soem = soem_rows();
+  rows.insert(rows.end(), soem.begin(), soem.end());
+  return rows;
+}
+
 std::string hex(const Bytes& b) {
   std::string out;
   for (std::uint8_t v : b) {
@@ -1090,7 +1176,7 @@ class ForeignMaster {
   std::unique_ptr<EthercatDrive> drive_;
 };
 
-TEST(ForeignMasterReplay, SoemShapedBringUpReachesOpWithEveryAnswerAsARealEsc) {
+TEST(ForeignMasterReplay, BringUpReachesOpWithEveryAnswerAsARealEsc) {
   // Given the reference drive as an emulated slave, alone on the simulated segment
   // When a foreign master's bring-up is replayed datagram by datagram (table above)
   // Then every answer and working counter is a real ESC's, OP is reached, process data flows
@@ -1111,7 +1197,7 @@ TEST(ForeignMasterReplay, ReplayFailsOnAWrongWorkingCounter) {
   // When the row is replayed
   // Then the comparison reports it (the replay can fail)
   ForeignMaster master;
-  Row row = bring_up_rows()[3];  // BRD 0000h: one slave
+  Row row = soem_rows()[3];  // BRD 0000h: one slave
   row.wkc = 2;
   std::string why;
   EXPECT_FALSE(master.matches(row, master.exchange(row), why));
