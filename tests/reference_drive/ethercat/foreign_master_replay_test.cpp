@@ -56,9 +56,11 @@ Bytes zeros(std::size_t n) {
 }
 
 // A mailbox request: 6-octet header (length, address 0, channel/priority 0, type CoE with
-// counter `cnt`), CoE header (SDO request, service 2), SDO initiate upload (command 40h) of
-// index:sub, padded to the SM0 length (ETG.1000.4 mailbox header; ETG.1000.6 CoE; CiA 301 SDO).
-Bytes sdo_upload_request(std::uint16_t index, std::uint8_t sub, std::uint8_t cnt) {
+// counter `cnt`), CoE header (SDO request, service 2), SDO initiate upload (command 40h; 50h
+// with complete access) of index:sub, padded to the SM0 length (ETG.1000.4 mailbox header;
+// ETG.1000.6 CoE; CiA 301 SDO).
+Bytes sdo_upload_request(std::uint16_t index, std::uint8_t sub, std::uint8_t cnt,
+                         std::uint8_t command = 0x40) {
   Bytes b = {0x0A,
              0x00,
              0x00,
@@ -67,7 +69,7 @@ Bytes sdo_upload_request(std::uint16_t index, std::uint8_t sub, std::uint8_t cnt
              static_cast<std::uint8_t>(0x03 | (cnt << 4)),
              0x00,
              0x20,
-             0x40,
+             command,
              static_cast<std::uint8_t>(index),
              static_cast<std::uint8_t>(index >> 8),
              sub,
@@ -774,6 +776,32 @@ std::vector<Row> soem_rows() {
        0,
        {},
        "ETG.1000.4 mailbox repeat"},
+      // ---- ecx_readPDOmapCA (the SII's General category says complete access): 1C12h whole ----
+      {"SDO upload 1C12h complete access from sub 0 (command 50h)",
+       Command::fpwr,
+       kStation,
+       kMailboxOutStart,
+       sdo_upload_request(0x1C12, 0, 4, 0x50),
+       {},
+       {},
+       1,
+       0,
+       {},
+       "ETG.1000.6 CoE SDO, complete access bit 4 of the command"},
+      {"SM1 full", Command::fprd, kStation, 0x080D, zeros(1), {0x08}, {0x08}, 1, 50},
+      {"SM1: expedited response (43h, CA bit not checked): SI0 = 1 in 16 bit, then 1600h",
+       Command::fprd,
+       kStation,
+       kMailboxInStart,
+       zeros(kMailboxSize),
+       {0x0A, 0x00, 0x00, 0x00, 0x00, 0x03, 0x00, 0x30, 0x43, 0x12, 0x1C, 0x00, 0x01, 0x00, 0x00,
+        0x16},
+       {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x0F, 0xFF, 0xF0, 0xEF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF,
+        0xFF},
+       1,
+       0,
+       {},
+       "ETG.1000.6 complete access: SI0 as 16 bit, then the entries"},
       // ---- IgH writes the watchdog registers (here with their reset values) ----
       {"watchdog divider",
        Command::fpwr,
