@@ -4,6 +4,7 @@
 #include <iterator>
 
 #include "protocol/ethercat/frame.hpp"
+#include "protocol/ethercat/sii.hpp"
 
 namespace drivecheck::ethercat {
 namespace {
@@ -48,7 +49,19 @@ static_assert(is_register(reg::kStationAddress, 2) && is_register(reg::kStationA
               is_register(reg::kSyncManager, 128) && is_register(reg::kDcReceiveTimePort0, 4) &&
               is_register(reg::kDcReceiveTimePort1, 4) && is_register(reg::kDcSystemTime, 8) &&
               is_register(reg::kDcReceiveTimeEpu, 8) && is_register(reg::kDcSystemTimeOffset, 8) &&
-              is_register(reg::kDcSystemTimeDifference, 4));
+              is_register(reg::kDcSystemTimeDifference, 4) && is_register(reg::kPdiControl, 1) &&
+              is_register(reg::kPdiConfiguration, 1) &&
+              is_register(reg::kExtendedPdiConfiguration, 2) &&
+              is_register(reg::kEcatEventRequest, 2) && is_register(reg::kDcPulseLength, 2));
+
+// The ESC configuration area (SII words 0..7) is loaded at power-on when its checksum (word 7,
+// low byte; ESC Section I §11.1 Table 37) is right, or when word 7 is 88A4h (the datasheet's
+// debugging value that disables the check).
+bool configuration_area_valid(const std::vector<std::uint8_t>& sii) {
+  if (sii.size() < 16) return false;
+  const auto word7 = static_cast<std::uint16_t>(sii[14] | (sii[15] << 8));
+  return word7 == 0x88A4 || (word7 & 0xFF) == sii_checksum(std::span(sii).first(14));
+}
 
 bool overlaps(std::size_t first, std::size_t last, std::size_t reg_first, std::size_t reg_size) {
   return first < reg_first + reg_size && reg_first <= last;
@@ -136,6 +149,7 @@ void Esc::reset() {
   watchdog_deadline_.reset();
   sii_busy_until_ = {};
   sii_errors_ = 0;
+  sii_running_ = 0;
   memory_[reg::kType] = config_.type;
   memory_[0x0001] = config_.revision;
   set16(0x0002, config_.build);
@@ -144,12 +158,34 @@ void Esc::reset() {
   memory_[0x0006] = config_.ram_kbytes;
   memory_[0x0007] = 0x0F;  // ports 0 and 1 MII, 2 and 3 not implemented
   set16(0x0008, config_.features);
-  if (config_.sii.size() >= 10) {
-    set16(reg::kStationAlias, static_cast<std::uint16_t>(config_.sii[8] | (config_.sii[9] << 8)));
+  // The ESC configuration area (Section I §11.1 Table 37): word 0 -> PDI control and ESC
+  // configuration (0140h/0141h), word 1 -> PDI configuration (0150h/0151h), word 2 -> pulse
+  // length of SYNC signals (0982h), word 3 -> extended PDI configuration (0152h), word 4 ->
+  // station alias (0012h); only when the checksum holds. Otherwise 0502h shows the checksum
+  // error (bit 11) and "device information not available" (bit 12), and DL status bit 0 (PDI
+  // operational) stays 0.
+  const std::vector<std::uint8_t>& image = config_.sii;
+  sii_loaded_ = configuration_area_valid(image);
+  auto word = [&](std::size_t w) {
+    return static_cast<std::uint16_t>(image[2 * w] | (image[2 * w + 1] << 8));
+  };
+  if (sii_loaded_) {
+    set16(reg::kPdiControl, word(0));
+    set16(reg::kPdiConfiguration, word(1));
+    set16(reg::kDcPulseLength, word(2));
+    set16(reg::kExtendedPdiConfiguration, word(3));
+    set16(reg::kStationAlias, word(4));
   }
-  // DL status: PDI operational (EEPROM loaded), PDI watchdog reloaded, link and
-  // communication on port 0; port 1 open with a device behind it, else its loop closed.
-  std::uint16_t dl_status = 0x0001 | 0x0002 | 0x0010 | 0x0200;
+  // DL control (Section II "DL Control", reset 00070001h): forwarding rule 1 (non-EtherCAT
+  // frames destroyed), loop control auto on every port, RX FIFO size 7, alias disabled.
+  set32(reg::kDlControl, 0x00070001);
+  // DL status (Section II "DL Status"): bit 0 PDI operational (EEPROM loaded), bit 1 PDI
+  // watchdog reloaded, bit 4 physical link on port 0, bits 9..8 port 0 loop open and
+  // communication established; port 1 open with link and communication when a device follows,
+  // else its loop closed (bit 10); ports 2 and 3 are not implemented (0007h): loop closed
+  // (bits 12 and 14), no communication.
+  std::uint16_t dl_status = 0x0002 | 0x0010 | 0x0200 | 0x1000 | 0x4000;
+  if (sii_loaded_) dl_status |= 0x0001;
   dl_status |= config_.downstream ? (0x0020 | 0x0800) : 0x0400;
   set16(reg::kDlStatus, dl_status);
   set16(reg::kAlControl, 0x0001);
@@ -158,7 +194,13 @@ void Esc::reset() {
   set16(reg::kWatchdogTimePdi, 0x03E8);
   set16(reg::kWatchdogTimeProcessData, 0x03E8);
   set16(reg::kWatchdogStatus, 0x0001);
-  set16(reg::kSiiControl, sii::kReadEightBytes);
+  sii_static_ = config_.sii_read_bytes == 4 ? 0 : sii::kReadEightBytes;
+  if (image.size() > 2048) sii_static_ |= sii::kTwoAddressBytes;  // above 16 kbit
+  if (!sii_loaded_) {
+    sii_static_ |= sii::kDeviceInfoError;
+    if (image.size() >= 16) sii_static_ |= sii::kChecksumError;
+  }
+  set16(reg::kSiiControl, sii_static_);
   refresh_dynamic(now_);
 }
 
@@ -236,6 +278,10 @@ bool Esc::ecat_read(std::uint16_t address, std::uint8_t& out, EscEvents& events)
   const int n = find_sm(address);
   if (n < 0) {
     out = memory_[address];
+    // Reading AL status clears the AL status event (0210h bit 3).
+    if (address == reg::kAlStatus || address == reg::kAlStatus + 1) {
+      memory_[reg::kEcatEventRequest] &= static_cast<std::uint8_t>(~0x08);
+    }
     return true;
   }
   const auto index = static_cast<unsigned>(n);
@@ -246,15 +292,31 @@ bool Esc::ecat_read(std::uint16_t address, std::uint8_t& out, EscEvents& events)
   if (r.mailbox()) {
     if (r.ecat_writes() || !s.full) return false;
     out = memory_[address];
+    s.interrupt_write = false;
     if (last) {
       s.full = false;
+      s.interrupt_read = true;
       events.sm_read |= static_cast<std::uint16_t>(1u << index);
     }
     return true;
   }
   out = offset < s.latest.size() ? s.latest[offset] : 0;
-  if (last && !r.ecat_writes()) events.sm_read |= static_cast<std::uint16_t>(1u << index);
+  if (!r.ecat_writes()) {
+    s.interrupt_write = false;
+    if (last) {
+      s.interrupt_read = true;
+      events.sm_read |= static_cast<std::uint16_t>(1u << index);
+    }
+  }
   return true;
+}
+
+void Esc::publish_buffer(SmState& s, unsigned n, EscEvents* events) {
+  s.latest = s.staging;
+  s.last_buffer = s.written_any ? static_cast<std::uint8_t>((s.last_buffer + 1) % 3) : 0;
+  s.written_any = true;
+  s.interrupt_write = true;
+  if (events != nullptr) sm_completed_ecat_write(n, *events);
 }
 
 void Esc::sm_completed_ecat_write(unsigned n, EscEvents& events) {
@@ -283,22 +345,20 @@ bool Esc::ecat_write(std::uint16_t address, std::uint8_t value, EscEvents& event
   const std::size_t offset = address - r.start;
   const bool last = offset + 1 == r.length;
   if (!r.ecat_writes()) return false;
+  s.interrupt_read = false;
   if (r.mailbox()) {
     if (s.full) return false;
     memory_[address] = value;
     if (last) {
       s.full = true;
+      s.interrupt_write = true;
       sm_completed_ecat_write(index, events);
     }
     return true;
   }
   if (s.staging.size() != r.length) s.staging.resize(r.length, 0);
   s.staging[offset] = value;
-  if (last) {
-    s.latest = s.staging;
-    s.last_buffer = static_cast<std::uint8_t>((s.last_buffer + 1) % 3);
-    sm_completed_ecat_write(index, events);
-  }
+  if (last) publish_buffer(s, index, &events);
   return true;
 }
 
@@ -326,20 +386,29 @@ void Esc::refresh_dynamic(TimePoint now) {
   set64(reg::kDcSystemTime,
         static_cast<std::uint64_t>(nanoseconds(now)) + get64(reg::kDcSystemTimeOffset));
   std::uint16_t sii = static_cast<std::uint16_t>((get16(reg::kSiiControl) & sii::kWriteEnable) |
-                                                 sii::kReadEightBytes | sii_errors_);
-  if (now < sii_busy_until_) sii |= sii::kBusy;
+                                                 sii_static_ | sii_errors_);
+  if (now < sii_busy_until_) sii |= static_cast<std::uint16_t>(sii::kBusy | sii_running_);
   set16(reg::kSiiControl, sii);
+  // SyncManager status (Section II "SyncManager Status"): bit 0 interrupt write (the buffer
+  // was written completely; cleared when its first byte is read), bit 1 interrupt read (read
+  // completely; cleared when its first byte is written), bit 3 mailbox full, bits 5..4 the
+  // buffer written last in buffered mode (11b: none yet).
   for (unsigned n = 0; n < config_.sync_managers; ++n) {
     const SmState& s = sms_[n];
     const SyncManagerRegisters r = sync_manager(n);
     std::uint8_t status = 0;
+    if (!s.enabled) {
+      memory_[reg::sync_manager(n) + 5] = 0;
+      continue;
+    }
     if (r.mailbox()) {
       if (s.full) status |= sm::kStatusMailboxFull;
-      if (s.full && r.ecat_writes()) status |= sm::kStatusInterruptWrite;
-      if (s.full && !r.ecat_writes()) status |= sm::kStatusInterruptRead;
     } else {
-      status = static_cast<std::uint8_t>(s.last_buffer << 4);
+      status = s.written_any ? static_cast<std::uint8_t>(s.last_buffer << 4)
+                             : sm::kStatusNoBufferWritten;
     }
+    if (s.interrupt_write) status |= sm::kStatusInterruptWrite;
+    if (s.interrupt_read) status |= sm::kStatusInterruptRead;
     memory_[reg::sync_manager(n) + 5] = status;
   }
 }
@@ -358,8 +427,12 @@ EscEvents Esc::advance(TimePoint now) {
 }
 
 void Esc::run_sii_command(std::uint16_t control, EscEvents& events) {
-  if ((memory_[reg::kSiiPdiAccess] & 0x01) != 0) return;  // the PDI owns the EEPROM
-  if (now_ < sii_busy_until_) return;                     // busy: the command is ignored
+  // ECAT controls the EEPROM interface only while 0500h bit 0 and 0501h bit 0 are both 0
+  // (Section II "EEPROM Configuration"); otherwise the PDI does and the command is ignored.
+  if ((memory_[reg::kSiiConfiguration] & 0x01) != 0 || (memory_[reg::kSiiPdiAccess] & 0x01) != 0) {
+    return;
+  }
+  if (now_ < sii_busy_until_) return;  // busy: the command is ignored
   events.sii_command = true;
   const unsigned command = (control >> 8) & 0x07;
   const std::uint32_t word = get32(reg::kSiiAddress);
@@ -375,7 +448,8 @@ void Esc::run_sii_command(std::uint16_t control, EscEvents& events) {
         sii_errors_ = sii::kCommandError;
         break;
       }
-      for (unsigned i = 0; i < 8; ++i) {
+      const unsigned octets = config_.sii_read_bytes == 4 ? 4 : 8;
+      for (unsigned i = 0; i < octets; ++i) {
         memory_[reg::kSiiData + i] = byte + i < image.size() ? image[byte + i] : 0xFF;
       }
       sii_busy_until_ = now_ + config_.sii_busy_time;
@@ -395,10 +469,14 @@ void Esc::run_sii_command(std::uint16_t control, EscEvents& events) {
       }
       break;
     }
-    case 4:  // reload: the alias comes from word 4 again
+    case 4:  // reload: PDI configuration and SYNC pulse length again; not the alias, which
+             // is loaded only at power-on (Section I §11.1)
       sii_errors_ = 0;
-      if (image.size() >= 10) {
-        set16(reg::kStationAlias, static_cast<std::uint16_t>(image[8] | (image[9] << 8)));
+      if (configuration_area_valid(image)) {
+        set16(reg::kPdiConfiguration, static_cast<std::uint16_t>(image[2] | (image[3] << 8)));
+        set16(reg::kDcPulseLength, static_cast<std::uint16_t>(image[4] | (image[5] << 8)));
+        set16(reg::kExtendedPdiConfiguration,
+              static_cast<std::uint16_t>(image[6] | (image[7] << 8)));
       }
       sii_busy_until_ = now_ + config_.sii_busy_time;
       break;
@@ -406,8 +484,9 @@ void Esc::run_sii_command(std::uint16_t control, EscEvents& events) {
       sii_errors_ = sii::kCommandError;
       break;
   }
-  // The command bits read back 0 once accepted; write enable is self-clearing.
-  set16(reg::kSiiControl, sii::kReadEightBytes);
+  // While busy, bits 10..8 show the command running; write enable is self-clearing.
+  sii_running_ = static_cast<std::uint16_t>(control & sii::kCommandMask);
+  set16(reg::kSiiControl, sii_static_);
   refresh_dynamic(now_);
 }
 
@@ -460,6 +539,11 @@ void Esc::after_register_write(std::size_t first, std::size_t last, EscEvents& e
                static_cast<std::uint32_t>(std::min<std::uint64_t>(received - local, 0x7FFFFFFF)))
             : static_cast<std::uint32_t>(std::min<std::uint64_t>(local - received, 0x7FFFFFFF));
     set32(reg::kDcSystemTimeDifference, difference);
+  }
+  // 0500h bit 1 (force PDI access state) resets 0501h bit 0: ECAT takes the EEPROM back.
+  if (overlaps(first, last, reg::kSiiConfiguration, 1) &&
+      (memory_[reg::kSiiConfiguration] & 0x02) != 0) {
+    memory_[reg::kSiiPdiAccess] &= static_cast<std::uint8_t>(~0x01);
   }
   if (overlaps(first, last, reg::kSiiControl, 2)) run_sii_command(get16(reg::kSiiControl), events);
 }
@@ -680,8 +764,18 @@ std::uint8_t Esc::pdi_read8(std::uint16_t address) {
   const std::size_t offset = address - r.start;
   if (r.mailbox()) {
     const std::uint8_t value = memory_[address];
-    if (r.ecat_writes() && s.full && offset + 1 == r.length) s.full = false;
+    if (r.ecat_writes() && s.full) {
+      s.interrupt_write = false;
+      if (offset + 1 == r.length) {
+        s.full = false;
+        s.interrupt_read = true;
+      }
+    }
     return value;
+  }
+  if (r.ecat_writes()) {
+    s.interrupt_write = false;
+    if (offset + 1 == r.length) s.interrupt_read = true;
   }
   const auto& buffer = r.ecat_writes() ? s.latest : s.staging;
   return offset < buffer.size() ? buffer[offset] : 0;
@@ -703,6 +797,11 @@ bool Esc::pdi_write8(std::uint16_t address, std::uint8_t value) {
   if (address >= memory_.size()) return false;
   if (address < reg::kProcessRam) {
     if (pdi_rw_[address] == 0) return false;
+    // 0501h: the PDI may take the EEPROM only while ECAT offers it (0500h bit 0 = 1) and does
+    // not force it back (bit 1 = 0) (Section II "EEPROM PDI Access State", r/(w)).
+    if (address == reg::kSiiPdiAccess && (memory_[reg::kSiiConfiguration] & 0x03) != 0x01) {
+      return false;
+    }
     memory_[address] = value;
     return true;
   }
@@ -717,18 +816,19 @@ bool Esc::pdi_write8(std::uint16_t address, std::uint8_t value) {
   const std::size_t offset = address - r.start;
   const bool last = offset + 1 == r.length;
   if (r.ecat_writes()) return false;
+  s.interrupt_read = false;
   if (r.mailbox()) {
     if (s.full) return false;
     memory_[address] = value;
-    if (last) s.full = true;
+    if (last) {
+      s.full = true;
+      s.interrupt_write = true;
+    }
     return true;
   }
   if (s.staging.size() != r.length) s.staging.resize(r.length, 0);
   s.staging[offset] = value;
-  if (last) {
-    s.latest = s.staging;
-    s.last_buffer = static_cast<std::uint8_t>((s.last_buffer + 1) % 3);
-  }
+  if (last) publish_buffer(s, index, nullptr);
   return true;
 }
 
@@ -747,6 +847,8 @@ std::optional<std::vector<std::uint8_t>> Esc::pdi_take_mailbox(unsigned n) {
   if (static_cast<std::size_t>(r.start) + r.length > memory_.size()) return std::nullopt;
   std::vector<std::uint8_t> bytes(memory_.begin() + r.start, memory_.begin() + r.start + r.length);
   s.full = false;
+  s.interrupt_write = false;
+  s.interrupt_read = true;
   refresh_dynamic(now_);
   return bytes;
 }
@@ -763,6 +865,8 @@ bool Esc::pdi_put_mailbox(unsigned n, std::span<const std::uint8_t> data) {
   std::fill(memory_.begin() + r.start + static_cast<std::ptrdiff_t>(data.size()),
             memory_.begin() + r.start + r.length, 0);
   s.full = true;
+  s.interrupt_write = true;
+  s.interrupt_read = false;
   refresh_dynamic(now_);
   return true;
 }
@@ -772,6 +876,9 @@ bool Esc::mailbox_full(unsigned n) const {
 }
 
 void Esc::pdi_set_al_status(std::uint16_t status, std::uint16_t code) {
+  // A change of AL status raises the AL status event (ECAT event request 0210h bit 3) until
+  // ECAT reads 0130h (Section II "ECAT Event Request").
+  if (get16(reg::kAlStatus) != status) memory_[reg::kEcatEventRequest] |= 0x08;
   set16(reg::kAlStatus, status);
   set16(reg::kAlStatusCode, code);
 }

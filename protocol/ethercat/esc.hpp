@@ -60,11 +60,29 @@
 //
 // SII EEPROM interface (0500h..050Fh, Section I Table 39): a write of the command (0502h bits
 // 10..8: 001 read, 010 write, 100 reload, 000 clears errors) runs against the SII image: a read
-// puts 8 bytes (4 words from the address in 0504h) into 0508h..050Fh (status bit 6 says 8
-// bytes); a write stores the word in 0508h at 0504h and needs the write enable bit 0 in the
-// same access (else error bit 14); an address past the image sets error bit 13. Bit 15 (busy)
-// reads 1 for EscConfig::sii_busy_time after a command. Commands while the PDI owns the EEPROM
-// (0501h bit 0) are ignored.
+// puts 8 octets (4 words from the address in 0504h) into 0508h..050Fh, or 4 into 0508h..050Bh
+// (EscConfig::sii_read_bytes; 0502h bit 6 says which); a write stores the word in 0508h at
+// 0504h and needs the write enable bit 0 in the same access (else error bit 14); an address
+// past the image sets error bit 13 (our choice: a real EEPROM wraps). Bit 15 (busy) and bits
+// 10..8 (the command running) read set for EscConfig::sii_busy_time after a command; bit 7 says
+// two address octets (image above 16 kbit). ECAT controls the interface only while 0500h bit 0
+// and 0501h bit 0 are both 0; otherwise commands are ignored. An ECAT write of 0500h bit 1
+// (force) clears 0501h bit 0; the PDI may set 0501h bit 0 only while 0500h reads 01b.
+// Power-on (reset()): the ESC configuration area (SII words 0..7) is loaded when its checksum
+// holds: 0140h/0141h, 0150h/0151h, 0982h, 0152h and the alias 0012h; otherwise 0502h bits 11/12
+// are set and DL status bit 0 (PDI operational) stays 0. A reload command loads 0150h, 0982h
+// and 0152h again, never the alias (Section I §11.1).
+//
+// Reset values (Section II): DL control 00070001h; DL status: PDI operational, PDI watchdog
+// reloaded, link and communication on port 0 with its loop open; port 1 open with link and
+// communication when a device follows, else closed; ports 2 and 3 (not implemented) closed;
+// watchdog divider 09C2h, watchdog times 03E8h. AL status changes raise ECAT event request
+// 0210h bit 3 until ECAT reads 0130h.
+//
+// SyncManager status (0805h + 8n): bit 0 "interrupt write" (buffer written completely, cleared
+// by the first read), bit 1 "interrupt read" (read completely, cleared by the first write),
+// bit 3 mailbox full, bits 5..4 the last buffer written in buffered mode (11b: none yet); 0
+// while the SM is disabled.
 //
 // Distributed clocks (as registers): local time = the time fed in (nanoseconds, 64 bit).
 // A write to 0900h latches the receive times of ports 0 and 1 (0900h, 0904h, low 32 bits) and
@@ -110,6 +128,10 @@ inline constexpr std::uint16_t kStationAddress = 0x0010;
 inline constexpr std::uint16_t kStationAlias = 0x0012;
 inline constexpr std::uint16_t kDlControl = 0x0100;
 inline constexpr std::uint16_t kDlStatus = 0x0110;
+inline constexpr std::uint16_t kPdiControl = 0x0140;
+inline constexpr std::uint16_t kPdiConfiguration = 0x0150;
+inline constexpr std::uint16_t kExtendedPdiConfiguration = 0x0152;
+inline constexpr std::uint16_t kEcatEventRequest = 0x0210;
 inline constexpr std::uint16_t kAlControl = 0x0120;
 inline constexpr std::uint16_t kAlStatus = 0x0130;
 inline constexpr std::uint16_t kAlStatusCode = 0x0134;
@@ -134,6 +156,7 @@ inline constexpr std::uint16_t kDcSystemTime = 0x0910;
 inline constexpr std::uint16_t kDcReceiveTimeEpu = 0x0918;
 inline constexpr std::uint16_t kDcSystemTimeOffset = 0x0920;
 inline constexpr std::uint16_t kDcSystemTimeDifference = 0x092C;
+inline constexpr std::uint16_t kDcPulseLength = 0x0982;
 inline constexpr std::uint16_t kProcessRam = 0x1000;
 
 constexpr std::uint16_t fmmu(unsigned n) {
@@ -149,7 +172,9 @@ constexpr std::uint16_t sync_manager(unsigned n) {
 // the master reads them.
 namespace sii {
 inline constexpr std::uint16_t kWriteEnable = 0x0001;
-inline constexpr std::uint16_t kReadEightBytes = 0x0040;  // 0: a read gives 4 bytes
+inline constexpr std::uint16_t kReadEightBytes = 0x0040;   // 0: a read gives 4 bytes
+inline constexpr std::uint16_t kTwoAddressBytes = 0x0080;  // EEPROM above 16 kbit
+inline constexpr std::uint16_t kCommandMask = 0x0700;      // written: command; read: running
 inline constexpr std::uint16_t kCommandRead = 0x0100;
 inline constexpr std::uint16_t kChecksumError = 0x0800;
 inline constexpr std::uint16_t kDeviceInfoError = 0x1000;
@@ -169,6 +194,8 @@ inline constexpr std::uint8_t kWatchdogTrigger = 0x40;
 inline constexpr std::uint8_t kStatusInterruptWrite = 0x01;
 inline constexpr std::uint8_t kStatusInterruptRead = 0x02;
 inline constexpr std::uint8_t kStatusMailboxFull = 0x08;
+inline constexpr std::uint8_t kStatusBufferMask = 0x30;       // buffered: last buffer written
+inline constexpr std::uint8_t kStatusNoBufferWritten = 0x30;  // 11b: none written yet
 inline constexpr std::uint8_t kActivateEnable = 0x01;
 inline constexpr std::uint8_t kActivateRepeat = 0x02;
 inline constexpr std::uint8_t kPdiRepeatAck = 0x02;
@@ -184,6 +211,9 @@ struct EscConfig {
   std::uint16_t features = 0x0000;
   std::vector<std::uint8_t> sii;  // the SII EEPROM image (sii.hpp build_sii)
   Duration sii_busy_time = std::chrono::microseconds(20);
+  // Octets one EEPROM read command delivers into 0508h: 8 (0502h bit 6 set) or 4 (bit 6 clear,
+  // 0508h..050Bh only), as the ESC advertises (ET1100/IP core: 8, ET1200 and others: 4).
+  std::uint8_t sii_read_bytes = 8;
   // Whether a device follows on port 1 (sets DL status link/loop bits; the segment sets it).
   bool downstream = false;
 };
@@ -301,6 +331,8 @@ class Esc {
     std::vector<std::uint8_t> staging;  // buffered: what the producer is writing
     std::uint8_t last_buffer = 0;
     bool written_any = false;
+    bool interrupt_write = false;  // status bit 0: written completely, not yet read
+    bool interrupt_read = false;   // status bit 1: read completely, not yet written again
   };
 
   bool ecat_read(std::uint16_t address, std::uint8_t& out, EscEvents& events);
@@ -323,6 +355,8 @@ class Esc {
   std::uint32_t get32(std::uint16_t address) const;
   std::uint64_t get64(std::uint16_t address) const;
   void sm_completed_ecat_write(unsigned n, EscEvents& events);
+  // A producer completed a buffered SM's buffer: the consumer sees it now.
+  void publish_buffer(SmState& s, unsigned n, EscEvents* events);
 
   EscConfig config_;
   std::vector<std::uint8_t> memory_;            // 0000h .. end of RAM
@@ -335,6 +369,9 @@ class Esc {
   std::optional<TimePoint> watchdog_deadline_;
   TimePoint sii_busy_until_{};
   std::uint16_t sii_errors_ = 0;
+  std::uint16_t sii_static_ = 0;   // 0502h bits fixed at reset: read size, algorithm, load errors
+  std::uint16_t sii_running_ = 0;  // 0502h bits 10..8 while busy: the command executing
+  bool sii_loaded_ = false;        // the ESC configuration area (words 0..7) loaded at reset
   std::vector<DatagramSpan> spans_;
   std::vector<std::uint8_t> scratch_;
 };

@@ -100,6 +100,71 @@ Expected<void, MasterError> Master::set_pdos(std::size_t slave, bool outputs,
   return {};
 }
 
+Expected<void, MasterError> Master::pdos_from_coe(std::size_t slave) {
+  const SiiImage& sii = slaves_[slave].sii.image;
+  if (!slaves_[slave].mailbox || (sii.header.mailbox_protocols & kSiiMailboxCoe) == 0) return {};
+  std::vector<SiiPdo> rx = sii.rx_pdos;
+  std::vector<SiiPdo> tx = sii.tx_pdos;
+  bool changed = false;
+  auto upload = [&](Multiplexer mux) -> Expected<std::uint32_t, MasterError> {
+    auto bytes = sdo_upload(slave, mux);
+    if (!bytes) return Unexpected(bytes.error());
+    std::uint32_t value = 0;
+    for (std::size_t i = 0; i < bytes->size() && i < 4; ++i)
+      value |= static_cast<std::uint32_t>((*bytes)[i]) << (8 * i);
+    return value;
+  };
+  // The PDOs of SM n from CoE; an sdo_abort when the slave has no such object (the SII's plan
+  // stands for that SM then).
+  auto read_sm = [&](std::size_t n) -> Expected<std::vector<SiiPdo>, MasterError> {
+    std::vector<SiiPdo> pdos;
+    const auto assign = static_cast<std::uint16_t>(0x1C10 + n);
+    auto count = upload({assign, 0});
+    if (!count) return Unexpected(count.error());
+    for (std::uint32_t k = 1; k <= (*count & 0xFF); ++k) {
+      auto index = upload({assign, static_cast<std::uint8_t>(k)});
+      if (!index) return Unexpected(index.error());
+      SiiPdo pdo;
+      pdo.index = static_cast<std::uint16_t>(*index);
+      pdo.sync_manager = static_cast<std::uint8_t>(n);
+      auto entries = upload({pdo.index, 0});
+      if (!entries) return Unexpected(entries.error());
+      for (std::uint32_t j = 1; j <= (*entries & 0xFF); ++j) {
+        auto entry = upload({pdo.index, static_cast<std::uint8_t>(j)});
+        if (!entry) return Unexpected(entry.error());
+        SiiPdoEntry e;
+        e.index = static_cast<std::uint16_t>(*entry >> 16);
+        e.subindex = static_cast<std::uint8_t>(*entry >> 8);
+        e.bit_length = static_cast<std::uint8_t>(*entry);
+        pdo.entries.push_back(e);
+      }
+      pdos.push_back(std::move(pdo));
+    }
+    return pdos;
+  };
+  for (std::size_t n = 0; n < sii.sync_managers.size() && n < 16; ++n) {
+    const SiiSyncManagerType type = sii.sync_managers[n].type;
+    const bool outputs = type == SiiSyncManagerType::outputs;
+    if (!outputs && type != SiiSyncManagerType::inputs) continue;
+    std::vector<SiiPdo>& list = outputs ? rx : tx;
+    if (std::any_of(list.begin(), list.end(),
+                    [&](const SiiPdo& pdo) { return pdo.sync_manager == n; })) {
+      continue;
+    }
+    auto pdos = read_sm(n);
+    if (!pdos) {
+      if (pdos.error().code == MasterErrc::sdo_abort) continue;
+      return Unexpected(pdos.error());
+    }
+    changed = changed || !pdos->empty();
+    for (SiiPdo& pdo : *pdos)
+      list.push_back(std::move(pdo));
+  }
+  if (!changed) return {};
+  if (auto ok = set_pdos(slave, true, std::move(rx)); !ok) return ok;
+  return set_pdos(slave, false, std::move(tx));
+}
+
 void Master::restart_mailbox(std::size_t slave) {
   if (slaves_[slave].mailbox) slaves_[slave].mailbox->protocol().reset();
 }
@@ -123,6 +188,7 @@ Expected<void, MasterError> Master::step(std::size_t slave, AlState from, AlStat
     restart_mailbox(slave);
     if (auto written = write_mailbox_setup(port_, s.layout); !written) return written;
   } else if (from == AlState::preop && to == AlState::safeop) {
+    if (auto coe = pdos_from_coe(slave); !coe) return coe;
     if (auto written = write_process_data_setup(port_, s.layout); !written) return written;
   } else if (from == AlState::safeop && to == AlState::op) {
     // Valid outputs before OP, and the SM watchdog fed while the slave gets there.

@@ -128,6 +128,12 @@ class Master {
   // clears both counters and the repeat acknowledge). The master's counters, the expected
   // reply counter and its repeat request bit restart with it.
   void restart_mailbox(std::size_t slave);
+  // Before PS: a process data SM the SII lists (SyncM type 3/4) without any PDO of its own gets
+  // its PDOs from the slave's CoE PDO assignment (1C10h + n for SM n: 1C12h for SM2, 1C13h for
+  // SM3; each assigned PDO's mapping 1600h+/1A00h+: count, then index:sub:bits per entry;
+  // ETG.1000.6), read by SDO upload, and the plan follows (set_pdos). Only for a slave with a
+  // CoE mailbox; an SDO abort (no such object) leaves the SII's plan as it is.
+  Expected<void, MasterError> pdos_from_coe(std::size_t slave);
 
   MasterConfig config_;
   MasterPort port_;

@@ -92,19 +92,29 @@ Expected<SlaveLayout, MasterError> plan_slave(const SiiImage& sii, std::uint16_t
   SlaveLayout layout;
   layout.station = station;
   const SiiHeader& h = sii.header;
-  if (h.standard_receive.size != 0 || h.standard_send.size != 0) {
-    if (h.standard_receive.size < 6 || h.standard_send.size < 6) {
+  SiiMailbox receive = h.standard_receive;
+  SiiMailbox send = h.standard_send;
+  // Words 18h..1Bh are the standard mailbox configuration; a SII that leaves them 0 but lists
+  // the mailboxes as SyncM entries 0 and 1 (types 1 and 2) gets them from there.
+  if (receive.size == 0 && send.size == 0 && sii.sync_managers.size() >= 2 &&
+      sii.sync_managers[0].type == SiiSyncManagerType::mailbox_out &&
+      sii.sync_managers[1].type == SiiSyncManagerType::mailbox_in) {
+    receive = {sii.sync_managers[0].start, sii.sync_managers[0].length};
+    send = {sii.sync_managers[1].start, sii.sync_managers[1].length};
+  }
+  if (receive.size != 0 || send.size != 0) {
+    if (receive.size < 6 || send.size < 6) {
       return master_error(MasterErrc::sii_unsupported,
                           fmt::format("station {:04X}h: SII mailbox sizes {} (receive) and {} "
                                       "(send) leave no room for a mailbox header",
-                                      station, h.standard_receive.size, h.standard_send.size),
+                                      station, receive.size, send.size),
                           station);
     }
     layout.mailbox_out = SyncManagerSetup{
-        0, h.standard_receive.offset, h.standard_receive.size,
+        0, receive.offset, receive.size,
         sii_control(sii, SiiSyncManagerType::mailbox_out).value_or(kDefaultMailboxOut), false};
     layout.mailbox_in = SyncManagerSetup{
-        1, h.standard_send.offset, h.standard_send.size,
+        1, send.offset, send.size,
         sii_control(sii, SiiSyncManagerType::mailbox_in).value_or(kDefaultMailboxIn), false};
   }
   for (std::size_t n = 0; n < sii.sync_managers.size() && n < 16; ++n) {

@@ -465,6 +465,137 @@ TEST(EscSii, ErrorsForAddressPastTheImageAndWriteWithoutEnable) {
   EXPECT_EQ(esc.sii()[8], 0xEF);
 }
 
+TEST(EscSii, FourOctetReadsFillOnly0508hTo050Bh) {
+  // Given an ESC that reads 4 octets per command (EscConfig::sii_read_bytes = 4)
+  SiiImage image;
+  image.header.vendor_id = 0x1D;
+  image.header.product_code = 0x12345;
+  EscConfig config;
+  config.sii = *build_sii(image);
+  config.sii_read_bytes = 4;
+  Esc esc(config);
+  // When ECAT reads word 8
+  one(esc, Datagram::physical(Command::apwr, 0, 0, reg::kSiiControl, {0x00, 0x01, 8, 0, 0, 0}));
+  const auto data =
+      one(esc, Datagram::physical(Command::aprd, 0, 0, reg::kSiiControl, Bytes(14)), at(30us));
+  // Then 0502h bit 6 is clear and only the vendor id arrived
+  EXPECT_EQ(data.data[0] & 0x40, 0);
+  EXPECT_EQ(Bytes(data.data.begin() + 6, data.data.end()), (Bytes{0x1D, 0, 0, 0, 0, 0, 0, 0}));
+}
+
+TEST(EscSii, OwnershipFollowsTheConfigurationAndPdiAccessBits) {
+  // Given an ESC whose EEPROM ECAT offers to the PDI (0500h = 01h) and the PDI takes (0501h)
+  SiiImage image;
+  image.header.vendor_id = 0x1D;
+  EscConfig config;
+  config.sii = *build_sii(image);
+  Esc esc(config);
+  EXPECT_FALSE(esc.pdi_write8(reg::kSiiPdiAccess, 1));  // not offered yet
+  one(esc, Datagram::physical(Command::apwr, 0, 0, reg::kSiiConfiguration, {0x01}));
+  ASSERT_TRUE(esc.pdi_write8(reg::kSiiPdiAccess, 1));
+  // When ECAT takes it back without forcing (0500h = 0) and reads word 8
+  one(esc, Datagram::physical(Command::apwr, 0, 0, reg::kSiiConfiguration, {0x00}));
+  one(esc, Datagram::physical(Command::apwr, 0, 0, reg::kSiiControl, {0x00, 0x01, 8, 0, 0, 0}));
+  const auto ignored =
+      one(esc, Datagram::physical(Command::aprd, 0, 0, reg::kSiiData, Bytes(2)), at(30us));
+  // Then the command is ignored (the PDI still holds it); forcing (0500h bit 1) frees it
+  EXPECT_EQ(ignored.data, (Bytes{0, 0}));
+  one(esc, Datagram::physical(Command::apwr, 0, 0, reg::kSiiConfiguration, {0x02}), at(30us));
+  EXPECT_EQ(esc.peek(reg::kSiiPdiAccess) & 0x01, 0);
+  one(esc, Datagram::physical(Command::apwr, 0, 0, reg::kSiiConfiguration, {0x00}), at(30us));
+  one(esc, Datagram::physical(Command::apwr, 0, 0, reg::kSiiControl, {0x00, 0x01, 8, 0, 0, 0}),
+      at(30us));
+  const auto read =
+      one(esc, Datagram::physical(Command::aprd, 0, 0, reg::kSiiData, Bytes(2)), at(60us));
+  EXPECT_EQ(read.data, (Bytes{0x1D, 0}));
+}
+
+TEST(EscSii, ConfigurationAreaIsLoadedOnlyWithAValidChecksum) {
+  // Given two ESCs with alias 1234h and PDI control 0005h in the SII, one with a bad checksum
+  SiiImage image;
+  image.header.station_alias = 0x1234;
+  image.header.pdi_control = 0x0005;
+  EscConfig good;
+  good.sii = *build_sii(image);
+  EscConfig bad = good;
+  ASSERT_GE(bad.sii.size(), 16u);
+  bad.sii.at(14) = static_cast<std::uint8_t>(bad.sii.at(14) ^ 0xFF);
+  Esc loaded(good);
+  Esc failed(bad);
+  // Then the good one shows alias and PDI control, DL status bit 0 (PDI operational), no error
+  EXPECT_EQ(loaded.peek(reg::kStationAlias), 0x34);
+  EXPECT_EQ(loaded.peek(reg::kPdiControl), 0x05);
+  EXPECT_EQ(loaded.peek(reg::kDlStatus) & 0x01, 0x01);
+  EXPECT_EQ(loaded.peek(reg::kSiiControl + 1) & 0x18, 0);
+  // And the other none of it, with 0502h bits 11 (checksum) and 12 (not loaded)
+  EXPECT_EQ(failed.peek(reg::kStationAlias), 0);
+  EXPECT_EQ(failed.peek(reg::kPdiControl), 0);
+  EXPECT_EQ(failed.peek(reg::kDlStatus) & 0x01, 0);
+  EXPECT_EQ(failed.peek(reg::kSiiControl + 1) & 0x18, 0x18);
+}
+
+TEST(EscSii, ReloadKeepsTheAlias) {
+  // Given an ESC whose alias register the PDI changed to 0042h after power-on
+  SiiImage image;
+  image.header.station_alias = 0x1234;
+  EscConfig config;
+  config.sii = *build_sii(image);
+  Esc esc(config);
+  ASSERT_TRUE(esc.pdi_write16(reg::kStationAlias, 0x0042));
+  // When ECAT issues the reload command (100b)
+  one(esc, Datagram::physical(Command::apwr, 0, 0, reg::kSiiControl, u16(0x0400)));
+  // Then the alias stays (Section I 11.1: loaded at power-on only)
+  EXPECT_EQ(esc.peek(reg::kStationAlias), 0x42);
+}
+
+TEST(EscRegisters, DlStatusShowsPortZeroOpenAndTheOthersClosed) {
+  // Given an ESC alone (nothing behind port 1) with a valid SII
+  EscConfig config;
+  config.sii = *build_sii(SiiImage{});
+  Esc esc(config);
+  // When ECAT reads DL status and DL control
+  const auto status = one(esc, Datagram::physical(Command::aprd, 0, 0, reg::kDlStatus, Bytes(2)));
+  const auto control = one(esc, Datagram::physical(Command::aprd, 0, 0, reg::kDlControl, Bytes(4)));
+  // Then DL status is 5613h and DL control 00070001h (Section II reset values)
+  EXPECT_EQ(status.data, (Bytes{0x13, 0x56}));
+  EXPECT_EQ(control.data, (Bytes{0x01, 0x00, 0x07, 0x00}));
+}
+
+TEST(EscRegisters, AlStatusChangeRaisesTheEventUntilEcatReadsIt) {
+  // Given an ESC whose application changes AL status to PREOP
+  Esc esc;
+  esc.pdi_set_al_status(0x0002, 0);
+  // When ECAT reads 0210h, then 0130h, then 0210h
+  const auto before =
+      one(esc, Datagram::physical(Command::aprd, 0, 0, reg::kEcatEventRequest, Bytes(2)));
+  one(esc, Datagram::physical(Command::aprd, 0, 0, reg::kAlStatus, Bytes(2)));
+  const auto after =
+      one(esc, Datagram::physical(Command::aprd, 0, 0, reg::kEcatEventRequest, Bytes(2)));
+  // Then bit 3 was set and is cleared by the AL status read
+  EXPECT_EQ(before.data[0] & 0x08, 0x08);
+  EXPECT_EQ(after.data[0] & 0x08, 0);
+}
+
+TEST(EscRegisters, EveryAddressIsAnsweredWithItsWorkingCounter) {
+  // Given an ESC with 8 KiB of process RAM (1000h..2FFFh)
+  Esc esc;
+  // When ECAT reads every address of the 64 KiB space, one octet each, and writes every
+  // register address with its current value
+  // Then registers (known or reserved) and RAM count 1 (Section I 2.4: addressed and
+  // accessible), addresses past the RAM 0 (our choice, README); register writes count 1
+  // (SII control, AL control and DC left out: their writes are commands)
+  for (std::uint32_t a = 0; a <= 0xFFFF; ++a) {
+    const auto address = static_cast<std::uint16_t>(a);
+    const auto read = one(esc, Datagram::physical(Command::aprd, 0, 0, address, Bytes(1)));
+    ASSERT_EQ(read.working_counter, a < 0x3000 ? 1 : 0) << std::hex << a;
+    if (a < 0x1000 && (a < reg::kSiiControl || a > reg::kSiiData + 7) && a != reg::kAlControl &&
+        a != reg::kAlControl + 1 && (a < reg::kDcReceiveTimePort0 || a >= 0x0940)) {
+      const auto written = one(esc, Datagram::physical(Command::apwr, 0, 0, address, read.data));
+      ASSERT_EQ(written.working_counter, 1) << std::hex << a;
+    }
+  }
+}
+
 TEST(EscProcessing, AlControlWriteIsAnEvent) {
   // Given an ESC
   // When ECAT writes 0002h to AL control

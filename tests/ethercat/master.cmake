@@ -3,6 +3,7 @@
 drivecheck_add_gtest(ethercat_master_tests
   SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/master_test.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/master_interop_test.cpp
   LIBRARIES drivecheck::ethercat_master)
 
 # The master on a real link: AF_PACKET on a veth pair in a namespace the test creates (needs

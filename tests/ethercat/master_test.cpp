@@ -516,7 +516,12 @@ TEST(MasterErrors, SiiStuckBusyTimesOut) {
 
 TEST(MasterErrors, SiiHeldByThePdiIsAnSiiError) {
   // Given a slave whose application holds the EEPROM (0501h bit 0)
+  // (the PDI may take it only while ECAT offers it: 0500h bit 0, written by ECAT)
   MasterRig rig(1);
+  Frame offer;
+  offer.datagrams = {Datagram::physical(Command::apwr, 0, 0, reg::kSiiConfiguration, {0x01})};
+  Bytes bytes = *encode_frame(offer);
+  rig.slaves[0]->esc_slave().esc().process_frame(bytes, rig.segment.now());
   ASSERT_TRUE(rig.slaves[0]->esc_slave().esc().pdi_write8(reg::kSiiPdiAccess, 0x01));
   Master master = rig.make_master();
   // When the master reads its SII

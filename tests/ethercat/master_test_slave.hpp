@@ -26,7 +26,7 @@ constexpr std::uint16_t kInputs = 0x1180;
 
 // A drive-like SII: mailboxes 1000h/1080h (128 octets), SM2 outputs at 1100h with the RxPDO
 // 1600h (6040h, 16 bit), SM3 inputs at 1180h with the TxPDO 1A00h (6041h, 16 bit).
-SiiImage drive_sii_image(std::uint16_t alias) {
+inline SiiImage drive_sii_image(std::uint16_t alias) {
   SiiImage image;
   image.header.station_alias = alias;
   image.header.vendor_id = 0x1D;
@@ -44,7 +44,7 @@ SiiImage drive_sii_image(std::uint16_t alias) {
   return image;
 }
 
-Bytes drive_sii(std::uint16_t alias = 0) {
+inline Bytes drive_sii(std::uint16_t alias = 0) {
   return *build_sii(drive_sii_image(alias));
 }
 
@@ -53,6 +53,14 @@ struct SlaveOptions {
   Bytes sii;  // empty: drive_sii(alias)
   Duration sii_busy_time = 20us;
   std::function<AlStatusCode(const AlTransition&)> check;
+  // Variants of a foreign slave:
+  std::uint8_t sii_read_bytes = 8;    // octets per EEPROM read (0502h bit 6)
+  std::uint16_t write_mailbox = 128;  // SM0 length the CoE front end expects (the SII's)
+  std::uint16_t read_mailbox = 128;   // SM1 length
+  // Frames that pass after a request before its reply goes into SM1 (a slow application).
+  int reply_after_frames = 0;
+  // Objects added to the dictionary at every power-on (1C13h, mappings, ...).
+  std::function<void(cia301::ObjectDictionary&)> dictionary;
 };
 
 // An emulated drive: the ESC and its state machine, with the CoE front end wired the way
@@ -65,16 +73,21 @@ class TestSlave final : public SegmentDevice {
   void on_frame(std::span<std::uint8_t> frame, TimePoint arrival,
                 std::optional<TimePoint> return_arrival) override {
     slave_->on_frame(frame, arrival, return_arrival);
+    if (frames_to_wait_ > 0 && --frames_to_wait_ == 0) flush(*slave_);
   }
 
   // A power cycle: registers, station address, state machine, mailbox all back to power-on.
   void power_on() {
     od_ = test::make_test_dictionary();
-    coe_ = std::make_unique<CoeSlave>(od_, MailboxSlaveConfig{.write_size = 128, .read_size = 128},
-                                      CoeSdoServerOptions{.read_size = 128});
+    if (options_.dictionary) options_.dictionary(od_);
+    coe_ = std::make_unique<CoeSlave>(od_,
+                                      MailboxSlaveConfig{.write_size = options_.write_mailbox,
+                                                         .read_size = options_.read_mailbox},
+                                      CoeSdoServerOptions{.read_size = options_.read_mailbox});
     EscSlaveConfig config;
     config.esc.sii = options_.sii.empty() ? drive_sii(options_.alias) : options_.sii;
     config.esc.sii_busy_time = options_.sii_busy_time;
+    config.esc.sii_read_bytes = options_.sii_read_bytes;
     config.check = options_.check;
     config.on_state_change = [this](AlState, AlState to) {
       if (to == AlState::init) coe_->reset();
@@ -105,12 +118,15 @@ class TestSlave final : public SegmentDevice {
 
  private:
   void flush(EscSlave& slave) {
-    if (slave.esc().mailbox_full(1)) return;
+    if (frames_to_wait_ > 0 || slave.esc().mailbox_full(1)) return;
     if (auto reply = coe_->take_reply()) slave.esc().pdi_put_mailbox(1, *reply);
   }
   void handle(EscSlave& slave, const EscEvents& events) {
     if ((events.sm_written & 0x01) != 0) {
-      if (auto request = slave.esc().pdi_take_mailbox(0)) coe_->on_write_mailbox(*request);
+      if (auto request = slave.esc().pdi_take_mailbox(0)) {
+        coe_->on_write_mailbox(*request);
+        frames_to_wait_ = options_.reply_after_frames;
+      }
     }
     if ((events.sm_repeat & 0x02) != 0) {
       const bool repeat = (slave.esc().sync_manager(1).activate & sm::kActivateRepeat) != 0;
@@ -126,6 +142,7 @@ class TestSlave final : public SegmentDevice {
   }
 
   SlaveOptions options_;
+  int frames_to_wait_ = 0;
   cia301::ObjectDictionary od_;
   std::unique_ptr<CoeSlave> coe_;
   std::unique_ptr<EscSlave> slave_;
