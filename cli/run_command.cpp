@@ -306,6 +306,7 @@ void run(const RunOptions& options) {
   std::vector<std::string> eds_findings;
   std::vector<cia306::Diagnostic> eds_diagnostics;  // for the eds/lint results
   std::optional<conformance::EdsIdentity> eds_identity;
+  bool eds_declares_dummy_u8 = false;  // [DummyUsage] Dummy0005=1: pdo.dummy-mapping
   if (!options.eds.empty()) {
     auto eds = cia306::read_eds_file(options.eds);
     if (!eds) bad_input(eds.error().to_string());
@@ -336,6 +337,7 @@ void run(const RunOptions& options) {
     }
     eds_od.emplace(std::move(*od));
     eds_diagnostics = std::move(findings);
+    eds_declares_dummy_u8 = eds->eds.dummy_usage[0x0005].value_or(false);
     const auto& device_info = eds->eds.device_info;
     eds_identity = conformance::EdsIdentity{device_info.vendor_number, device_info.product_number,
                                             device_info.revision_number};
@@ -432,6 +434,15 @@ void run(const RunOptions& options) {
     profile_choice = choice.why;
   }
   fmt::print("drivecheck run: profile {} ({})\n", profile->name, profile_choice);
+  // The device declares dummy mapping in its EDS (CiA 306 [DummyUsage] Dummy0005=1, the
+  // UNSIGNED8 dummy the vectors map): judged as a claim of pdo.dummy-mapping (FORMAT.md).
+  if (eds_declares_dummy_u8 && !profile->supports("pdo.dummy-mapping")) {
+    profile->features.insert("pdo.dummy-mapping");
+    fmt::print(
+        "drivecheck run: {} declares dummy mapping ([DummyUsage] Dummy0005=1): "
+        "pdo.dummy-mapping is taken as claimed\n",
+        options.eds);
+  }
 
   // EDS-driven object dictionary checks (family eds/od) from the EDS and the profile's objects.
   auto od_vectors =

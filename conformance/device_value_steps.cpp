@@ -106,6 +106,11 @@ StepStatus VectorRun::resolve_device_values() {
       value = mode;
       check("device value", "$dut.unsupported_mode: a mode 6502h does not list",
             fmt::format("mode {} (6502h = {:08X}h)", mode, supported), true);
+    } else if (name == "dut.node_id") {
+      value = node();
+      check("device value", "$dut.node_id: the DUT's node-ID",
+            fmt::format("{} ({:02X}h, the node-ID the run addresses the DUT with)", value, value),
+            true);
     }
     context_.device_values[name] = value;
     saved_[name] = value;

@@ -14,6 +14,7 @@ constexpr std::array kDeviceValues{
                     "default TPDO mapping, else 1001h)"},
     DeviceValueInfo{"dut.unsupported_mode",
                     "a CiA 402-2 mode of operation that the DUT's 6502h does not list"},
+    DeviceValueInfo{"dut.node_id", "the DUT's node-ID (the one the run addresses it with, --node)"},
 };
 
 }  // namespace

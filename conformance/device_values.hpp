@@ -27,6 +27,9 @@ struct DeviceValueInfo {
 //     6 hm, 7 ip, 8 csp, 9 csv, 10 cst) that 6502h (supported drive modes, bit n-1 for mode n)
 //     does not list: read 6502h; the lowest such mode. A drive that lists every one: the
 //     vector is not applicable.
+//   dut.node_id: the DUT's node-ID, the one the run addresses it with (--node): for values
+//     CiA 301 defines as a base plus the node-ID (1200h sub 01h = 600h + node-ID), written
+//     `$dut.node_id+0x600`.
 std::span<const DeviceValueInfo> device_value_table();
 bool is_device_value(std::string_view name);  // name without "$"
 

@@ -463,6 +463,10 @@ struct Vector {
   std::vector<Source> sources;
   Level level = Level::must;
   std::vector<std::string> requires_features;  // `requires:`; `motion` added by motion: true
+  // `unless:` features (no object needs): not applicable where the profile has one of them
+  // (claimed, or detected present); for a vector whose twin judges such a device at another
+  // level (dummy mapping: should without pdo.dummy-mapping, must with it).
+  std::vector<std::string> unless_features;
   std::vector<std::string> profiles;
   // `transports:` the links the vector is written for ("can", "ethercat"); empty: any link its
   // steps can run on (a frame-level step makes it CAN-only: verdict.hpp).

@@ -481,9 +481,9 @@ const std::vector<StepSyntax>& step_syntax() {
   return kSyntax;
 }
 
-constexpr std::array<std::string_view, 15> kVectorKeys{
-    "id",    "title", "source",      "level",   "requires", "profiles", "transports", "motion",
-    "setup", "nmt",   "drive_state", "timeout", "steps",    "finally",  "note"};
+constexpr std::array<std::string_view, 16> kVectorKeys{
+    "id",     "title", "source", "level",       "requires", "unless", "profiles", "transports",
+    "motion", "setup", "nmt",    "drive_state", "timeout",  "steps",  "finally",  "note"};
 
 std::optional<cia402::State> parse_402_state(std::string_view text) {
   constexpr std::array<std::pair<std::string_view, cia402::State>, 8> kNames{{
@@ -1828,6 +1828,24 @@ class Parser {
                                  feature));
         } else {
           vector.requires_features.push_back(std::move(feature));
+        }
+      }
+    }
+    if (const auto unless = node["unless"]) {
+      for (auto& feature : string_list(unless, "unless")) {
+        if (!profile::is_known_feature(feature) || profile::parse_object_need(feature) ||
+            feature == "simulation" || feature == "motion") {
+          error(unless, fmt::format("unless: '{}' is not a profile feature (see vectors/FORMAT.md "
+                                    "\"Features\"; object needs, simulation and motion are not "
+                                    "taken)",
+                                    feature));
+        } else if (std::find(vector.requires_features.begin(), vector.requires_features.end(),
+                             feature) != vector.requires_features.end()) {
+          error(unless, fmt::format("unless: '{}' is also in requires: (the vector would never "
+                                    "apply)",
+                                    feature));
+        } else {
+          vector.unless_features.push_back(std::move(feature));
         }
       }
     }

@@ -60,7 +60,9 @@ std::vector<Touch> touches(const Vector& vector) {
   std::vector<Touch> found;
   for (const auto& step : vector.steps) {
     if (const auto* write = std::get_if<SdoWriteStep>(&step.action)) {
-      if (!expects_absence(write->expect))
+      // `expect: ok-or-abort` takes a refusal as an answer, "object does not exist" included:
+      // the write needs no object (1029h set to its default where the device has one).
+      if (!expects_absence(write->expect) && write->expect.kind != SdoExpect::Kind::ok_or_abort)
         found.push_back({write->index, write->sub, step.line, "sdo_write"});
     } else if (const auto* read = std::get_if<SdoReadStep>(&step.action)) {
       if (!expects_absence(read->expect))

@@ -29,7 +29,8 @@
 //    (object.IIII, or object.IIII.SS where the table classes single sub-indices), and one they
 //    class conditional on a feature is declared or the feature is required (a required
 //    `pdo.dynamic-mapping` counts for `pdo`, a mode or `drive_state:` for `cia402`). A step that
-//    expects the abort "object/sub-index does not exist" tests absence and needs nothing.
+//    expects the abort "object/sub-index does not exist" tests absence and needs nothing, and
+//    so does an sdo_write with `expect: ok-or-abort` (any abort passes, absence included).
 // Findings are file:line messages; errors make the lint fail (exit 2), warnings do not.
 #pragma once
 

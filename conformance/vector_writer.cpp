@@ -177,6 +177,13 @@ class Writer {
     for (const std::string& feature : v.requires_features)
       quoted(feature);
     out_ << YAML::EndSeq;
+    if (!v.unless_features.empty()) {
+      key("unless");
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (const std::string& feature : v.unless_features)
+        quoted(feature);
+      out_ << YAML::EndSeq;
+    }
     key("profiles");
     out_ << YAML::Flow << YAML::BeginSeq;
     for (const std::string& profile : v.profiles)
@@ -731,9 +738,9 @@ bool same_content(const Vector& a, const Vector& b) {
          std::equal(a.sources.begin(), a.sources.end(), b.sources.begin(), b.sources.end(),
                     same_source) &&
          a.level == b.level && a.requires_features == b.requires_features &&
-         a.profiles == b.profiles && a.transports == b.transports && a.motion == b.motion &&
-         a.setup == b.setup && a.nmt == b.nmt && a.drive_state == b.drive_state &&
-         a.timeout == b.timeout &&
+         a.unless_features == b.unless_features && a.profiles == b.profiles &&
+         a.transports == b.transports && a.motion == b.motion && a.setup == b.setup &&
+         a.nmt == b.nmt && a.drive_state == b.drive_state && a.timeout == b.timeout &&
          std::equal(a.steps.begin(), a.steps.end(), b.steps.begin(), b.steps.end(), same_step) &&
          std::equal(a.finally_steps.begin(), a.finally_steps.end(), b.finally_steps.begin(),
                     b.finally_steps.end(), same_step) &&

@@ -123,6 +123,18 @@ std::string not_applicable_reason(const Vector& vector, const profile::DriveProf
       return missing;
     }
   }
+  for (const auto& feature : vector.unless_features) {
+    // A claim, or a detection that found it (one not probed or unknown leaves the vector on).
+    if (profile.supports(feature))
+      return fmt::format("profile {} claims {}: the vector for such a device judges it (unless:)",
+                         profile.name, feature);
+    if (profile.detects(feature) && context.capabilities != nullptr &&
+        context.capabilities->feature(feature).presence == Presence::present)
+      return fmt::format(
+          "{} probed present ({}): the vector for such a device judges it "
+          "(unless:)",
+          feature, context.capabilities->feature(feature).how);
+  }
   if (vector.has_bus_off_step() && !context.bus_off)
     return "the bus_off step needs the DUT's CAN controller on the simulated bus (embedded drive)";
   if (vector.drive_state) {

@@ -145,7 +145,7 @@ FactorGroup read_factor_group(const cia301::ObjectDictionary& od) {
 std::unique_ptr<OperationMode> Cia402Application::make_standard_mode(cia402::Mode mode) const {
   switch (mode) {
     case cia402::Mode::profile_position:
-      return std::make_unique<ProfilePositionMode>();
+      return std::make_unique<ProfilePositionMode>(config_.deviations);
     case cia402::Mode::profile_velocity:
       return std::make_unique<ProfileVelocityMode>();
     case cia402::Mode::profile_torque:
@@ -476,6 +476,17 @@ void Cia402Application::on_cycle(ReferenceDrive& drive, can::TimePoint now) {
     active_->cycle(*context_, cycle);
   } else if (!cycle.drive_enabled) {
     axis_.command_position(axis_.position());
+  }
+  if (context_->release_controlword_bits != 0) {
+    // The drive resets controlword bits itself (pp 60F2h request-response option, bit 4): in
+    // 6040h as a read shows it and in the PDS, as if the master had written it.
+    const auto controlword =
+        static_cast<std::uint16_t>(pds_.controlword() & ~context_->release_controlword_bits);
+    if (cia301::Entry* entry =
+            od_->find(cia402::kControlword.index, cia402::kControlword.sub_index))
+      entry->assign_unsigned(controlword);
+    pds_.set_controlword(controlword);
+    context_->release_controlword_bits = 0;
   }
   limit_active_ = limit_active_ || context_->position_limited;
   publish();

@@ -70,6 +70,9 @@ ReferenceDrive::ReferenceDrive(can::Bus& bus, DriveConfig config)
       config_(std::move(config)) {}
 
 Expected<void, std::string> ReferenceDrive::start() {
+  // Deviation pdo-dummy-entry-refused: the drive declares dummy mapping (its EDS, the standard
+  // profile) but its RPDO mappings refuse the dummy entries 0002h-0007h (06040041h).
+  if (has(Deviation::pdo_dummy_entry_refused)) config_.dictionary.pdo.dummy_mapping = false;
   auto od = build_dictionary(config_.dictionary);
   if (!od) return Unexpected(od.error());
   od_ = std::make_unique<cia301::ObjectDictionary>(std::move(*od));
@@ -240,6 +243,7 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   services.emcy_inhibit = !has(Deviation::emcy_inhibit_ignored);
   services.error_history_shift_when_full = !has(Deviation::emcy_history_full_not_shifted);
   services.error_behaviour = !has(Deviation::error_behaviour_ignored);
+  services.heartbeat_timeout_nmt_reaction = !has(Deviation::heartbeat_timeout_keeps_nmt_state);
   services.sync_in_stopped =
       has(Deviation::pdo_in_stopped) || has(Deviation::sync_tpdo_acyclic_in_stopped);
   services_ = std::make_unique<cia301::DeviceServices>(bus_, *od_, services, std::move(handlers));

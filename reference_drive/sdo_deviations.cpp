@@ -107,7 +107,8 @@ bool SdoDeviations::active() const {
                       Deviation::od_sub_ff_wrong,
                       Deviation::od_write_back_refused,
                       Deviation::od_object_not_in_eds,
-                      Deviation::identity_product_code_wrong}) {
+                      Deviation::identity_product_code_wrong,
+                      Deviation::sdo_server_cob_ids_without_node_id}) {
     if (has(d)) return true;
   }
   return false;
@@ -244,6 +245,14 @@ std::optional<SdoAnswerView> SdoDeviations::after(const SdoRequestView& r, SdoAn
         store_u32(a.data, 0);
       if (a.index == 0x1018 && a.sub == 2 && has(Deviation::identity_product_code_wrong)) {
         store_u32(a.data, 0);
+      }
+      // 1200h sub 01h/02h without the node-ID bits (6..0): 600h and 580h.
+      if (a.index == 0x1200 && (a.sub == 1 || a.sub == 2) && a.data.size() == 4 &&
+          has(Deviation::sdo_server_cob_ids_without_node_id)) {
+        const auto cob_id =
+            static_cast<std::uint32_t>(a.data[0] | a.data[1] << 8 | a.data[2] << 16 |
+                                       static_cast<std::uint32_t>(a.data[3]) << 24);
+        store_u32(a.data, cob_id & ~0x7FU);
       }
       if (a.index == 0x1001 && a.sub == 0 && has(Deviation::error_register_not_set) &&
           !a.data.empty()) {

@@ -264,7 +264,8 @@ void DeviceServices::flush_emcy(can::TimePoint now) {
 }
 
 void DeviceServices::update_communication_error(can::TimePoint now) {
-  bool fault = guarding_.expired();
+  const bool guarding_fault = guarding_.expired();
+  bool fault = guarding_fault;
   for (const auto& entry : consumer_entries_) {
     fault = fault ||
             (config_.heartbeat_consumer_timeouts && heartbeat_consumer_.is_timed_out(entry.node));
@@ -285,7 +286,8 @@ void DeviceServices::update_communication_error(can::TimePoint now) {
     const auto value = behaviour != nullptr && config_.error_behaviour
                            ? static_cast<std::uint8_t>(behaviour->as_unsigned())
                            : std::uint8_t{0};
-    if (auto reaction = communication_error_command(nmt_.state(), value)) {
+    if (auto reaction = communication_error_command(nmt_.state(), value);
+        reaction && (guarding_fault || config_.heartbeat_timeout_nmt_reaction)) {
       on_nmt_result(nmt_.apply(*reaction), now);
     }
   } else if (!fault && communication_error_) {

@@ -82,6 +82,9 @@ struct DeviceServicesConfig {
   // false: a communication error always takes the reaction of 1029h sub 01h = 0, whatever the
   // object holds (error-behaviour-ignored).
   bool error_behaviour = true;
+  // false: a heartbeat consumer timeout takes no NMT reaction at all, whatever 1029h sub 01h
+  // holds (EMCY 8130h is still sent; heartbeat-timeout-keeps-nmt-state).
+  bool heartbeat_timeout_nmt_reaction = true;
   // true: SYNC frames are consumed in Stopped too (pdo-in-stopped; false in a conformant device).
   bool sync_in_stopped = false;
   // false: once 1003h is full, new errors are not entered (the oldest stay; emcy-history-full-

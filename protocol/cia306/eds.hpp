@@ -191,6 +191,7 @@ struct Eds {
   FileInfo file_info;
   DeviceInfo device_info;
   std::array<std::optional<bool>, 8> dummy_usage{};  // [1..7]: Dummy0001 ... Dummy0007
+  SourceLines dummy_usage_lines;  // [DummyUsage]: its line, "dummy0005" -> the key's line
   std::vector<std::string> comments;
   std::optional<DeviceCommissioning> commissioning;  // present: the file is a DCF
   std::vector<EdsObject> objects;                    // ascending index

@@ -74,6 +74,7 @@ class Linter {
     check_structures();
     check_entries();
     check_pdos();
+    check_dummy_usage();
     check_device_info();
     check_file_info();
     check_dcf();
@@ -519,6 +520,53 @@ class Linter {
       error(sub0->default_line, "pdo-mapping-too-long",
             fmt::format("{} mapping {:04X}h maps {} bits, more than the 64 of a CAN frame", pdo,
                         o.index, bits));
+    }
+  }
+
+  // [DummyUsage] against the rest of the file (CiA 306 [DummyUsage], [DeviceInfo] Granularity;
+  // CiA 301 §7.5.2.36: a dummy entry is an RPDO mapping entry): a declared dummy that the
+  // mapping granularity cannot place, or that no RPDO can ever map.
+  void check_dummy_usage() {
+    const auto& di = eds_.device_info;
+    bool any_rpdo = false;
+    std::array<bool, 8> in_default_rpdo{};
+    for (const auto& o : eds_.objects) {
+      if (o.index < 0x1600 || o.index > 0x17FF) continue;
+      any_rpdo = true;
+      for (const auto& sub : o.subs) {
+        if (sub.sub_index == 0) continue;
+        const auto& text =
+            sub.keys.parameter_value ? sub.keys.parameter_value : sub.keys.default_value;
+        const auto value = unsigned_value(text, DataType::unsigned32);
+        if (!value) continue;
+        const auto index = *value >> 16;
+        if (index >= 1 && index <= 7) in_default_rpdo[index] = true;
+      }
+    }
+    for (std::uint16_t type = 1; type <= 7; ++type) {
+      if (!eds_.dummy_usage[type].value_or(false)) continue;
+      const int line = eds_.dummy_usage_lines.at(fmt::format("dummy{:04x}", type));
+      const auto info = *cia301::find_data_type(type);
+      if (di.granularity && *di.granularity > 0 && *di.granularity <= 64 &&
+          info.bit_size % *di.granularity != 0) {
+        error(line, "dummy-usage-granularity",
+              fmt::format("[DummyUsage] Dummy{:04X}=1 declares the {}-bit dummy {:04X}h ({}) but "
+                          "[DeviceInfo] Granularity={} maps in steps of {} bits: it cannot be "
+                          "mapped",
+                          type, info.bit_size, type, info.name, *di.granularity, *di.granularity));
+      }
+      if (!any_rpdo) {
+        warning(line, "dummy-usage-unusable",
+                fmt::format("[DummyUsage] Dummy{:04X}=1 but the file describes no RPDO mapping "
+                            "(1600h-17FFh): a dummy is an RPDO mapping entry",
+                            type));
+      } else if (di.granularity && *di.granularity == 0 && !in_default_rpdo[type]) {
+        warning(line, "dummy-usage-unusable",
+                fmt::format("[DummyUsage] Dummy{:04X}=1 but [DeviceInfo] Granularity=0 (the "
+                            "mapping cannot be changed) and no default RPDO mapping holds "
+                            "{:04X}h: no RPDO can map it",
+                            type, type));
+      }
     }
   }
 

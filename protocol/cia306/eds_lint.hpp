@@ -28,6 +28,10 @@
 //   pdo-mapping-direction        E  RPDO -> ro/const, TPDO -> wo
 //   pdo-mapping-direction-hint   W  RPDO -> rwr, TPDO -> rww
 //   pdo-mapping-dummy-disabled   E  dummy object mapped but [DummyUsage] does not enable it
+//   dummy-usage-granularity      E  [DummyUsage] enables a dummy whose length the Granularity
+//                                   cannot place (1-bit 0001h, Granularity 8)
+//   dummy-usage-unusable         W  [DummyUsage] enables a dummy no RPDO can map (no RPDO, or
+//                                   Granularity 0 and no default RPDO mapping holds it)
 //   pdo-mapping-too-long         E  more than 64 bits mapped
 //   pdo-without-communication    E  1600h+n without 1400h+n, 1A00h+n without 1800h+n, and
 //                                   the reverse

@@ -981,18 +981,23 @@ class Reader {
       read_fields(*commissioning_, *eds.commissioning, detail::kCommissioningFields);
     }
     if (dummy_usage_ != nullptr) {
+      eds.dummy_usage_lines.section = dummy_usage_->line;
       for (const auto& key : dummy_usage_->keys) {
         const auto lower = to_lower(key.name);
         const auto type = lower.size() == 9 && lower.starts_with("dummy")
                               ? hex_number(lower.substr(5))
                               : std::nullopt;
         if (!type || *type < 1 || *type > 7) {
-          warning(
-              key.line, "unknown-key",
-              fmt::format("'{}' in [DummyUsage] is not Dummy0001..Dummy0007 (ignored)", key.name));
+          // CiA 306 [DummyUsage] lists the data types 0001h-0007h only: another key is a
+          // malformed line (a typo would silently leave that dummy undeclared).
+          error(key.line, "bad-key",
+                fmt::format("'{}' in [DummyUsage] is not one of Dummy0001..Dummy0007 (CiA 306: "
+                            "the dummy data types 0001h-0007h)",
+                            key.name));
           continue;
         }
         eds.dummy_usage[*type] = bool_value(key);
+        eds.dummy_usage_lines.add(fmt::format("dummy{:04x}", *type), key.line);
       }
     }
     if (comments_ != nullptr) {

@@ -31,7 +31,7 @@ struct FeatureRow {
   std::string_view name;
   bool detectable;
 };
-constexpr std::array<FeatureRow, 38> kFeatureRows{{
+constexpr std::array<FeatureRow, 39> kFeatureRows{{
     {"sdo.segmented", true},
     {"sdo.block", true},
     {"sdo.expedited", false},
@@ -48,6 +48,7 @@ constexpr std::array<FeatureRow, 38> kFeatureRows{{
     {"time", true},
     {"pdo", true},
     {"pdo.dynamic-mapping", true},
+    {"pdo.dummy-mapping", false},  // RPDOs take the dummy entry 0005h (EDS [DummyUsage])
     {"pdo.rtr", true},
     {"pdo.event-timer", true},
     {"pdo.inhibit", true},

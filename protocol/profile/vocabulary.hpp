@@ -5,13 +5,13 @@
 // Features (FORMAT.md "Features"):
 //   sdo.segmented sdo.block sdo.expedited nmt.guarding heartbeat.producer heartbeat.consumer
 //   emcy emcy.inhibit emcy.history sync sync.producer sync.counter time pdo
-//   pdo.dynamic-mapping pdo.rtr pdo.event-timer pdo.inhibit pdo.sync-window store restore
-//   cia402 hardware-enable hardware-enable.transition-2 hardware-enable.transition-3 mode.pp
-//   mode.vl mode.pv mode.tq mode.hm mode.ip mode.csp mode.csv mode.cst transition.16 simulation
-//   motion homing.method.<n>            n: decimal integer -128..127 (CiA 402 or manufacturer
-//   method) option.<object>.<value>      object: an option-code name below; value: decimal
-//   -32768..32767
-//   object.IIII object.IIII.SS          an object need (vectors only): index IIII, sub-index SS,
+//   pdo.dynamic-mapping pdo.dummy-mapping pdo.rtr pdo.event-timer pdo.inhibit pdo.sync-window store
+//   restore cia402 hardware-enable hardware-enable.transition-2 hardware-enable.transition-3
+//   mode.pp mode.vl mode.pv mode.tq mode.hm mode.ip mode.csp mode.csv mode.cst transition.16
+//   simulation motion homing.method.<n>            n: decimal integer -128..127 (CiA 402 or
+//   manufacturer method) option.<object>.<value>      object: an option-code name below; value:
+//   decimal -32768..32767 object.IIII object.IIII.SS          an object need (vectors only): index
+//   IIII, sub-index SS,
 //                                       upper-case hex, 4 and 2 digits ("object.1029",
 //                                       "object.1018.02"). The vector is N/A where the device
 //                                       lacks it (EDS or SDO probe, conformance/capabilities.hpp)

@@ -69,6 +69,10 @@ struct ModeContext {
   // Set by a torque mode (tq, cst) to its torque demand (‰) for 6074h; cleared by the
   // application every cycle (unset: 6074h shows the motor torque).
   std::optional<double> torque_demand{};
+  // Set by a mode to controlword bits the drive resets itself (pp, 60F2h request-response
+  // option: bit 4 new set-point); the application clears them in 6040h after the mode's cycle
+  // and then resets this to 0.
+  std::uint16_t release_controlword_bits = 0;
 
   bool has(Deviation deviation) const {
     return deviations != nullptr && deviations->has(deviation);

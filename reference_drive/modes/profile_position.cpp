@@ -20,6 +20,12 @@ constexpr std::uint16_t kFollowingError = 0x2000;
 constexpr std::uint64_t kRelativeOption = 0x0003;  // 60F2h bits 1..0
 constexpr std::uint64_t kRelativeToDemand = 0x0001;
 constexpr std::uint64_t kRelativeToActual = 0x0002;
+// 60F2h bits 5..4, request-response option: 00 the handshake of controlword bit 4 / statusword
+// bit 12; 01 the drive resets bit 4 once the positioning has reached its target; 10 as soon as
+// it can (at the acknowledge); 11 reserved.
+constexpr std::uint64_t kRequestResponseOption = 0x0030;
+constexpr std::uint64_t kReleaseAtTarget = 0x0010;
+constexpr std::uint64_t kReleaseAtOnce = 0x0020;
 
 double seconds(can::Duration d) {
   return std::chrono::duration<double>(d).count();
@@ -35,12 +41,23 @@ Expected<void, std::string> ProfilePositionMode::add_objects(cia301::ObjectDicti
     if (!added) return Unexpected(added.error());
   }
   if (cia301::Entry* e = od.find(cia402::kPositioningOptionCode.index, 0)) {
+    const bool reserved_accepted =
+        deviations_.has(Deviation::pp_positioning_option_reserved_accepted);
     e->set_write_validator(
-        [](const cia301::ObjectDictionary&, const cia301::Entry&,
-           std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
+        [reserved_accepted](
+            const cia301::ObjectDictionary&, const cia301::Entry&,
+            std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
           const std::uint64_t v = cia301::load_unsigned(data);
-          // Only the relative option is implemented, and 11 is reserved.
-          if ((v & ~kRelativeOption) != 0 || (v & kRelativeOption) == kRelativeOption) {
+          // Deviation pp-positioning-option-reserved-accepted: 11 in bits 1..0 and 5..4 taken.
+          if (reserved_accepted && (v & ~(kRelativeOption | kRequestResponseOption)) == 0)
+            return {};
+          // The relative and request-response options are implemented, 11 is reserved in each;
+          // the change-immediately option (bits 3..2) is not, the rotary axis direction option
+          // (bits 7..6) needs a rotary axis (607Bh, which this drive lacks), bits 8..15 are the
+          // ip option and reserved: every other bit must be 0.
+          if ((v & ~(kRelativeOption | kRequestResponseOption)) != 0 ||
+              (v & kRelativeOption) == kRelativeOption ||
+              (v & kRequestResponseOption) == kRequestResponseOption) {
             return Unexpected(cia301::SdoAbort::invalid_value);
           }
           return {};
@@ -222,6 +239,18 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
   }
 
   update_target_reached(ctx, cycle);
+
+  // 60F2h request-response option (deviation pp-request-response-option-ignored: always 00;
+  // pp-request-response-release-early: 01 releases at the acknowledge, as 10 does).
+  if (enabled_ && bit4 && ack_ && !ctx.has(Deviation::pp_request_response_option_ignored)) {
+    const std::uint64_t option =
+        ctx.read_unsigned(cia402::kPositioningOptionCode) & kRequestResponseOption;
+    const bool at_once =
+        option == kReleaseAtOnce ||
+        (option == kReleaseAtTarget && ctx.has(Deviation::pp_request_response_release_early));
+    const bool at_target = option == kReleaseAtTarget && reached_ && buffered_.empty();
+    if (at_once || at_target) ctx.release_controlword_bits |= kNewSetPoint;
+  }
   if (has_target_ && last_clamped_) ctx.position_limited = true;
 
   bits_ = 0;

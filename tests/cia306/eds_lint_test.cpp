@@ -35,6 +35,10 @@ Lines read_errors(const std::string& name) {
   return lines(read_eds(load(name), name).diagnostics, Severity::error);
 }
 
+Lines read_eds_errors_text(const std::string& text, const std::string& name) {
+  return lines(read_eds(text, name).diagnostics, Severity::error);
+}
+
 std::string replaced(std::string text, const std::string& from, const std::string& to) {
   const auto pos = text.find(from);
   EXPECT_NE(pos, std::string::npos) << from;
@@ -323,6 +327,64 @@ TEST(EdsLint, DummyMappingNeedsDummyUsage) {
       lines(lint_eds_text(text, "compact_subobj.eds"), Severity::error),
       Lines{"compact_subobj.eds:156: error: RPDO mapping 1600h sub 1 (0x00050008) maps dummy 0005h "
             "(UNSIGNED8) but [DummyUsage] Dummy0005 is not 1 [pdo-mapping-dummy-disabled]"});
+}
+
+TEST(EdsLint, DummyUsageBelowTheGranularity) {
+  // Given [DummyUsage] Dummy0001=1 (the 1-bit BOOLEAN dummy) with [DeviceInfo] Granularity=8
+  // When linted
+  // Then the key is an error: a byte-wise mapping cannot place one bit
+  const auto text = replaced(load("compact_subobj.eds"), "Dummy0001=0", "Dummy0001=1");
+  EXPECT_EQ(lines(lint_eds_text(text, "compact_subobj.eds"), Severity::error),
+            Lines{"compact_subobj.eds:26: error: [DummyUsage] Dummy0001=1 declares the 1-bit dummy "
+                  "0001h (BOOLEAN) but [DeviceInfo] Granularity=8 maps in steps of 8 bits: it "
+                  "cannot be mapped [dummy-usage-granularity]"});
+}
+
+TEST(EdsLint, DummyUsageWithAFixedMapping) {
+  // Given Granularity=0 (the mapping cannot be changed) and Dummy0002..0007=1, while the one
+  // default RPDO mapping holds the dummies 0005h and 0006h
+  // When linted
+  // Then each dummy no RPDO can ever map is a warning, 0005h and 0006h are not
+  const auto text = replaced(load("compact_subobj.eds"), "Granularity=8", "Granularity=0");
+  Lines unusable;
+  for (const auto& line : lines(lint_eds_text(text, "compact_subobj.eds"), Severity::warning)) {
+    if (line.find("[dummy-usage-unusable]") != std::string::npos) unusable.push_back(line);
+  }
+  EXPECT_EQ(unusable.size(), 4U) << ::testing::PrintToString(unusable);
+  EXPECT_EQ(unusable.at(0),
+            "compact_subobj.eds:27: warning: [DummyUsage] Dummy0002=1 but [DeviceInfo] "
+            "Granularity=0 (the mapping cannot be changed) and no default RPDO mapping holds "
+            "0002h: no RPDO can map it [dummy-usage-unusable]");
+  for (const auto& line : unusable) {
+    EXPECT_EQ(line.find("Dummy0005"), std::string::npos) << line;
+    EXPECT_EQ(line.find("Dummy0006"), std::string::npos) << line;
+  }
+}
+
+TEST(EdsLint, DummyUsageWithoutAnyRpdo) {
+  // Given a file without RPDOs that declares Dummy0005=1
+  // When linted
+  // Then the declaration is a warning: a dummy is an RPDO mapping entry
+  const auto text = load("minimal.eds") + "\n[DummyUsage]\nDummy0005=1\n";
+  Lines unusable;
+  for (const auto& line : lines(lint_eds_text(text, "minimal.eds"), Severity::warning)) {
+    if (line.find("[dummy-usage-unusable]") != std::string::npos) unusable.push_back(line);
+  }
+  EXPECT_EQ(unusable, Lines{"minimal.eds:116: warning: [DummyUsage] Dummy0005=1 but the file "
+                            "describes no RPDO mapping (1600h-17FFh): a dummy is an RPDO mapping "
+                            "entry [dummy-usage-unusable]"});
+}
+
+TEST(EdsErrors, DummyUsageMalformedLines) {
+  // Given [DummyUsage] with a key outside Dummy0001..Dummy0007 and a value neither 0 nor 1
+  auto text = replaced(load("compact_subobj.eds"), "Dummy0007=1", "Dummy0008=1");
+  text = replaced(text, "Dummy0006=1", "Dummy0006=yes");
+  // When read
+  // Then each is an error at its own line
+  EXPECT_EQ(read_eds_errors_text(text, "compact_subobj.eds"),
+            (Lines{"compact_subobj.eds:31: error: Dummy0006 'yes' is neither 0 nor 1 [bad-value]",
+                   "compact_subobj.eds:32: error: 'Dummy0008' in [DummyUsage] is not one of "
+                   "Dummy0001..Dummy0007 (CiA 306: the dummy data types 0001h-0007h) [bad-key]"}));
 }
 
 TEST(EdsLint, NodeIdDefaultsAreCheckedForNodes1And127) {

@@ -66,6 +66,26 @@ Vector needing(std::vector<std::string> requires_features) {
 
 constexpr profile::ObjectNeed k1029{0x1029, std::nullopt};
 
+TEST(Unless, AClaimedFeatureMakesTheVectorNotApplicable) {
+  // Given a vector with unless: [pdo.dummy-mapping] and two profiles, one claiming it
+  Vector vector = needing({"pdo"});
+  vector.unless_features = {"pdo.dummy-mapping"};
+  auto claims = profile::parse_profile(
+      "name: c\ntitle: C\nfeatures: [sdo.expedited, pdo, pdo.dummy-mapping]\n",
+      {.file_name = "c.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(claims) << claims.error().to_string();
+  auto lacks = profile::parse_profile(
+      "name: l\ntitle: L\nfeatures: [sdo.expedited, pdo]\n",
+      {.file_name = "l.yaml", .base_dir = std::nullopt, .check_name = false});
+  ASSERT_TRUE(lacks) << lacks.error().to_string();
+  ApplicabilityContext context;
+  // When applicability is decided
+  // Then the claiming profile makes it not applicable, saying why; the other runs it
+  EXPECT_EQ(not_applicable_reason(vector, *claims, context),
+            "profile c claims pdo.dummy-mapping: the vector for such a device judges it (unless:)");
+  EXPECT_EQ(not_applicable_reason(vector, *lacks, context), "");
+}
+
 TEST(ObjectPresence, UploadAnswered06020000IsAbsentAndTheVectorNotApplicable) {
   // Given a device that answers 1029h with "object does not exist"
   FakeDevice device;

@@ -208,6 +208,32 @@ TEST(VectorFile, UnknownVectorKeyNamesLine) {
   EXPECT_NE(error.find("v.yaml:5: unknown vector key 'stpes'"), std::string::npos) << error;
 }
 
+TEST(VectorFile, UnlessTakesProfileFeatures) {
+  // Given `unless: [pdo.dummy-mapping]`; When parsed; Then the vector keeps the feature
+  const auto set = parse_vectors(std::string(kHead) +
+                                     "  requires: [pdo]\n  unless: [pdo.dummy-mapping]\n"
+                                     "  steps: [{wait: 1ms}]\n",
+                                 "v.yaml");
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  EXPECT_EQ(set.vectors.at(0).unless_features, std::vector<std::string>{"pdo.dummy-mapping"});
+}
+
+TEST(VectorFile, UnlessRefusesObjectNeedsUnknownAndRequiredFeatures) {
+  // Given unless: with an object need, an unknown feature, and a feature requires: lists
+  // When parsed
+  // Then each is an error at the unless: line
+  auto error = only_error(std::string(kHead) + "  unless: [object.1029]\n  steps: [{wait: 1ms}]\n");
+  EXPECT_NE(error.find("v.yaml:5: unless: 'object.1029' is not a profile feature"),
+            std::string::npos)
+      << error;
+  error = only_error(std::string(kHead) + "  unless: [pdo.dumy]\n  steps: [{wait: 1ms}]\n");
+  EXPECT_NE(error.find("v.yaml:5: unless: 'pdo.dumy' is not a profile feature"), std::string::npos)
+      << error;
+  error = only_error(std::string(kHead) +
+                     "  requires: [pdo]\n  unless: [pdo]\n  steps: [{wait: 1ms}]\n");
+  EXPECT_NE(error.find("v.yaml:6: unless: 'pdo' is also in requires:"), std::string::npos) << error;
+}
+
 TEST(VectorFile, UnknownStepModifierIsAnError) {
   // Given `withn:` on an expectation; When parsed; Then the step's line and the allowed keys
   const auto error =

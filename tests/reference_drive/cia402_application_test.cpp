@@ -370,16 +370,110 @@ TEST(ProfilePosition, RelativeMoveIsRelativeToTheDemand) {
   EXPECT_NEAR(d.value(0x6064), 4000, 2);
 }
 
-TEST(ProfilePosition, PositioningOptionCodeTakesOnlyTheRelativeOption) {
+TEST(ProfilePosition, PositioningOptionCodeTakesTheRelativeAndRequestResponseOptions) {
   // Given the drive with 60F2h (positioning option code)
   Cia402Drive d;
-  // When the relative options 00, 01, 10, the reserved 11 and other bits are written
-  // Then 00..10 are taken and the rest refused with 06090030h (value range)
+  // When the relative options 00..10, the request-response options 01 and 10, the reserved 11
+  // of each and other bits are written
+  // Then the options are taken and the rest refused with 06090030h (value range)
   EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0001, 2), 0u);
   EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0002, 2), 0u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0012, 2), 0u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0020, 2), 0u);
   EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0003, 2), 0x06090030u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0030, 2), 0x06090030u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0004, 2), 0x06090030u);
   EXPECT_EQ(d.rig().write(0x60F2, 0, 0x00C0, 2), 0x06090030u);
   EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0000, 2), 0u);
+}
+
+TEST(ProfilePosition, ReservedPositioningOptionsAcceptedDeviation) {
+  // Given the deviation pp-positioning-option-reserved-accepted
+  Cia402ApplicationConfig config;
+  config.deviations.add(Deviation::pp_positioning_option_reserved_accepted);
+  Cia402Drive d(std::move(config));
+  // When the reserved 11 of the relative and request-response options are written
+  // Then both are taken; the options not implemented are still refused
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0003, 2), 0u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x0030, 2), 0u);
+  EXPECT_EQ(d.rig().write(0x60F2, 0, 0x00C0, 2), 0x06090030u);
+}
+
+// With 60F2h = `option`, a pp move of 1000 (1.1 s at 1000/s) started with bit 4 left at 1.
+void start_move_leaving_bit4(Cia402Drive& d, std::uint16_t option) {
+  d.write(0x60F2, 0, option, 2);
+  d.write(0x6081, 0, 1000, 4);
+  d.enable(1);
+  d.write(0x607A, 0, 1000, 4);
+  d.controlword(0x001F);
+}
+
+TEST(ProfilePosition, RequestResponseReleaseAtOnceResetsBit4AtTheAcknowledge) {
+  // Given 60F2h request-response option 10
+  Cia402Drive d;
+  // When a set-point is started and the master leaves bit 4 at 1
+  start_move_leaving_bit4(d, 0x0020);
+  d.rig().run(20ms);
+  // Then the drive has reset 6040h bit 4 and bit 12 while the axis still moves
+  EXPECT_EQ(d.value(0x6040) & 0x0010, 0);
+  EXPECT_EQ(d.statusword() & kBit12, 0);
+  EXPECT_FALSE(d.statusword() & kTargetReached);
+  // And the positioning runs to its target
+  ASSERT_TRUE(d.wait_for(kTargetReached, kTargetReached, 3s));
+  EXPECT_NEAR(d.value(0x6064), 1000, 10);
+}
+
+TEST(ProfilePosition, RequestResponseReleaseAtTargetWaitsForTheTarget) {
+  // Given 60F2h request-response option 01
+  Cia402Drive d;
+  // When a set-point is started and the master leaves bit 4 at 1
+  start_move_leaving_bit4(d, 0x0010);
+  d.rig().run(200ms);
+  // Then bit 4 and bit 12 stay 1 while the axis moves
+  EXPECT_NE(d.value(0x6040) & 0x0010, 0);
+  EXPECT_NE(d.statusword() & kBit12, 0);
+  // And once the target is reached the drive resets both
+  ASSERT_TRUE(d.wait_for(kTargetReached, kTargetReached, 3s));
+  d.rig().run(10ms);
+  EXPECT_EQ(d.value(0x6040) & 0x0010, 0);
+  EXPECT_EQ(d.statusword() & kBit12, 0);
+}
+
+TEST(ProfilePosition, RequestResponseHandshakeByDefault) {
+  // Given 60F2h = 0 (request-response option 00)
+  Cia402Drive d;
+  // When a set-point is started, run to its target, and the master leaves bit 4 at 1
+  start_move_leaving_bit4(d, 0x0000);
+  ASSERT_TRUE(d.wait_for(kTargetReached, kTargetReached, 3s));
+  d.rig().run(10ms);
+  // Then bit 4 and bit 12 stay 1: the master resets bit 4
+  EXPECT_NE(d.value(0x6040) & 0x0010, 0);
+  EXPECT_NE(d.statusword() & kBit12, 0);
+}
+
+TEST(ProfilePosition, RequestResponseOptionIgnoredDeviationKeepsBit4) {
+  // Given 60F2h request-response option 10 with pp-request-response-option-ignored
+  Cia402ApplicationConfig config;
+  config.deviations.add(Deviation::pp_request_response_option_ignored);
+  Cia402Drive d(std::move(config));
+  // When a set-point is started and run to its target
+  start_move_leaving_bit4(d, 0x0020);
+  ASSERT_TRUE(d.wait_for(kTargetReached, kTargetReached, 3s));
+  // Then bit 4 is never reset by the drive
+  EXPECT_NE(d.value(0x6040) & 0x0010, 0);
+}
+
+TEST(ProfilePosition, RequestResponseReleaseEarlyDeviationResetsAtTheAcknowledge) {
+  // Given 60F2h request-response option 01 with pp-request-response-release-early
+  Cia402ApplicationConfig config;
+  config.deviations.add(Deviation::pp_request_response_release_early);
+  Cia402Drive d(std::move(config));
+  // When a set-point is started
+  start_move_leaving_bit4(d, 0x0010);
+  d.rig().run(20ms);
+  // Then bit 4 is reset while the axis still moves
+  EXPECT_EQ(d.value(0x6040) & 0x0010, 0);
+  EXPECT_FALSE(d.statusword() & kTargetReached);
 }
 
 // With 60F2h = `option` (a relative option), a pp move to 20000 at 1000/s for 300 ms, then
