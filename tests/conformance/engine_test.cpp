@@ -730,8 +730,18 @@ TEST_F(EngineDriveTest, FactoryRestoreOnARealBusNeedsTheOptIn) {
 }
 
 TEST_F(EngineDriveTest, DetectedFeaturesAndObjectNeedsAreProbedOnceAndDecideApplicability) {
-  // Given a generic profile that detects time and heartbeat.producer, and vectors needing time
-  // (the reference drive has no 1012h), heartbeat.producer, object 1029h and object 2FFFh
+  // Given a reference drive built without its TIME consumer (no 1012h), a generic profile that
+  // detects time and heartbeat.producer, and vectors needing time, heartbeat.producer, object
+  // 1029h and object 2FFFh
+  drive_.reset();
+  reference_drive::DriveConfig config;
+  config.dictionary.node_id = 1;
+  config.dictionary.time_consumer = false;
+  auto drive = reference_drive::ReferenceDrive::create(*peer_port_, std::move(config));
+  ASSERT_TRUE(drive) << drive.error();
+  drive_ = std::move(*drive);
+  drive_->power_on();
+  bus_.run_for(10ms);
   auto parsed = profile::parse_profile(
       "name: g\ntitle: G\nfeatures: [sdo.expedited]\ndetect: [time, heartbeat.producer]\n",
       {.file_name = "g.yaml", .base_dir = std::nullopt, .check_name = false});
