@@ -174,12 +174,9 @@ TEST(MasterInterop, ProcessDataLengthsComeFromCoeWhenTheSiiHasNoPdos) {
   EXPECT_TRUE(master.set_output(0, {0x6040, 0}, 0x000F));
 }
 
-TEST(MasterInterop, MailboxFromSyncManagerEntriesWhenTheWordsAreZero) {
-  // Given a SII whose standard mailbox words (18h..1Bh) are 0 and whose SyncM entries 0 and 1
-  // place the mailboxes at 1800h (96 octets) and 1900h (64 octets)
-  SiiImage image = drive_sii_image(0);
-  image.header.standard_receive = {};
-  image.header.standard_send = {};
+// A test slave whose SII (`image`) places SM0 at 1800h (96 octets) and SM1 at 1900h (64
+// octets) in its SyncM entries, with mailboxes of those sizes.
+SlaveOptions mailboxes_at_1800_and_1900(SiiImage image) {
   image.sync_managers[0].start = 0x1800;
   image.sync_managers[0].length = 96;
   image.sync_managers[1].start = 0x1900;
@@ -188,7 +185,16 @@ TEST(MasterInterop, MailboxFromSyncManagerEntriesWhenTheWordsAreZero) {
   options.sii = *build_sii(image);
   options.write_mailbox = 96;
   options.read_mailbox = 64;
-  Rig rig(options);
+  return options;
+}
+
+TEST(MasterInterop, MailboxFromSyncManagerEntriesWhenTheWordsAreZero) {
+  // Given a SII whose standard mailbox words (18h..1Bh) are 0 and whose SyncM entries 0 and 1
+  // place the mailboxes at 1800h (96 octets) and 1900h (64 octets)
+  SiiImage image = drive_sii_image(0);
+  image.header.standard_receive = {};
+  image.header.standard_send = {};
+  Rig rig(mailboxes_at_1800_and_1900(image));
   Master master = make_master(rig.segment);
   // When the master brings it up and uploads the 40-octet 1008h (segmented through SM1)
   const auto up = master.bring_up(AlState::preop);
@@ -206,15 +212,7 @@ TEST(MasterInterop, MailboxSizesFromTheWordsMayDiffer) {
   SiiImage image = drive_sii_image(0);
   image.header.standard_receive = {0x1800, 96};
   image.header.standard_send = {0x1900, 64};
-  image.sync_managers[0].start = 0x1800;
-  image.sync_managers[0].length = 96;
-  image.sync_managers[1].start = 0x1900;
-  image.sync_managers[1].length = 64;
-  SlaveOptions options;
-  options.sii = *build_sii(image);
-  options.write_mailbox = 96;
-  options.read_mailbox = 64;
-  Rig rig(options);
+  Rig rig(mailboxes_at_1800_and_1900(image));
   Master master = make_master(rig.segment);
   // When the master brings it up to OP and uploads 1008h
   const auto up = master.bring_up(AlState::op);
