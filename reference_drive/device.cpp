@@ -244,6 +244,7 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   services.error_history_shift_when_full = !has(Deviation::emcy_history_full_not_shifted);
   services.error_behaviour = !has(Deviation::error_behaviour_ignored);
   services.heartbeat_timeout_nmt_reaction = !has(Deviation::heartbeat_timeout_keeps_nmt_state);
+  services.communication_error_without_object = config_.communication_error_without_1029;
   services.sync_in_stopped =
       has(Deviation::pdo_in_stopped) || has(Deviation::sync_tpdo_acyclic_in_stopped);
   services_ = std::make_unique<cia301::DeviceServices>(bus_, *od_, services, std::move(handlers));
@@ -354,13 +355,13 @@ void ReferenceDrive::set_bus_off(bool bus_off) {
   if (bus_off == bus_off_) return;
   bus_off_ = bus_off;
   if (bus_off) {
-    // CiA 301 1029h:01: bus-off is a communication error (0: Operational -> Pre-operational).
-    const cia301::Entry* behaviour = od_->find(cia301::kErrorBehaviourIndex, 1);
-    const auto value = behaviour != nullptr && !has(Deviation::error_behaviour_ignored)
-                           ? static_cast<std::uint8_t>(behaviour->as_unsigned())
-                           : std::uint8_t{0};
+    // CiA 301 1029h:01: bus-off is a communication error (0: Operational -> Pre-operational;
+    // without 1029h the drive's fixed behaviour, DriveConfig::communication_error_without_1029).
     if (powered_) {
-      if (auto reaction = cia301::communication_error_command(state(), value)) command(*reaction);
+      if (auto reaction = cia301::communication_error_command(
+              state(), services_->communication_error_behaviour())) {
+        command(*reaction);
+      }
     }
   }
   // CiA 402-2 6007h: bus-off is one of the events of the abort connection option code (a

@@ -151,6 +151,11 @@ struct DriveConfig {
   // services bind. The services whose objects are gone are off (device_services.hpp); without
   // 1010h/1011h there is no store/restore (each reset applies the defaults).
   std::vector<std::pair<std::uint16_t, std::uint16_t>> absent_objects;
+  // The NMT reaction to a communication error (heartbeat or life guarding event, bus-off) of a
+  // drive without 1029h, as a 1029h sub 01h value (DeviceServicesConfig::
+  // communication_error_without_object): 0, CiA 301 §7.5.2.32's default (Operational ->
+  // Pre-operational); personality key guarding_loss: no-nmt-change makes it 1 (Kollmorgen).
+  std::uint8_t communication_error_without_1029 = 0;
   // TPDOs of type n without a SYNC start value start their count at the first SYNC (personality
   // key tpdo_sync_phase: first-sync; PdoService::set_first_sync_phase).
   bool tpdo_first_sync_phase = false;

@@ -553,7 +553,10 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
           "guarding_loss pre-operational: from Stopped the node stays Stopped (1029h:01 = 0)");
       break;
     case profile::GuardingLoss::no_nmt_change:
+      // 1029h:01 defaults to 1 where the personality keeps 1029h; without it (absent_objects)
+      // the drive's fixed reaction is the same.
       plan.overrides.push_back({kErrorBehaviourIndex, 1, 1, cia301::ResetKind::communication});
+      plan.drive.communication_error_without_1029 = 1;
       break;
   }
   if (p.ack_latency_cycles == 0) {

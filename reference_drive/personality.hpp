@@ -60,7 +60,9 @@
 //   guarding_loss: error-behaviour | pre-operational | no-nmt-change
 //       1029h:01 after each reset (while at its default 0): pre-operational -> 0 (CiA 301:
 //       Operational -> Pre-operational; ESR's "also from Stopped" is not simulated),
-//       no-nmt-change -> 1. Standard: error-behaviour (1029h as the dictionary has it).
+//       no-nmt-change -> 1. A personality without 1029h (absent_objects) reacts the same way
+//       (DriveConfig::communication_error_without_1029: no-nmt-change -> 1, else CiA 301
+//       §7.5.2.32's default 0). Standard: error-behaviour (1029h as the dictionary has it).
 //   ack_latency_cycles: 1..1000
 //       pp: control cycles from the new set-point edge to set-point acknowledge
 //       (Cia402ApplicationConfig::acknowledge_latency_cycles; 0 is refused). Standard: 1.

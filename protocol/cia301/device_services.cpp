@@ -263,6 +263,13 @@ void DeviceServices::flush_emcy(can::TimePoint now) {
     send(*frame);
 }
 
+std::uint8_t DeviceServices::communication_error_behaviour() const {
+  const Entry* behaviour = od_.find(kErrorBehaviourIndex, 1);
+  if (behaviour == nullptr) return config_.communication_error_without_object;
+  return config_.error_behaviour ? static_cast<std::uint8_t>(behaviour->as_unsigned())
+                                 : std::uint8_t{0};
+}
+
 void DeviceServices::update_communication_error(can::TimePoint now) {
   const bool guarding_fault = guarding_.expired();
   bool fault = guarding_fault;
@@ -282,10 +289,7 @@ void DeviceServices::update_communication_error(can::TimePoint now) {
       // The EMCY goes out before the error behaviour may stop the node.
       flush_emcy(now);
     }
-    const Entry* behaviour = od_.find(kErrorBehaviourIndex, 1);
-    const auto value = behaviour != nullptr && config_.error_behaviour
-                           ? static_cast<std::uint8_t>(behaviour->as_unsigned())
-                           : std::uint8_t{0};
+    const auto value = communication_error_behaviour();
     if (auto reaction = communication_error_command(nmt_.state(), value);
         reaction && (guarding_fault || config_.heartbeat_timeout_nmt_reaction)) {
       on_nmt_result(nmt_.apply(*reaction), now);

@@ -85,6 +85,12 @@ struct DeviceServicesConfig {
   // false: a heartbeat consumer timeout takes no NMT reaction at all, whatever 1029h sub 01h
   // holds (EMCY 8130h is still sent; heartbeat-timeout-keeps-nmt-state).
   bool heartbeat_timeout_nmt_reaction = true;
+  // The communication error behaviour of a device without 1029h (a value of 1029h sub 01h,
+  // CommunicationErrorBehaviour): 0, pre-operational, is CiA 301 §7.5.2.32's default (a device
+  // in Operational enters Pre-operational by default; 1029h, where implemented, configures
+  // another). A manual may document a fixed other reaction (Kollmorgen S300/S700: none, 1).
+  // Not used while the dictionary has 1029h sub 01h.
+  std::uint8_t communication_error_without_object = 0;
   // true: SYNC frames are consumed in Stopped too (pdo-in-stopped; false in a conformant device).
   bool sync_in_stopped = false;
   // false: once 1003h is full, new errors are not entered (the oldest stay; emcy-history-full-
@@ -171,6 +177,10 @@ class DeviceServices {
   const EmcyProducer& emcy() const { return emcy_; }
   const SyncConsumer& sync_consumer() const { return sync_consumer_; }
   const std::optional<SyncProducer>& sync_producer() const { return sync_producer_; }
+  // The communication error behaviour the node acts on (a 1029h sub 01h value): the object's
+  // while the dictionary has it (0 with config.error_behaviour false), else
+  // config.communication_error_without_object.
+  std::uint8_t communication_error_behaviour() const;
   // The error of the last send() that failed (cleared by none; empty when all went out).
   std::error_code last_send_error() const { return last_send_error_; }
 

@@ -109,6 +109,32 @@ TEST(ServoDriveChoices, AbsentObjectsAreGoneAndTheirServiceIsOff) {
   EXPECT_FALSE(guarding_answers(lean));
 }
 
+// Operational, 6007h = 0, life guarding 100 ms x 2 started by one RTR, then no RTR for 500 ms:
+// the NMT state afterwards.
+cia301::NmtState state_after_guarding_loss(ServoRig& rig) {
+  EXPECT_EQ(rig.write(0x6007, 0, 0, 2), 0U);
+  EXPECT_EQ(rig.write(0x100C, 0, 100, 2), 0U);
+  EXPECT_EQ(rig.write(0x100D, 0, 2, 1), 0U);
+  rig.send(can::Frame::standard(0x000, {0x01, kNode}));  // NMT start remote node
+  rig.run(10ms);
+  rig.send(can::Frame::remote(0x700 + kNode, 1));  // guarding request (RTR)
+  rig.run(500ms);
+  return rig.drive().device().state();
+}
+
+TEST(ServoDriveChoices, AbsentErrorBehaviourTakesTheDefaultOrTheGuardingLossKey) {
+  // Given a drive without 1029h, and one without 1029h and with guarding_loss: no-nmt-change
+  // When life guarding times out in Operational
+  // Then the first goes Pre-operational (CiA 301 §7.5.2.32: the default without 1029h), the
+  // second stays Operational (the reaction its manual documents, Kollmorgen)
+  ServoRig plain(profile_with("  absent_objects: [0x1029]\n"));
+  ServoRig kept(profile_with("  absent_objects: [0x1029]\n  guarding_loss: no-nmt-change\n"));
+  ASSERT_TRUE(plain.ok() && kept.ok());
+  EXPECT_EQ(read_abort(kept, 0x1029, 1), kNoObject);
+  EXPECT_EQ(state_after_guarding_loss(plain), cia301::NmtState::pre_operational);
+  EXPECT_EQ(state_after_guarding_loss(kept), cia301::NmtState::operational);
+}
+
 TEST(ServoDriveChoices, AbsentStoreRestoreResetsToDefaults) {
   // Given 1010h/1011h absent / When 1017h is written and the node reset / Then 1010h aborts
   // 06020000h and 1017h is back at its default (no store/restore: the defaults apply)

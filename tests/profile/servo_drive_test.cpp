@@ -279,16 +279,19 @@ TEST(ServoDriveKollmorgen, EveryEmcyIsFollowedByAnErrorStateEmcy) {
   EXPECT_EQ(standard_frames.size(), 1U);
 }
 
-TEST(ServoDriveKollmorgen, IdentityQuickStopAndGuardingReaction) {
+TEST(ServoDriveKollmorgen, IdentityQuickStopAndNoErrorBehaviourObject) {
   // Given the Kollmorgen drive / When identity, 605Ah and 1029h are read / Then the manual's
-  // 00002192h and 6Ah, quick stop stays in QUICK STOP ACTIVE (6), no NMT change on loss (1)
+  // 00002192h and 6Ah, quick stop stays in QUICK STOP ACTIVE (6), and no 1029h (its object
+  // table, 002 §6.1.3 L6009-6040, does not list it): 06020000h
   ServoRig rig("kollmorgen-s300-s700");
   ASSERT_TRUE(rig.ok());
   EXPECT_EQ(rig.read(0x1000), 0x00002192U);
   EXPECT_EQ(rig.read(0x1018, 1), 0x6AU);
   EXPECT_EQ(rig.read(0x605A), 6U);
   EXPECT_EQ(rig.write(0x605A, 0, 2, 2), kInvalidValue);
-  EXPECT_EQ(rig.read(0x1029, 1), 1U);
+  std::uint32_t abort = 0;
+  EXPECT_EQ(rig.read(0x1029, 1, &abort), kNoAnswer);
+  EXPECT_EQ(abort, 0x06020000U);                    // object does not exist
   EXPECT_FALSE(rig.drive().not_applied().empty());  // manufacturer modes, methods -3/-8
 }
 
@@ -319,23 +322,24 @@ TEST(ServoDriveKollmorgen, GuardingLossKeepsTheNmtState) {
   EXPECT_EQ(state_after_guarding_loss(standard), cia301::NmtState::pre_operational);
 }
 
-TEST(ServoDriveKollmorgen, StoredValueWinsOverPersonalityDefault) {
-  // Given the Kollmorgen drive with 1029h:01 written 2 / When reset communication / Then 2 stays
-  // (only a value at the dictionary's default is replaced); after restore defaults it is 1 again
+TEST(ServoDriveKollmorgen, BusOffKeepsTheNmtStateWithout1029) {
+  // Given the Kollmorgen drive (no 1029h; bus-off is F23 with an emergency-ramp stop, no NMT
+  // change documented, 002 §2.9 L192-212) and the standard drive (1029h:01 = 0), both
+  // Operational / When their controllers go bus-off / Then Kollmorgen stays Operational, the
+  // standard drive goes Pre-operational
   ServoRig rig("kollmorgen-s300-s700");
+  ServoRig standard;
   ASSERT_TRUE(rig.ok());
-  ASSERT_EQ(rig.write(0x1029, 1, 2, 1), 0U);
-  // "save" = 65766173h, all parameters
-  ASSERT_EQ(rig.write(0x1010, 1, 0x65766173, 4), 0U);
-  const std::uint8_t reset_communication[2] = {0x82, kNode};  // NMT cs 82h, node 5
-  rig.send(can::Frame::standard(0x000, reset_communication));
-  rig.run(20ms);
-  EXPECT_EQ(rig.read(0x1029, 1), 2U);
-  // "load" = 64616F6Ch, all parameters
-  ASSERT_EQ(rig.write(0x1011, 1, 0x64616F6C, 4), 0U);
-  rig.send(can::Frame::standard(0x000, reset_communication));
-  rig.run(20ms);
-  EXPECT_EQ(rig.read(0x1029, 1), 1U);
+  ASSERT_TRUE(standard.ok());
+  for (ServoRig* r : {&rig, &standard}) {
+    const std::uint8_t start[2] = {0x01, kNode};  // NMT start remote node 5
+    r->send(can::Frame::standard(0x000, start));
+    r->run(10ms);
+    r->bus_off(true);
+    r->run(10ms);
+  }
+  EXPECT_EQ(rig.drive().device().state(), cia301::NmtState::operational);
+  EXPECT_EQ(standard.drive().device().state(), cia301::NmtState::pre_operational);
 }
 
 constexpr std::uint32_t kWriteReadOnly = 0x06010002;
