@@ -9,9 +9,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <iterator>
 #include <memory>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -21,12 +23,14 @@
 #include "protocol/ethercat/coe_sdo_client.hpp"
 #include "protocol/ethercat/coe_sdo_info.hpp"
 #include "protocol/ethercat/esc.hpp"
+#include "protocol/ethercat/esi.hpp"
 #include "protocol/ethercat/frame.hpp"
 #include "protocol/ethercat/mailbox.hpp"
 #include "protocol/ethercat/master.hpp"
 #include "protocol/ethercat/sii.hpp"
 #include "protocol/ethercat/sim_segment.hpp"
 #include "protocol/profile/drive_profile.hpp"
+#include "reference_drive/ethercat/esi_image.hpp"
 #include "reference_drive/ethercat/sii_image.hpp"
 
 namespace drivecheck::reference_drive::ethercat {
@@ -905,6 +909,52 @@ TEST(EthercatDriveCoeRules, StandardDriveKeepsUnsavedValuesOverInit) {
   ASSERT_EQ(master.request(0x0001), std::make_pair(std::uint16_t{0x0001}, std::uint16_t{0}));
   master.to_preop();
   EXPECT_EQ(master.dictionary_value(0x6083, 0), 2000u);
+}
+
+std::string checked_in_esi() {
+  std::ifstream in(DRIVECHECK_SOURCE_DIR "/reference_drive/ethercat/reference_drive.xml",
+                   std::ios::binary);
+  EXPECT_TRUE(in.good()) << "reference_drive/ethercat/reference_drive.xml is missing";
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+TEST(ReferenceEsi, CheckedInFileIsTheGeneratedOne) {
+  // Given the standard EtherCAT drive's dictionary and SII
+  // When its ESI is generated
+  // Then it equals reference_drive/ethercat/reference_drive.xml byte for byte
+  const auto generated = standard_drive_esi_text();
+  ASSERT_TRUE(generated) << generated.error();
+  EXPECT_TRUE(*generated == checked_in_esi())
+      << "reference_drive/ethercat/reference_drive.xml is stale: regenerate it with\n"
+         "  <build>/reference_drive/ethercat/reference_drive_esi "
+         "reference_drive/ethercat/reference_drive.xml";
+}
+
+TEST(ReferenceEsi, ReadsBackAsTheDrivesIdentityAndPdos) {
+  // Given the checked-in ESI, When the ESI reader reads it, Then one device with the drive's
+  // 1018h identity, its SyncManagers, 1600h/1A00h assigned by default and every object
+  Master master;
+  const auto esi = ecat::read_esi(checked_in_esi(), "reference_drive.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const auto& od = master.drive().dictionary();
+  EXPECT_EQ(esi->vendor_id, od.find(0x1018, 1)->as_unsigned());
+  ASSERT_EQ(esi->devices.size(), 1u);
+  const ecat::EsiDevice& device = esi->devices[0];
+  EXPECT_EQ(device.product_code, od.find(0x1018, 2)->as_unsigned());
+  EXPECT_EQ(device.revision_number, od.find(0x1018, 3)->as_unsigned());
+  ASSERT_EQ(device.sync_managers.size(), 4u);
+  EXPECT_EQ(device.sync_managers[1].type, "MBoxIn");
+  ASSERT_EQ(device.default_rx_assignment().size(), 1u);
+  EXPECT_EQ(device.default_rx_assignment()[0]->index, 0x1600);
+  EXPECT_EQ(device.default_rx_assignment()[0]->entries[1].mapping_value(), 0x607A0020u);
+  ASSERT_EQ(device.default_tx_assignment().size(), 1u);
+  EXPECT_EQ(device.objects.size(), od.objects().size());
+  ASSERT_NE(device.find(0x1C12, 0), nullptr);
+  EXPECT_EQ(device.find(0x1C12, 1)->default_data, (Bytes{0x00, 0x16}));
+  EXPECT_FALSE(device.find(0x6041, 0)->default_data);  // a process value: no default
+  EXPECT_EQ(device.find(0x6041, 0)->access, ecat::EsiAccess::ro);
 }
 
 }  // namespace
