@@ -175,6 +175,10 @@ conformance::DutPort& EmbeddedEthercat::port() {
   return *state_->port;
 }
 
+ethercat::Master& EmbeddedEthercat::master() {
+  return *state_->master;
+}
+
 can::Bus& EmbeddedEthercat::clock() {
   return *state_->clock;
 }

@@ -17,6 +17,7 @@
 #include "conformance/simulation_control.hpp"
 #include "protocol/can/sim_bus.hpp"
 #include "protocol/common/expected.hpp"
+#include "protocol/ethercat/master.hpp"
 #include "protocol/ethercat/sim_segment.hpp"
 #include "protocol/profile/drive_profile.hpp"
 
@@ -63,6 +64,7 @@ class EmbeddedEthercat {
   EmbeddedEthercat& operator=(const EmbeddedEthercat&) = delete;
 
   conformance::DutPort& port();
+  ethercat::Master& master();  // slave 0 is the drive (its SII as the master read it)
   can::Bus& clock();  // the engine's time: the segment's clock, the process data cycle in it
   conformance::SimulationControl* simulation();
   std::string personality() const;

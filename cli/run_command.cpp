@@ -33,6 +33,7 @@
 #include "cli/vector_dirs.hpp"
 #include "conformance/capabilities.hpp"
 #include "conformance/engine.hpp"
+#include "conformance/esi_checks.hpp"
 #include "conformance/ethercat_port.hpp"
 #include "conformance/od_checks.hpp"
 #include "conformance/provenance.hpp"
@@ -47,6 +48,7 @@
 #include "protocol/cia301/nmt_master.hpp"
 #include "protocol/cia306/eds.hpp"
 #include "protocol/cia306/eds_lint.hpp"
+#include "protocol/ethercat/esi.hpp"
 #include "protocol/ethercat/master.hpp"
 #include "protocol/ethercat/pcap.hpp"
 #include "protocol/ethercat/raw_link.hpp"
@@ -135,6 +137,7 @@ struct RunOptions {
   int node = 1;
   std::string profile;  // empty: chosen (cia402-reference on sim, from 1000h on a real bus)
   std::string eds;
+  std::string esi;
   std::vector<std::string> filters;
   std::vector<std::string> levels;
   std::string rerun;
@@ -248,8 +251,13 @@ void run(const RunOptions& options) {
   if ((ethercat_sim || ethercat_if) && !options.eds.empty())
     usage_error("run",
                 "--eds checks a device against its EDS, which describes the CANopen interface; "
-                "over EtherCAT the description is the device's ESI, which drivecheck does not "
-                "read yet (lint the EDS on its own: drivecheck eds lint FILE)");
+                "over EtherCAT the description is the device's ESI: give it with --esi FILE "
+                "(lint the EDS on its own: drivecheck eds lint FILE)");
+  // An ESI (ETG.2000) describes an EtherCAT slave: on CAN the description is the EDS.
+  if (!ethercat_sim && !ethercat_if && !options.esi.empty())
+    usage_error("run",
+                "--esi checks an EtherCAT slave against its ESI (ETG.2000); it needs --bus "
+                "ethercat:sim or ethercat:IF (on CAN give the device's EDS with --eds FILE)");
   auto order = conformance::parse_vector_order(options.order);
   if (!order) usage_error("run", order.error());
   // `shuffle` alone: a seed drawn here, recorded in the reports so that the run can be repeated.
@@ -342,6 +350,15 @@ void run(const RunOptions& options) {
     eds_identity = conformance::EdsIdentity{device_info.vendor_number, device_info.product_number,
                                             device_info.revision_number};
     eds_sha256 = conformance::sha256_file(options.eds).value_or("");
+  }
+
+  // The ESI (--esi, EtherCAT only): read before the bus is touched; its device is chosen once
+  // the master has read the slave's SII (below).
+  std::optional<ethercat::EsiFile> esi;
+  if (!options.esi.empty()) {
+    auto read = ethercat::read_esi_file(options.esi);
+    if (!read) bad_input(fmt::format("drivecheck run: {}", read.error().to_string()));
+    esi.emplace(std::move(*read));
   }
 
   // The bus: the embedded drive on a simulated bus, or a real interface.
@@ -450,6 +467,41 @@ void run(const RunOptions& options) {
                                        eds_identity, static_cast<std::uint8_t>(options.node));
   for (auto& vector : od_vectors)
     vectors.vectors.push_back(std::move(vector));
+  // The ESI cross-check (conformance/esi_checks.hpp): the ESI's device of the slave's SII
+  // identity, its vectors, and the SII against it.
+  std::vector<conformance::VectorResult> esi_results;
+  if (esi) {
+    ethercat::Master& master = ethercat_drive ? ethercat_drive->master() : *ethercat_target->master;
+    const ethercat::SiiHeader& sii = master.slaves().at(0).sii.image.header;
+    const ethercat::EsiDevice* device =
+        ethercat::find_esi_device(*esi, sii.product_code, sii.revision);
+    if (device == nullptr && esi->devices.size() == 1) device = &esi->devices.front();
+    if (device == nullptr) {
+      std::vector<std::string> described;
+      for (const auto& d : esi->devices)
+        described.push_back(fmt::format("{:08X}h (line {})", d.product_code, d.line));
+      bad_input(fmt::format(
+          "drivecheck run: {} describes no device with the slave's product code {:08X}h (SII "
+          "words 0Ah-0Bh); it describes {}",
+          options.esi, sii.product_code, fmt::join(described, ", ")));
+    }
+    fmt::print(
+        "drivecheck run: ESI {}: device '{}' ({}:{}), {} object(s), {} RxPDO(s), {} "
+        "TxPDO(s)\n",
+        options.esi, device->name, options.esi, device->line, device->objects.size(),
+        device->rx_pdos.size(), device->tx_pdos.size());
+    for (auto& vector : conformance::generate_esi_vectors(*esi, *device))
+      vectors.vectors.push_back(std::move(vector));
+    esi_results = conformance::esi_sii_results(*esi, *device, sii, *profile, options.strict);
+    std::erase_if(esi_results, [&](const conformance::VectorResult& result) {
+      if (!selected_by_filters(options.filters, result.id)) return true;
+      if (!options.levels.empty() &&
+          std::find(options.levels.begin(), options.levels.end(),
+                    conformance::to_string(result.level)) == options.levels.end())
+        return true;
+      return rerun_ids && !rerun_ids->contains(result.id);
+    });
+  }
   // The selection first, then its order: a shuffle depends on the seed and the selection only.
   std::erase_if(vectors.vectors, [&](const conformance::Vector& vector) {
     if (!selected_by_filters(options.filters, vector)) return true;
@@ -479,6 +531,8 @@ void run(const RunOptions& options) {
       return rerun_ids && !rerun_ids->contains(result.id);
     });
   }
+  for (auto& result : esi_results)
+    lint_results.push_back(std::move(result));
   if (vectors.vectors.empty() && !run_probe && lint_results.empty()) {
     // An empty selection is no pass: say which part of the selection left nothing.
     std::vector<std::string> parts;
@@ -697,6 +751,11 @@ void add_run_command(CLI::App& app) {
                   "(device profile 402: cia402-device, else cia301-device)")
       ->type_name("FILE|NAME");
   cmd->add_option("--eds", options->eds, "The drive's EDS/DCF file")
+      ->check(CLI::ExistingFile)
+      ->type_name("FILE");
+  cmd->add_option("--esi", options->esi,
+                  "The EtherCAT slave's ESI (ETG.2000 XML): its identity, dictionary and PDO "
+                  "defaults checked as vectors (esi/*; --bus ethercat:* only)")
       ->check(CLI::ExistingFile)
       ->type_name("FILE");
   cmd->add_option("--filter", options->filters,

@@ -1,7 +1,8 @@
 // Writes the seed corpus and dictionary of the EtherCAT fuzz targets (fuzz/corpus/<name>/,
 // fuzz/<name>.dict) from the one-source tables: datagram_commands.inc (one seed frame per
 // command, the command tokens) and esc_registers.inc (register offsets as tokens), plus a
-// slave configuration sequence and malformed frames. ethercat_pcap: captures as a master's
+// slave configuration sequence and malformed frames. esi: the reference drive's ESI and
+// small ESIs (esi_target). ethercat_pcap: captures as a master's
 // run writes them (both passes of each frame: SyncManager configuration, CoE SDO request,
 // response, abort, emergency, a mailbox ERR reply, cyclic LRW, a lost and a malformed frame),
 // one cut off mid-record, and tokens from mailbox_types.inc and coe_services.inc. Run by
@@ -15,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -212,6 +214,83 @@ void ethercat_pcap_target(const fs::path& dir) {
   write_target(dir, "ethercat_pcap", seeds, dict);
 }
 
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    std::fprintf(stderr, "generate_ethercat_corpus: cannot read %s\n", path.c_str());
+    std::exit(1);
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+Bytes bytes_of(std::string_view text) {
+  return Bytes(text.begin(), text.end());
+}
+
+// The esi target: the reference drive's ESI (reference_drive/ethercat/reference_drive.xml,
+// beside the fuzz dir), the same cut off in the middle, a minimal device with an ARRAY type,
+// and files the reader refuses (no root, a bad number); tokens of the elements it reads.
+void esi_target(const fs::path& dir) {
+  const std::string reference =
+      read_text(dir / ".." / "reference_drive" / "ethercat" / "reference_drive.xml");
+  const std::string minimal =
+      "<EtherCATInfo><Vendor><Id>#x2</Id></Vendor><Descriptions><Devices><Device>"
+      "<Type ProductCode=\"#x1\" RevisionNo=\"1\">t</Type><Name>n</Name>"
+      "<Profile><Dictionary><DataTypes>"
+      "<DataType><Name>A</Name><BaseType>UINT</BaseType><BitSize>32</BitSize>"
+      "<ArrayInfo><LBound>1</LBound><Elements>2</Elements></ArrayInfo></DataType>"
+      "<DataType><Name>R</Name><SubItem><SubIdx>0</SubIdx><Name>c</Name><Type>USINT</Type>"
+      "<BitSize>8</BitSize><Flags><Access>ro</Access></Flags></SubItem>"
+      "<SubItem><Name>e</Name><Type>A</Type><BitSize>32</BitSize></SubItem></DataType>"
+      "</DataTypes><Objects>"
+      "<Object><Index>#x1C12</Index><Type>R</Type><Info><SubItem><Name>c</Name><Info>"
+      "<DefaultData>01</DefaultData></Info></SubItem></Info></Object>"
+      "<Object><Index>4096</Index><Type>UDINT</Type><BitSize>32</BitSize><Info>"
+      "<DefaultData>92010200</DefaultData></Info><Flags><Access>rw</Access></Flags></Object>"
+      "</Objects></Dictionary></Profile>"
+      "<Sm StartAddress=\"#x1000\" DefaultSize=\"128\" ControlByte=\"#x26\" "
+      "Enable=\"1\">MBoxOut</Sm>"
+      "<RxPdo Sm=\"2\" Fixed=\"1\"><Index>#x1600</Index><Entry><Index>#x6040</Index>"
+      "<SubIndex>0</SubIndex><BitLen>16</BitLen></Entry><Entry><Index>0</Index><BitLen>8"
+      "</BitLen></Entry></RxPdo>"
+      "<Mailbox><CoE SdoInfo=\"true\" PdoAssign=\"1\"/></Mailbox>"
+      "</Device></Devices></Descriptions></EtherCATInfo>";
+  std::string bad_number = minimal;
+  bad_number.replace(bad_number.find("#x1C12"), 6, "#xZZ");
+  const std::vector<std::pair<std::string, Bytes>> seeds = {
+      {"reference-drive", bytes_of(reference)},
+      {"reference-drive-cut",
+       bytes_of(std::string_view(reference).substr(0, reference.size() / 2))},
+      {"minimal-array-device", bytes_of(minimal)},
+      {"bad-number", bytes_of(bad_number)},
+      {"no-root", bytes_of("<?xml version=\"1.0\"?>\n<EDS/>\n")},
+  };
+  std::string dict = kDictHeader;
+  for (const char* element :
+       {"EtherCATInfo",   "Vendor",      "Id",       "Descriptions", "Devices",
+        "Device",         "Type",        "Name",     "Profile",      "Dictionary",
+        "DictionaryFile", "DataTypes",   "DataType", "BaseType",     "BitSize",
+        "ArrayInfo",      "LBound",      "Elements", "SubItem",      "SubIdx",
+        "Flags",          "Access",      "Objects",  "Object",       "Index",
+        "Info",           "DefaultData", "Sm",       "RxPdo",        "TxPdo",
+        "Entry",          "SubIndex",    "BitLen",   "Mailbox",      "CoE"}) {
+    dict += fmt::format("# esi.hpp: element {}\n", element);
+    dict += token(fmt::format("open_{}", element), bytes_of(fmt::format("<{}>", element)));
+    dict += token(fmt::format("close_{}", element), bytes_of(fmt::format("</{}>", element)));
+  }
+  for (const char* attribute : {"ProductCode", "RevisionNo", "Fixed", "Mandatory", "StartAddress",
+                                "DefaultSize", "ControlByte", "Enable", "SdoInfo", "PdoAssign",
+                                "PdoConfig", "CompleteAccess", "WriteRestrictions"}) {
+    dict += fmt::format("# esi.hpp: attribute {}\n", attribute);
+    dict += token(fmt::format("attr_{}", attribute), bytes_of(fmt::format(" {}=\"", attribute)));
+  }
+  dict += "# esi.hpp: HexDecValue, access\n" + token("hex", bytes_of("#x")) +
+          token("ro", bytes_of("ro")) + token("rw", bytes_of("rw")) + token("wo", bytes_of("wo"));
+  write_target(dir, "esi", seeds, dict);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -299,5 +378,6 @@ int main(int argc, char** argv) {
   }
   write_target(dir, target, seeds, dict);
   ethercat_pcap_target(dir);
+  esi_target(dir);
   return 0;
 }

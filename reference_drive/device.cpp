@@ -351,6 +351,13 @@ void ReferenceDrive::command(cia301::NmtCommand command) {
   rearm();
 }
 
+void ReferenceDrive::load_stored_parameters() {
+  apply_stored(cia301::kStoreCommunication);
+  apply_stored(cia301::kStoreApplication);
+  apply_stored(cia301::kStoreManufacturer);
+  rearm();
+}
+
 void ReferenceDrive::set_bus_off(bool bus_off) {
   if (bus_off == bus_off_) return;
   bus_off_ = bus_off;

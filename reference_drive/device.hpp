@@ -206,6 +206,10 @@ class ReferenceDrive {
   void power_on();
   // Local NMT control, as if the master had sent it.
   void command(cia301::NmtCommand command);
+  // The stored parameters of every group (communication, application, manufacturer) applied
+  // now, as at power on, without a reset: no NMT transition, no boot-up, the CiA 402 state
+  // kept (an EtherCAT slave that loads its saved values in INIT, Festo 000 §4.7 L2056).
+  void load_stored_parameters();
   // What the CAN controller reports: bus-off (true) or recovered (false). Repeats are ignored.
   void set_bus_off(bool bus_off);
   bool bus_off() const { return bus_off_; }

@@ -1058,7 +1058,7 @@ std::vector<Item> unique_items(std::vector<Located<Item>> located, std::string_v
 CoeRules read_coe(const Reader& r, const YAML::Node& node) {
   const MapView map(r, node, "coe",
                     {"max_sdo_size", "absent_objects", "pdo_assignment_evaluated",
-                     "pdo_configuration_in", "source"});
+                     "pdo_configuration_in", "init_loads_saved_values", "source"});
   CoeRules c;
   if (auto v = map.get("max_sdo_size")) {
     c.max_sdo_size = static_cast<std::uint32_t>(integer(r, *v, "coe.max_sdo_size", 1, 0xFFFFFFFF));
@@ -1078,6 +1078,9 @@ CoeRules read_coe(const Reader& r, const YAML::Node& node) {
     } else {
       r.fail(*v, fmt::format("coe.pdo_configuration_in: '{}' is not one of preop, any", text));
     }
+  }
+  if (auto v = map.get("init_loads_saved_values")) {
+    c.init_loads_saved_values = boolean(r, *v, "coe.init_loads_saved_values");
   }
   c.sources = sources(r, map.require("source", "coe"), "coe.source");
   return c;
@@ -2080,6 +2083,8 @@ std::string to_yaml(const DriveProfile& p) {
     out << YAML::Key << "pdo_assignment_evaluated" << YAML::Value << c.pdo_assignment_evaluated;
     out << YAML::Key << "pdo_configuration_in" << YAML::Value
         << std::string(to_string(c.pdo_configuration_in));
+    if (c.init_loads_saved_values)
+      out << YAML::Key << "init_loads_saved_values" << YAML::Value << true;
     emit_sources(out, c.sources);
     out << YAML::EndMap;
   }

@@ -225,6 +225,9 @@ struct CoeRules {
   // checked against the mapping objects (Festo 000 L1931 "not evaluated further").
   bool pdo_assignment_evaluated = true;
   PdoConfigurationIn pdo_configuration_in = PdoConfigurationIn::preop;
+  // true: entering AL INIT (from any state) loads the saved parameters, as power on does
+  // (Festo 000 §4.7 Tab. 4.9 L2056 Init: "The configuration starts, saved values are loaded").
+  bool init_loads_saved_values = false;
   std::vector<std::string> sources;  // required when the section is given
   bool is_absent(std::uint16_t index) const;
   friend bool operator==(const CoeRules&, const CoeRules&) = default;

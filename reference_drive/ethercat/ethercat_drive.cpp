@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <utility>
+#include <vector>
 
 #include "protocol/ethercat/coe_objects.hpp"
 #include "protocol/ethercat/frame.hpp"
@@ -14,17 +15,29 @@ namespace ecat = drivecheck::ethercat;
 using ecat::AlState;
 using ecat::AlStatusCode;
 
+using AbsentRanges = std::vector<std::pair<std::uint16_t, std::uint16_t>>;
+
 // The drive's application with the CoE objects added after its own (before the services bind:
 // entry pointers must not move once they have).
 class CoeObjectsApplication final : public DriveApplication {
  public:
-  explicit CoeObjectsApplication(DriveApplication* inner) : inner_(inner) {}
+  // `absent`: the personality's absent objects (DriveConfig::absent_objects), which the device
+  // removes after this application has added its objects.
+  CoeObjectsApplication(DriveApplication* inner, AbsentRanges absent)
+      : inner_(inner), absent_(std::move(absent)) {}
 
   Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override {
     if (inner_ != nullptr) {
       if (auto r = inner_->add_objects(od); !r) return r;
     }
     ecat::CoeObjectsConfig config;
+    // The default assignment: the first PDO of each direction where the drive has it (a
+    // mapping object that stays in the dictionary and maps something), else nothing (a drive
+    // without RxPDOs, e.g. cia301-minimal, has an empty 1C12h: ETG.1000.6 lets 1C12h:00 be 0).
+    config.rx_assigned =
+        assignable(od, 0x1600) ? std::vector<std::uint16_t>{0x1600} : std::vector<std::uint16_t>{};
+    config.tx_assigned =
+        assignable(od, 0x1A00) ? std::vector<std::uint16_t>{0x1A00} : std::vector<std::uint16_t>{};
     for (auto& definition : ecat::coe_object_definitions(config)) {
       const auto index = definition.index;
       if (auto r = od.add_object(std::move(definition)); !r) {
@@ -53,7 +66,16 @@ class CoeObjectsApplication final : public DriveApplication {
   }
 
  private:
+  bool assignable(const cia301::ObjectDictionary& od, std::uint16_t mapping) const {
+    for (const auto& [first, last] : absent_) {
+      if (mapping >= first && mapping <= last) return false;
+    }
+    const cia301::Entry* count = od.find(mapping, 0);
+    return count != nullptr && count->as_unsigned() != 0;
+  }
+
   DriveApplication* inner_;
+  AbsentRanges absent_;
 };
 
 namespace {
@@ -71,16 +93,17 @@ bool has_mapping(const std::vector<cia301::PdoDefaults>& list) {
   return false;
 }
 
-// The default PDOs of the file comment, when the personality gives none.
+// The default PDOs of the file comment (CiA 402 objects), when the personality gives no PDO
+// defaults at all. A personality that gives some (its manual's pdo_defaults) has given its PDO
+// set whole: a direction it leaves without a mapping stays without one (cia301-minimal: one
+// TPDO, no RPDO at all; its mapping records hold 1 entry, where these defaults need 2).
 void default_pdos(cia301::PdoObjectOptions& pdo) {
-  if (!has_mapping(pdo.rpdo_defaults)) {
+  if (!has_mapping(pdo.rpdo_defaults) && !has_mapping(pdo.tpdo_defaults)) {
     pdo.rpdo_defaults = {
         mapping({{0x6040, 0, 16}, {0x607A, 0, 32}}),
         mapping({{0x60FF, 0, 32}}),
         mapping({{0x6071, 0, 16}}),
     };
-  }
-  if (!has_mapping(pdo.tpdo_defaults)) {
     pdo.tpdo_defaults = {
         mapping({{0x6041, 0, 16}, {0x6064, 0, 32}}),
         mapping({{0x606C, 0, 32}}),
@@ -128,7 +151,8 @@ Expected<void, std::string> EthercatDrive::build() {
   servo.serial_number = options_.serial_number;
   servo.link = profile::Link::ethercat;
   servo.adjust_config = [this](DriveConfig& config) {
-    application_ = std::make_unique<CoeObjectsApplication>(config.application);
+    application_ =
+        std::make_unique<CoeObjectsApplication>(config.application, config.absent_objects);
     config.application = application_.get();
     default_pdos(config.dictionary.pdo);
     config.can_abort_connection_events = false;  // 6007h: leaving OP (on_state_change)
@@ -144,6 +168,8 @@ Expected<void, std::string> EthercatDrive::build() {
       options_.coe ? *options_.coe
                    : (options_.profile != nullptr ? options_.profile->coe : profile::CoeRules{});
   if (has(Deviation::coe_sdo_size_limit_ignored)) coe_rules.max_sdo_size.reset();
+  init_loads_saved_values_ =
+      coe_rules.init_loads_saved_values && !has(Deviation::init_saved_values_not_loaded);
   ecat::CoeObjectRuleOptions rule_options;
   rule_options.configuration_only_when_configurable =
       coe_rules.pdo_configuration_in == profile::PdoConfigurationIn::preop;
@@ -264,6 +290,10 @@ void EthercatDrive::on_state_change(AlState from, AlState to) {
   }
   if (from == AlState::op && to != AlState::op && application_) {
     application_->on_communication_loss(device);  // 6007h (file comment)
+  }
+  // The saved parameters, after the reaction to leaving OP (which acts with 6007h as it was).
+  if (to == AlState::init && from != AlState::init && init_loads_saved_values_) {
+    device.load_stored_parameters();
   }
   inputs_revision_.reset();
 }

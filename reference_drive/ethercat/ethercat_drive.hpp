@@ -19,15 +19,23 @@
 //   clock          the drive runs on the link's clock (clock_port.hpp): simulated time on a
 //                  SimSegment; its EMCYs become CoE emergencies
 //
-// Default PDOs (when the personality gives none): 1C12h = {1600h}, 1600h = 6040h:00 (16),
+// Default PDOs (when the personality gives no PDO defaults at all; a personality that gives
+// some keeps exactly its own): 1C12h = {1600h}, 1600h = 6040h:00 (16),
 // 607Ah:00 (32); 1C13h = {1A00h}, 1A00h = 6041h:00 (16), 6064h:00 (32); 1601h = 60FFh:00,
 // 1602h = 6071h:00, 1A01h = 606Ch:00, 1A02h = 6077h:00, 6061h:00 for the other cyclic modes (our
-// choice: the objects CiA 402-2's cyclic synchronous modes exchange). Mappings may be written
+// choice: the objects CiA 402-2's cyclic synchronous modes exchange). The default assignment
+// 1C12h/1C13h names 1600h/1A00h only where that mapping object exists (not among the
+// personality's absent objects) and maps something; else it is empty (cia301-minimal: no
+// RxPDO, 1C12h:00 = 0). Mappings may be written
 // while "valid": COB-IDs mean nothing on EtherCAT (ETG.1000.6: PDO configuration in PREOP).
 //
 // AL state -> drive (Festo 000 §4.7.1 Tab. 4.11: Init ~ Stopped, Operational ~ Operational,
 // Safe-Operational has no NMT counterpart; we take Pre-operational for PREOP and SAFEOP):
-//   INIT           NMT Stopped, mailbox and CoE reset (transfers forgotten, counters cleared)
+//   INIT           NMT Stopped, mailbox and CoE reset (transfers forgotten, counters cleared);
+//                  with the profile's coe.init_loads_saved_values (Festo 000 §4.7 L2056) the
+//                  saved parameters are applied on entering INIT from another state
+//                  (ReferenceDrive::load_stored_parameters; named deviation
+//                  init-saved-values-not-loaded leaves them)
 //   PREOP, SAFEOP  NMT Pre-operational
 //   OP             NMT Operational
 // Leaving OP (OS, OP, OI, and the SM watchdog dropping OP to SAFEOP, AL status code 001Bh)
@@ -151,6 +159,7 @@ class EthercatDrive final : public drivecheck::ethercat::SegmentDevice {
   std::unique_ptr<CoeDeviationHook> coe_deviations_;  // outlives coe_ and coe_rules_
   std::unique_ptr<CoeRulesHook> coe_rules_;           // outlives coe_
   std::unique_ptr<drivecheck::ethercat::CoeSlave> coe_;
+  bool init_loads_saved_values_ = false;  // the profile's coe.init_loads_saved_values
   ProcessDataLayout outputs_;
   ProcessDataLayout inputs_;
   std::optional<std::uint64_t> inputs_revision_;  // dictionary revision SM3 was filled from

@@ -82,17 +82,19 @@ std::string device_name(const cia301::ObjectDictionary& od) {
 Expected<SiiImage, std::string> drive_sii_image(const cia301::ObjectDictionary& od,
                                                 const DriveSiiOptions& options) {
   SiiImage image;
+  // 1018h sub 1 (vendor-ID) is mandatory; subs 2-4 are optional (CiA 301 §7.5.2.21): a drive
+  // without them (cia301-minimal) has no product code, revision or serial number to give, and
+  // its SII words 0Ah-0Fh are 0.
   auto vendor = identity(od, 1);
-  auto product = identity(od, 2);
-  auto revision = identity(od, 3);
-  auto serial = identity(od, 4);
-  for (const auto* part : {&vendor, &product, &revision, &serial}) {
-    if (!*part) return Unexpected(part->error());
-  }
+  if (!vendor) return Unexpected(vendor.error());
+  const auto optional_identity = [&od](std::uint8_t sub) -> std::uint32_t {
+    const cia301::Entry* entry = od.find(kIdentity, sub);
+    return entry != nullptr ? static_cast<std::uint32_t>(entry->as_unsigned()) : 0;
+  };
   image.header.vendor_id = *vendor;
-  image.header.product_code = *product;
-  image.header.revision = *revision;
-  image.header.serial = *serial;
+  image.header.product_code = optional_identity(2);
+  image.header.revision = optional_identity(3);
+  image.header.serial = optional_identity(4);
   image.header.standard_receive = {kMailboxOutStart, kMailboxSize};
   image.header.standard_send = {kMailboxInStart, kMailboxSize};
   image.header.mailbox_protocols = drivecheck::ethercat::kSiiMailboxCoe;

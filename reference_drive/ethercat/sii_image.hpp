@@ -3,7 +3,8 @@
 // written by hand. Layouts: protocol/ethercat/sii.hpp.
 //
 //   header    vendor ID, product code, revision, serial number: 1018h:01..04 (CiA 301
-//             §7.5.2.21 identity = the ESC's identity words 08h..0Fh, ETG.1000.6)
+//             §7.5.2.21 identity = the ESC's identity words 08h..0Fh, ETG.1000.6); 0 for
+//             the optional subs 2-4 a drive lacks
 //             standard mailboxes: receive (SM0) 1000h, send (SM1) 1080h, 128 octets each;
 //             no bootstrap mailbox (no BOOT: Festo 000 §4.7 "not implemented"); protocols CoE
 //   Strings   1 the device name (1008h, else the identity's), 2 group, 3 order text

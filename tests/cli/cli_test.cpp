@@ -142,6 +142,17 @@ TEST(CliUsage, BadOptionValuesExitTwo) {
       drivecheck({"run", "--bus", "ethercat:sim", "--eds",
                   std::string(DRIVECHECK_SOURCE_DIR) + "/reference_drive/reference_drive.eds"}),
       "over EtherCAT the description is the device's ESI");
+  // an ESI describes an EtherCAT slave: refused on CAN; a file that is no ESI: file:line
+  const std::string esi =
+      std::string(DRIVECHECK_SOURCE_DIR) + "/reference_drive/ethercat/reference_drive.xml";
+  expect_usage_error(drivecheck({"run", "--esi", esi}), "it needs --bus ethercat:sim");
+  const auto not_esi =
+      drivecheck({"run", "--bus", "ethercat:sim", "--esi",
+                  std::string(DRIVECHECK_SOURCE_DIR) + "/reference_drive/reference_drive.eds"});
+  EXPECT_EQ(not_esi.exit_code, 2) << not_esi.err;
+  EXPECT_TRUE(not_esi.out.empty()) << not_esi.out;  // refused before the bus is touched
+  EXPECT_NE(not_esi.err.find("reference_drive.eds:"), std::string::npos) << not_esi.err;
+  EXPECT_NE(not_esi.err.find(": not well-formed XML"), std::string::npos) << not_esi.err;
 }
 
 TEST(CliDecode, PrintsEachRecordWithTimeInterfaceDirectionAndFrame) {

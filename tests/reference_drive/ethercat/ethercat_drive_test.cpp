@@ -9,9 +9,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <iterator>
 #include <memory>
 #include <random>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "protocol/cia301/sdo_abort.hpp"
@@ -20,12 +23,14 @@
 #include "protocol/ethercat/coe_sdo_client.hpp"
 #include "protocol/ethercat/coe_sdo_info.hpp"
 #include "protocol/ethercat/esc.hpp"
+#include "protocol/ethercat/esi.hpp"
 #include "protocol/ethercat/frame.hpp"
 #include "protocol/ethercat/mailbox.hpp"
 #include "protocol/ethercat/master.hpp"
 #include "protocol/ethercat/sii.hpp"
 #include "protocol/ethercat/sim_segment.hpp"
 #include "protocol/profile/drive_profile.hpp"
+#include "reference_drive/ethercat/esi_image.hpp"
 #include "reference_drive/ethercat/sii_image.hpp"
 
 namespace drivecheck::reference_drive::ethercat {
@@ -843,6 +848,113 @@ TEST(EthercatDriveCoeRules, FestoProfileTakesItsCoeSection) {
   EXPECT_EQ(festo.upload(0x1008, 0).abort, 0x06020000u);
   ASSERT_NE(festo.drive().dictionary().find(0x1C12, 0)->as_unsigned(), 0u);
   EXPECT_FALSE(festo.download(0x1C12, 1, u16(0x1600)).abort);
+}
+
+// A shipped profile by name, read from vectors/drives.
+profile::DriveProfile shipped_profile(const char* name) {
+  auto found =
+      profile::find_profile(name, std::filesystem::path(DRIVECHECK_SOURCE_DIR) / "vectors/drives");
+  EXPECT_TRUE(found) << found.error().to_string();
+  return found ? std::move(*found) : profile::DriveProfile{};
+}
+
+TEST(EthercatDrivePdoDefaults, PlainCia301DeviceHasOnlyItsOwnTxPdo) {
+  // Given the cia301-minimal profile (one TPDO mapping 1001h, mapping records of 1 entry, no
+  // RPDO at all: 1400h-17FFh absent)
+  // When the drive is created as an EtherCAT slave and taken to SAFEOP
+  // Then it is created (no CiA 402 default mapping forced into it), 1C12h assigns nothing,
+  // 1C13h assigns 1A00h, and SAFEOP is reached with 0 octets of outputs and 1 of inputs
+  const profile::DriveProfile minimal = shipped_profile("cia301-minimal");
+  EthercatDriveOptions options;
+  options.profile = &minimal;
+  Master master(std::move(options));
+  const auto& od = master.drive().dictionary();
+  ASSERT_NE(od.find(0x1C12, 0), nullptr);
+  EXPECT_EQ(od.find(0x1C12, 0)->as_unsigned(), 0u);
+  ASSERT_NE(od.find(0x1C13, 0), nullptr);
+  EXPECT_EQ(od.find(0x1C13, 0)->as_unsigned(), 1u);
+  EXPECT_EQ(od.find(0x1C13, 1)->as_unsigned(), 0x1A00u);
+  EXPECT_EQ(od.find(0x1600), nullptr);
+  master.to_preop();
+  EXPECT_EQ(master.to_safeop(0, 1), std::make_pair(std::uint16_t{0x0004}, std::uint16_t{0}));
+}
+
+TEST(EthercatDriveCoeRules, FestoLoadsSavedValuesOnEnteringInit) {
+  // Given the festo-cmmp drive in PREOP, 6083h := 1000 saved (1010h:01 "save"), then := 2000
+  // When the master takes it to INIT and back to PREOP
+  // Then 6083h reads 1000 (Festo 000 §4.7 L2056); with init-saved-values-not-loaded 2000
+  const profile::DriveProfile festo = shipped_profile("festo-cmmp");
+  for (const bool deviant : {false, true}) {
+    EthercatDriveOptions options;
+    options.profile = &festo;
+    if (deviant) options.deviations.add(Deviation::init_saved_values_not_loaded);
+    Master master(std::move(options));
+    master.to_preop();
+    ASSERT_FALSE(master.download(0x6083, 0, {0xE8, 0x03, 0, 0}).abort);
+    ASSERT_FALSE(master.download(0x1010, 1, {0x73, 0x61, 0x76, 0x65}).abort);
+    ASSERT_FALSE(master.download(0x6083, 0, {0xD0, 0x07, 0, 0}).abort);
+    ASSERT_EQ(master.request(0x0001), std::make_pair(std::uint16_t{0x0001}, std::uint16_t{0}));
+    master.to_preop();
+    EXPECT_EQ(master.dictionary_value(0x6083, 0), deviant ? 2000u : 1000u) << deviant;
+  }
+}
+
+TEST(EthercatDriveCoeRules, StandardDriveKeepsUnsavedValuesOverInit) {
+  // Given the standard drive (no coe.init_loads_saved_values) in PREOP, 6083h := 2000 unsaved
+  // When INIT and back to PREOP
+  // Then 6083h still reads 2000: only a profile that says so reloads in INIT
+  Master master;
+  master.to_preop();
+  ASSERT_FALSE(master.download(0x6083, 0, {0xD0, 0x07, 0, 0}).abort);
+  ASSERT_EQ(master.request(0x0001), std::make_pair(std::uint16_t{0x0001}, std::uint16_t{0}));
+  master.to_preop();
+  EXPECT_EQ(master.dictionary_value(0x6083, 0), 2000u);
+}
+
+std::string checked_in_esi() {
+  std::ifstream in(DRIVECHECK_SOURCE_DIR "/reference_drive/ethercat/reference_drive.xml",
+                   std::ios::binary);
+  EXPECT_TRUE(in.good()) << "reference_drive/ethercat/reference_drive.xml is missing";
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+TEST(ReferenceEsi, CheckedInFileIsTheGeneratedOne) {
+  // Given the standard EtherCAT drive's dictionary and SII
+  // When its ESI is generated
+  // Then it equals reference_drive/ethercat/reference_drive.xml byte for byte
+  const auto generated = standard_drive_esi_text();
+  ASSERT_TRUE(generated) << generated.error();
+  EXPECT_TRUE(*generated == checked_in_esi())
+      << "reference_drive/ethercat/reference_drive.xml is stale: regenerate it with\n"
+         "  <build>/reference_drive/ethercat/reference_drive_esi "
+         "reference_drive/ethercat/reference_drive.xml";
+}
+
+TEST(ReferenceEsi, ReadsBackAsTheDrivesIdentityAndPdos) {
+  // Given the checked-in ESI, When the ESI reader reads it, Then one device with the drive's
+  // 1018h identity, its SyncManagers, 1600h/1A00h assigned by default and every object
+  Master master;
+  const auto esi = ecat::read_esi(checked_in_esi(), "reference_drive.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const auto& od = master.drive().dictionary();
+  EXPECT_EQ(esi->vendor_id, od.find(0x1018, 1)->as_unsigned());
+  ASSERT_EQ(esi->devices.size(), 1u);
+  const ecat::EsiDevice& device = esi->devices[0];
+  EXPECT_EQ(device.product_code, od.find(0x1018, 2)->as_unsigned());
+  EXPECT_EQ(device.revision_number, od.find(0x1018, 3)->as_unsigned());
+  ASSERT_EQ(device.sync_managers.size(), 4u);
+  EXPECT_EQ(device.sync_managers[1].type, "MBoxIn");
+  ASSERT_EQ(device.default_rx_assignment().size(), 1u);
+  EXPECT_EQ(device.default_rx_assignment()[0]->index, 0x1600);
+  EXPECT_EQ(device.default_rx_assignment()[0]->entries[1].mapping_value(), 0x607A0020u);
+  ASSERT_EQ(device.default_tx_assignment().size(), 1u);
+  EXPECT_EQ(device.objects.size(), od.objects().size());
+  ASSERT_NE(device.find(0x1C12, 0), nullptr);
+  EXPECT_EQ(device.find(0x1C12, 1)->default_data, (Bytes{0x00, 0x16}));
+  EXPECT_FALSE(device.find(0x6041, 0)->default_data);  // a process value: no default
+  EXPECT_EQ(device.find(0x6041, 0)->access, ecat::EsiAccess::ro);
 }
 
 }  // namespace

@@ -1,0 +1,198 @@
+// The ESI reader (protocol/ethercat/esi.hpp): a small hand-written ESI with the parts a
+// conformance check reads, and malformed files, each refused with file:line.
+#include "protocol/ethercat/esi.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace drivecheck::ethercat {
+namespace {
+
+// Line numbers matter below: keep the layout.
+constexpr const char* kGood = R"(<?xml version="1.0"?>
+<EtherCATInfo Version="1.6">
+  <Vendor><Id>#x0000001D</Id><Name>Example</Name></Vendor>
+  <Descriptions>
+    <Devices>
+      <Device Physics="YY">
+        <Type ProductCode="#x00001234" RevisionNo="65538">CMMP</Type>
+        <Name LcId="1033">Motor controller</Name>
+        <Profile>
+          <Dictionary>
+            <DataTypes>
+              <DataType><Name>DT1C12ARR</Name><BaseType>UINT</BaseType><BitSize>32</BitSize>
+                <ArrayInfo><LBound>1</LBound><Elements>2</Elements></ArrayInfo></DataType>
+              <DataType><Name>DT1C12</Name><BitSize>48</BitSize>
+                <SubItem><SubIdx>0</SubIdx><Name>count</Name><Type>USINT</Type><BitSize>8</BitSize><Flags><Access WriteRestrictions="PreOP">rw</Access></Flags></SubItem>
+                <SubItem><Name>Elements</Name><Type>DT1C12ARR</Type><BitSize>32</BitSize><Flags><Access>rw</Access></Flags></SubItem>
+              </DataType>
+              <DataType><Name>UINT</Name><BitSize>16</BitSize></DataType>
+            </DataTypes>
+            <Objects>
+              <Object><Index>#x1000</Index><Name>Device type</Name><Type>UDINT</Type><BitSize>32</BitSize>
+                <Info><DefaultData>92010200</DefaultData></Info><Flags><Access>ro</Access></Flags></Object>
+              <Object><Index>#x1C12</Index><Name>RxPDO assign</Name><Type>DT1C12</Type><BitSize>48</BitSize>
+                <Info>
+                  <SubItem><Name>count</Name><Info><DefaultData>01</DefaultData></Info></SubItem>
+                  <SubItem><Name>Elements 1</Name><Info><DefaultData>0016</DefaultData></Info></SubItem>
+                </Info></Object>
+              <Object><Index>4097</Index><Name>decimal index</Name><Type>USINT</Type><BitSize>8</BitSize><Flags><Access>wo</Access></Flags></Object>
+            </Objects>
+          </Dictionary>
+        </Profile>
+        <Sm DefaultSize="128" StartAddress="#x1000" ControlByte="#x26" Enable="1">MBoxOut</Sm>
+        <Sm StartAddress="#x1100" ControlByte="#x64" Enable="1">Outputs</Sm>
+        <RxPdo Sm="2" Fixed="1" Mandatory="true"><Index>#x1600</Index><Name>RxPDO 1</Name>
+          <Entry><Index>#x6040</Index><SubIndex>0</SubIndex><BitLen>16</BitLen><Name>Controlword</Name><DataType>UINT</DataType></Entry>
+          <Entry><Index>0</Index><BitLen>8</BitLen></Entry>
+        </RxPdo>
+        <RxPdo><Index>#x1601</Index><Name>RxPDO 2</Name></RxPdo>
+        <TxPdo Sm="3"><Index>#x1A00</Index><Entry><Index>#x6041</Index><SubIndex>#x0</SubIndex><BitLen>16</BitLen></Entry></TxPdo>
+        <Mailbox><CoE SdoInfo="true" PdoAssign="1" CompleteAccess="false"/></Mailbox>
+      </Device>
+    </Devices>
+  </Descriptions>
+</EtherCATInfo>
+)";
+
+TEST(EsiReader, ReadsIdentityMailboxAndSyncManagers) {
+  // Given a small ESI, When it is read, Then the vendor, the device's identity, CoE and SMs
+  const auto esi = read_esi(kGood, "good.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  EXPECT_EQ(esi->vendor_id, 0x1Du);
+  ASSERT_EQ(esi->devices.size(), 1u);
+  const EsiDevice& d = esi->devices[0];
+  EXPECT_EQ(d.product_code, 0x1234u);
+  EXPECT_EQ(d.revision_number, 65538u);
+  EXPECT_EQ(d.name, "Motor controller");
+  EXPECT_EQ(d.line, 6);
+  ASSERT_TRUE(d.coe);
+  EXPECT_TRUE(d.coe->sdo_info);
+  EXPECT_TRUE(d.coe->pdo_assign);
+  EXPECT_FALSE(d.coe->pdo_config);
+  EXPECT_FALSE(d.coe->complete_access);
+  ASSERT_EQ(d.sync_managers.size(), 2u);
+  EXPECT_EQ(d.sync_managers[0].type, "MBoxOut");
+  EXPECT_EQ(d.sync_managers[0].start_address, 0x1000);
+  EXPECT_EQ(d.sync_managers[0].default_size, 128);
+  EXPECT_EQ(d.sync_managers[0].control_byte, 0x26);
+  EXPECT_TRUE(d.sync_managers[0].enable);
+  EXPECT_FALSE(d.sync_managers[1].default_size);
+}
+
+TEST(EsiReader, ReadsPdosWithTheirDefaultAssignment) {
+  // Given the ESI, When its PDOs are read, Then entries, gaps, flags and the @Sm assignment
+  const auto esi = read_esi(kGood, "good.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const EsiDevice& d = esi->devices[0];
+  ASSERT_EQ(d.rx_pdos.size(), 2u);
+  EXPECT_EQ(d.rx_pdos[0].index, 0x1600);
+  EXPECT_EQ(d.rx_pdos[0].sm, 2);
+  EXPECT_TRUE(d.rx_pdos[0].fixed);
+  EXPECT_TRUE(d.rx_pdos[0].mandatory);
+  ASSERT_EQ(d.rx_pdos[0].entries.size(), 2u);
+  EXPECT_EQ(d.rx_pdos[0].entries[0].mapping_value(), 0x60400010u);
+  EXPECT_EQ(d.rx_pdos[0].entries[1].mapping_value(), 0x00000008u);
+  EXPECT_FALSE(d.rx_pdos[1].sm);
+  ASSERT_EQ(d.default_rx_assignment().size(), 1u);
+  ASSERT_EQ(d.default_tx_assignment().size(), 1u);
+  EXPECT_EQ(d.default_tx_assignment()[0]->entries[0].mapping_value(), 0x60410010u);
+}
+
+TEST(EsiReader, ReadsObjectsWithAccessAndDefaults) {
+  // Given the ESI's dictionary, When it is read, Then VARs, a structured object whose array
+  // elements come from ArrayInfo, the defaults (by name) and the access
+  const auto esi = read_esi(kGood, "good.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const EsiDevice& d = esi->devices[0];
+  ASSERT_EQ(d.objects.size(), 3u);
+  const EsiSubItem* type = d.find(0x1000, 0);
+  ASSERT_NE(type, nullptr);
+  EXPECT_EQ(type->access, EsiAccess::ro);
+  EXPECT_EQ(type->default_data, (std::vector<std::uint8_t>{0x92, 0x01, 0x02, 0x00}));
+  const EsiObject* assign = d.find(0x1C12);
+  ASSERT_NE(assign, nullptr);
+  EXPECT_TRUE(assign->structured);
+  ASSERT_EQ(assign->entries.size(), 3u);
+  EXPECT_EQ(assign->entries[0].write_restrictions, "PreOP");
+  EXPECT_EQ(assign->entries[1].sub_index, 1);
+  EXPECT_EQ(assign->entries[2].sub_index, 2);
+  EXPECT_EQ(assign->entries[2].bit_size, 16u);
+  EXPECT_EQ(d.find(0x1C12, 1)->default_data, (std::vector<std::uint8_t>{0x00, 0x16}));
+  EXPECT_FALSE(d.find(0x1C12, 2)->default_data);
+  EXPECT_EQ(d.find(0x1000)->line, 21);
+  EXPECT_EQ(d.find(4097, 0)->access, EsiAccess::wo);
+}
+
+// The error of reading `text`, "" when it reads.
+std::string error_of(const std::string& text) {
+  const auto esi = read_esi(text, "bad.xml");
+  return esi ? std::string() : esi.error().to_string();
+}
+
+std::string with(std::string_view from, std::string_view to) {
+  std::string text = kGood;
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+TEST(EsiReader, RefusesMalformedXmlWithItsLine) {
+  // Given an ESI with an unclosed element on line 7, When it is read, Then the error names
+  // bad.xml and a line at or after the damage (the parser stops where it notices)
+  const std::string error = error_of(with("CMMP</Type>", "CMMP</Typo>"));
+  EXPECT_NE(error.find("bad.xml:7: not well-formed XML"), std::string::npos) << error;
+}
+
+TEST(EsiReader, RefusesBadNumbersWithTheElementsLine) {
+  // Given a product code and an object index that are no numbers, When read, Then each error
+  // names the line of its element
+  EXPECT_NE(error_of(with("#x00001234", "#xZZ")).find("bad.xml:7: Type@ProductCode '#xZZ'"),
+            std::string::npos)
+      << error_of(with("#x00001234", "#xZZ"));
+  EXPECT_NE(error_of(with("<Index>#x1000</Index>", "<Index>#x10000</Index>"))
+                .find("bad.xml:21: <Index> '#x10000' is out of range"),
+            std::string::npos)
+      << error_of(with("<Index>#x1000</Index>", "<Index>#x10000</Index>"));
+}
+
+TEST(EsiReader, RefusesWhatItCannotJudge) {
+  // Given ESIs with a bad access, an odd DefaultData, a SubItem without SubIdx of a non-array
+  // type, a duplicate object, no vendor, and no device, When read, Then each is a named error
+  EXPECT_NE(error_of(with("<Access>ro</Access>", "<Access>readonly</Access>"))
+                .find("bad.xml:22: <Access> 'readonly' is none of ro, rw, wo"),
+            std::string::npos);
+  EXPECT_NE(error_of(with("92010200", "9201020")).find("bad.xml:22: <DefaultData> '9201020'"),
+            std::string::npos);
+  EXPECT_NE(error_of(with("<Type>DT1C12ARR</Type>", "<Type>UINT</Type>"))
+                .find("bad.xml:16: <SubItem> 'Elements' has no <SubIdx>"),
+            std::string::npos);
+  EXPECT_NE(error_of(with("<Index>4097</Index>", "<Index>#x1000</Index>"))
+                .find("bad.xml:28: <Object> 1000h is there twice"),
+            std::string::npos);
+  EXPECT_NE(error_of(with("<Vendor><Id>#x0000001D</Id><Name>Example</Name></Vendor>", ""))
+                .find("bad.xml:2: <EtherCATInfo> has no <Vendor>"),
+            std::string::npos);
+  EXPECT_NE(error_of("<EtherCATInfo><Vendor><Id>1</Id></Vendor></EtherCATInfo>")
+                .find("describes no device"),
+            std::string::npos);
+  EXPECT_NE(error_of("<EDS/>").find("bad.xml:1: no <EtherCATInfo> root element"),
+            std::string::npos);
+  EXPECT_NE(error_of("").find("bad.xml"), std::string::npos);
+}
+
+TEST(EsiReader, FindsTheDeviceBySlaveIdentity) {
+  // Given the ESI, When the device of a slave is looked up, Then by product code (revision
+  // preferred), nothing for another product
+  const auto esi = read_esi(kGood, "good.xml");
+  ASSERT_TRUE(esi);
+  EXPECT_EQ(find_esi_device(*esi, 0x1234, 65538), &esi->devices[0]);
+  EXPECT_EQ(find_esi_device(*esi, 0x1234, 1), &esi->devices[0]);
+  EXPECT_EQ(find_esi_device(*esi, 0x9999, 65538), nullptr);
+  EXPECT_EQ(find_esi_device(*esi, std::nullopt, std::nullopt), &esi->devices[0]);
+}
+
+}  // namespace
+}  // namespace drivecheck::ethercat
