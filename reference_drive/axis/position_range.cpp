@@ -27,6 +27,9 @@ double PositionRange::travel(double from, double target, RotaryDirection directi
   if (!active()) return target - from;
   const double p = period();
   double d = wrap(target) - wrap(from);  // in (-p, p)
+  // Already there (within half a position unit: the demand may stand a fraction off the integer
+  // target): no turn in either direction.
+  if (std::abs(d) < 0.5) return d;
   switch (direction) {
     case RotaryDirection::linear:
       break;

@@ -51,7 +51,8 @@ struct PositionRange {
   // `position` in [min, max) (unchanged while not active).
   double wrap(double position) const;
   // The signed distance an absolute positioning from `from` to `target` travels (both wrapped
-  // first); not active: target − from, as on a linear axis.
+  // first; less than half a position unit apart: already there, no turn); not active:
+  // target − from, as on a linear axis.
   double travel(double from, double target, RotaryDirection direction) const;
 };
 

@@ -369,6 +369,8 @@ TEST(PositionRange, NegativeOptionOnlyMovesDown) {
   // Then both are reached moving down, the higher one through the min limit
   EXPECT_DOUBLE_EQ(range.travel(0.0, 1000.0, RotaryDirection::negative), -3000.0);
   EXPECT_DOUBLE_EQ(range.travel(0.0, -500.0, RotaryDirection::negative), -500.0);
+  // And a target where the axis stands (a fraction off) is no full turn
+  EXPECT_NEAR(range.travel(-0.001, 0.0, RotaryDirection::negative), 0.001, 1e-9);
 }
 
 TEST(PositionRange, PositiveOptionOnlyMovesUp) {
