@@ -145,7 +145,8 @@ FactorGroup read_factor_group(const cia301::ObjectDictionary& od) {
 std::unique_ptr<OperationMode> Cia402Application::make_standard_mode(cia402::Mode mode) const {
   switch (mode) {
     case cia402::Mode::profile_position:
-      return std::make_unique<ProfilePositionMode>(config_.deviations);
+      return std::make_unique<ProfilePositionMode>(
+          config_.deviations, config_.position_range == PositionRangeSupport::cia402);
     case cia402::Mode::profile_velocity:
       return std::make_unique<ProfileVelocityMode>();
     case cia402::Mode::profile_torque:
@@ -331,6 +332,17 @@ Expected<void, std::string> Cia402Application::add_shared_objects(cia301::Object
                  true),
            entry(2, "interpolation time index", DataType::integer8, AccessType::rw, s(-3), true)}},
   };
+  if (config_.position_range != PositionRangeSupport::none) {
+    // 607Bh (CiA 402-2, optional): the whole INTEGER32 range by default (IRTSA 003 §5
+    // L732-734), a linear axis until a master sets a narrower range.
+    ObjectDefinition range = pair_object(0x607B, "position range limit", "min position range limit",
+                                         "max position range limit", DataType::integer32,
+                                         AccessType::rw, s(i32), s(i32max), true);
+    // Deviation pp-position-range-sub0-wrong: sub 00h reads 1.
+    if (config_.deviations.has(Deviation::pp_position_range_sub0_wrong))
+      range.entries[0] = count(1);
+    objects.push_back(std::move(range));
+  }
   for (ObjectDefinition& def : objects) {
     if (auto r = od.add_object(std::move(def)); !r) return Unexpected(r.error());
   }
@@ -526,6 +538,39 @@ void Cia402Application::read_parameters() {
     context_->min_position = 1.0;
     context_->max_position = 0.0;
   }
+  read_position_range();
+}
+
+void Cia402Application::read_position_range() {
+  context_->position_range = {};
+  context_->rotary_direction.reset();
+  // Deviation pp-position-range-no-wrap: 607Bh is stored and never used.
+  if (config_.position_range == PositionRangeSupport::none ||
+      config_.deviations.has(Deviation::pp_position_range_no_wrap))
+    return;
+  const cia301::Entry* lo = od_->find(cia402::kPositionRangeLimitMin.index, 1);
+  const cia301::Entry* hi = od_->find(cia402::kPositionRangeLimitMax.index, 2);
+  if (lo == nullptr || hi == nullptr) return;
+  const PositionRange range = PositionRange::from_limits(lo->as_signed(), hi->as_signed());
+  if (config_.position_range == PositionRangeSupport::festo) {
+    // 6510h sub 20h position_range_limit_enable (000 §5.7 L3855-3867).
+    const cia301::Entry* enable = od_->find(0x6510, 0x20);
+    switch (enable != nullptr ? enable->as_unsigned() : 0) {
+      case 1:
+      case 2:
+        context_->rotary_direction = RotaryDirection::shortest;
+        break;
+      case 4:
+        context_->rotary_direction = RotaryDirection::positive;
+        break;
+      case 5:
+        context_->rotary_direction = RotaryDirection::negative;
+        break;
+      default:
+        return;  // 0 off, 3 reserved
+    }
+  }
+  context_->position_range = range;
 }
 
 void Cia402Application::check_limits(can::TimePoint now, can::Duration dt) {
@@ -574,14 +619,20 @@ void Cia402Application::publish() {
   const FactorGroup& f = factors_;
   const bool position_control = axis_.control() == AxisControl::position && axis_.following();
   const double demand = position_control ? axis_.demand_position() : axis_.position();
-  put(od, cia402::kPositionDemandValue, FactorGroup::to_i32(f.position_to_user(demand)));
+  // On a rotary axis (607Bh in effect) 6062h and 6064h show the value wrapped into the range;
+  // 6063h, 60FCh and 60F4h keep counting (the internal frame does not wrap).
+  const PositionRange range = context_ ? context_->position_range : PositionRange{};
+  const auto shown = [&range](double user) {
+    return FactorGroup::to_i32(range.active() ? range.wrap(std::round(user)) : user);
+  };
+  put(od, cia402::kPositionDemandValue, shown(f.position_to_user(demand)));
   put(od, cia402::kPositionDemandInternalValue, FactorGroup::to_i32(demand));
   // Deviation factor-internal-position-in-user-units: 6063h shows 6064h's user units.
   put(od, cia402::kPositionActualInternalValue,
       config_.deviations.has(Deviation::factor_internal_position_in_user_units)
           ? std::int64_t{FactorGroup::to_i32(f.position_to_user(axis_.position()))}
           : std::int64_t{axis_.actual_position()});
-  put(od, cia402::kPositionActualValue, FactorGroup::to_i32(f.position_to_user(axis_.position())));
+  put(od, cia402::kPositionActualValue, shown(f.position_to_user(axis_.position())));
   put(od, cia402::kVelocityDemandValue,
       FactorGroup::to_i32(f.velocity_to_user(axis_.following() ? axis_.demand_velocity() : 0.0)));
   put(od, cia402::kVelocityActualValue, FactorGroup::to_i32(f.velocity_to_user(axis_.velocity())));

@@ -99,6 +99,17 @@ enum class ErrorCodeFormat : std::uint8_t {
 // 6060h/6061h size (CiA 402: INTEGER8; ESR maps them as 16 bit, 004_956552dcd17e975a.txt).
 enum class ModeObjectWidth : std::uint8_t { bits8, bits16 };
 
+// 607Bh position range limit (personality key position_range_limit; axis/position_range.hpp).
+enum class PositionRangeSupport : std::uint8_t {
+  none,    // no 607Bh (a profile's objects file may still add it as a plain stored value)
+  cia402,  // 607Bh in effect as set; pp takes the direction from 60F2h bits 7..6
+  // Festo (000 §5.7 L3821-3867): 607Bh in effect only while 6510h sub 20h
+  // (position_range_limit_enable) selects a round axis: 1, 2 shortest way, 4 only positive,
+  // 5 only negative; 0 off, 3 reserved (off). 60F2h refuses bits 7..6 (the direction is
+  // 6510h sub 20h's).
+  festo,
+};
+
 // A manufacturer-specific mode of operation and the logic that runs under it.
 struct ManufacturerModeConfig {
   enum class Logic : std::uint8_t {
@@ -149,6 +160,9 @@ struct Cia402ApplicationConfig {
   // 6080h max motor speed as UNSIGNED16 in min^-1 (Festo 000 §7.5.2 L6939-6948, default
   // 32768), converted with the axis's encoder_increments; false: UNSIGNED32 in velocity units.
   bool max_motor_speed_rpm = false;
+  // 607Bh: added to the dictionary (sub 01h INTEGER32 min, 02h max, defaults the whole
+  // INTEGER32 range: no wrap) unless none; positions wrap while a narrower range is set.
+  PositionRangeSupport position_range = PositionRangeSupport::cia402;
 };
 
 // The factor group as the dictionary holds it: 6093h/6094h/6097h (a fraction with a zero part
@@ -207,6 +221,7 @@ class Cia402Application final : public DriveApplication, private FaultReporter, 
   Expected<void, std::string> add_shared_objects(cia301::ObjectDictionary& od);
   void bind(cia301::ObjectDictionary& od);
   void read_parameters();
+  void read_position_range();
   void check_limits(can::TimePoint now, can::Duration dt);
   void publish();
   std::uint16_t error_code_shown() const;

@@ -496,6 +496,7 @@ profile::Personality standard_personality() {
   p.hardware_enable = profile::HardwareEnable::transition_3;
   p.sdo_client = true;
   p.time_consumer = true;
+  p.position_range_limit = profile::PositionRangeLimit::cia402;
   return p;
 }
 
@@ -626,6 +627,10 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
   plan.refuse_empty_pdo = p.empty_pdo_valid == profile::EmptyPdoValid::refuse;
   plan.drive.tpdo_first_sync_phase = p.tpdo_sync_phase == profile::TpdoSyncPhase::first_sync;
   plan.application.setpoint_buffer = p.setpoint_buffer;
+  plan.application.position_range =
+      p.position_range_limit == profile::PositionRangeLimit::cia402  ? PositionRangeSupport::cia402
+      : p.position_range_limit == profile::PositionRangeLimit::festo ? PositionRangeSupport::festo
+                                                                     : PositionRangeSupport::none;
   plan.application.pds.initial_mode = p.initial_mode;
   plan.application.ip_max_buffer = p.ip_max_buffer;
   plan.application.max_motor_speed_rpm = p.max_motor_speed == profile::MaxMotorSpeed::rpm_u16;

@@ -222,6 +222,15 @@
 //       ACTIVE, FAULT REACTION ACTIVE) aborts 08000022h and restores nothing (Festo 000 §5.1
 //       L2450, L2501; the output stage is switched on by transition 3, Tab. 6.2 L5219).
 //       Standard: false.
+//   position_range_limit: none | cia402 | festo
+//       Cia402ApplicationConfig::position_range: 607Bh position range limit (CiA 402-2,
+//       optional; axis/position_range.hpp). cia402: 607Bh with the whole INTEGER32 range by
+//       default; a narrower range wraps 6062h/6064h and pp takes 60F2h bits 7..6 (rotary axis
+//       direction option). festo (000 §5.7 L3821-3867): the range is in effect only while
+//       6510h sub 20h (the profile's objects file adds it) selects a round axis, which gives the
+//       direction (1, 2 shortest, 4 positive, 5 negative); 60F2h refuses bits 7..6. none: no
+//       607Bh (a profile's objects file may add it as a plain stored value). Standard: cia402;
+//       a profile's personality: none unless it says so.
 //   note: text
 //       Why the values are what they are; not used.
 //

@@ -756,6 +756,7 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "bus_off",
                      "manufacturer_objects",
                      "position_sampling",
+                     "position_range_limit",
                      "cia402",
                      "absent_objects",
                      "abort_codes",
@@ -865,6 +866,8 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
   choice("manufacturer_objects", p.manufacturer_objects, ManufacturerObjects::none,
          ManufacturerObjects::kollmorgen);
   choice("position_sampling", p.position_sampling, PositionSampling::none, PositionSampling::festo);
+  choice("position_range_limit", p.position_range_limit, PositionRangeLimit::none,
+         PositionRangeLimit::cia402, PositionRangeLimit::festo);
   choice("sdo_dlc", p.sdo_dlc, SdoDlc::always_8, SdoDlc::minimal);
   choice("sdo_short_requests", p.sdo_short_requests, SdoShortRequests::ignore,
          SdoShortRequests::pad);
@@ -1520,6 +1523,10 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
     out << YAML::Key << "position_sampling" << YAML::Value
         << std::string(to_string(p.position_sampling));
   }
+  if (p.position_range_limit != PositionRangeLimit::none) {
+    out << YAML::Key << "position_range_limit" << YAML::Value
+        << std::string(to_string(p.position_range_limit));
+  }
   out << YAML::Key << "ack_latency_cycles" << YAML::Value << p.ack_latency_cycles;
   if (p.control_cycle) {
     out << YAML::Key << "control_cycle" << YAML::Value << format_duration(*p.control_cycle);
@@ -1805,6 +1812,18 @@ std::string_view to_string(ManufacturerObjects objects) {
       return "none";
     case ManufacturerObjects::kollmorgen:
       return "kollmorgen";
+  }
+  return "none";
+}
+
+std::string_view to_string(PositionRangeLimit limit) {
+  switch (limit) {
+    case PositionRangeLimit::cia402:
+      return "cia402";
+    case PositionRangeLimit::festo:
+      return "festo";
+    case PositionRangeLimit::none:
+      break;
   }
   return "none";
 }

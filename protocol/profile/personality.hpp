@@ -82,6 +82,11 @@ enum class ManufacturerObjects : std::uint8_t { none, kollmorgen };
 // such input. festo (000 §5.15 L4705-4816): 204Ah sample_data, the `sample-input` simulated
 // input, the actual position latched at its edges, statusword bit 15 through the status mask.
 enum class PositionSampling : std::uint8_t { none, festo };
+
+// 607Bh position range limit (reference_drive Cia402ApplicationConfig::position_range): none
+// (no 607Bh), cia402 (in effect as set, the direction from 60F2h bits 7..6), festo (in effect
+// only while 6510h sub 20h selects a round axis, which also gives the direction).
+enum class PositionRangeLimit : std::uint8_t { none, cia402, festo };
 // What a node guarding (life guarding) or heartbeat consumer event does to the NMT state.
 // error-behaviour: what 1029h:01 says (CiA 301 default: Operational -> Pre-operational).
 // pre-operational: always Pre-operational (ESR), also from Stopped. no-nmt-change: the NMT state
@@ -215,6 +220,9 @@ struct Personality {
   ManufacturerObjects manufacturer_objects = ManufacturerObjects::none;
   // Festo 204Ah sample_data with its behaviour (PositionSampling above).
   PositionSampling position_sampling = PositionSampling::none;
+  // 607Bh and the rotary axis (PositionRangeLimit above); a profile's drive: none unless it
+  // says so (the standard drive: cia402).
+  PositionRangeLimit position_range_limit = PositionRangeLimit::none;
   // false: a plain CiA 301 device: no CiA 402 application (no 6000h-9FFFh objects, no PDS, no
   // motion). 1000h comes from `identity.device_type`.
   bool cia402 = true;
@@ -255,6 +263,7 @@ std::string_view to_string(cia301::SdoNodeIdSub sub);     // "none", "client", "
 std::string_view to_string(ManufacturerObjects objects);  // "none", "kollmorgen"
 std::string_view to_string(ManufacturerModeLogic logic);  // "behaves-as", "irtsa-mpp"
 std::string_view to_string(PositionSampling sampling);    // "none", "festo"
+std::string_view to_string(PositionRangeLimit limit);     // "none", "cia402", "festo"
 std::string_view to_string(PdoMapping mapping);           // "dynamic", "static"
 std::string_view to_string(EmptyPdoValid policy);         // "accept", "refuse"
 std::string_view to_string(MaxMotorSpeed speed);          // "velocity-u32", "rpm-u16"

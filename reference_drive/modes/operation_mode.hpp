@@ -35,6 +35,7 @@
 #include "protocol/common/expected.hpp"
 #include "reference_drive/axis/axis_model.hpp"
 #include "reference_drive/axis/factor_group.hpp"
+#include "reference_drive/axis/position_range.hpp"
 #include "reference_drive/deviations.hpp"
 #include "reference_drive/power_drive_system.hpp"
 
@@ -61,6 +62,11 @@ struct ModeContext {
   // software position limits 607Dh (actual frame, internal units; min > max: none),
   double min_position = 1.0;
   double max_position = 0.0;
+  // the position range limit 607Bh in effect (user units; not active: a linear axis) and, where
+  // the drive takes the rotary direction from another object than 60F2h bits 7..6 (Festo
+  // 6510h sub 20h), that direction,
+  PositionRange position_range{};
+  std::optional<RotaryDirection> rotary_direction{};
   // the following error is beyond 6065h for longer than 6066h (bit 13 of pp, ip, csp).
   bool following_error = false;
   // Set by the mode when it clamped a target to the software limits (statusword bit 11);

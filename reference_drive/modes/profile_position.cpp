@@ -26,6 +26,7 @@ constexpr std::uint64_t kRelativeToActual = 0x0002;
 constexpr std::uint64_t kRequestResponseOption = 0x0030;
 constexpr std::uint64_t kReleaseAtTarget = 0x0010;
 constexpr std::uint64_t kReleaseAtOnce = 0x0020;
+constexpr std::uint64_t kRotaryOption = 0x00C0;  // 60F2h bits 7..6 (axis/position_range.hpp)
 
 double seconds(can::Duration d) {
   return std::chrono::duration<double>(d).count();
@@ -43,20 +44,21 @@ Expected<void, std::string> ProfilePositionMode::add_objects(cia301::ObjectDicti
   if (cia301::Entry* e = od.find(cia402::kPositioningOptionCode.index, 0)) {
     const bool reserved_accepted =
         deviations_.has(Deviation::pp_positioning_option_reserved_accepted);
+    const std::uint64_t implemented =
+        kRelativeOption | kRequestResponseOption | (rotary_option_ ? kRotaryOption : 0);
     e->set_write_validator(
-        [reserved_accepted](
+        [reserved_accepted, implemented](
             const cia301::ObjectDictionary&, const cia301::Entry&,
             std::span<const std::uint8_t> data) -> Expected<void, cia301::SdoAbort> {
           const std::uint64_t v = cia301::load_unsigned(data);
           // Deviation pp-positioning-option-reserved-accepted: 11 in bits 1..0 and 5..4 taken.
-          if (reserved_accepted && (v & ~(kRelativeOption | kRequestResponseOption)) == 0)
-            return {};
+          if (reserved_accepted && (v & ~implemented) == 0) return {};
           // The relative and request-response options are implemented, 11 is reserved in each;
-          // the change-immediately option (bits 3..2) is not, the rotary axis direction option
-          // (bits 7..6) needs a rotary axis (607Bh, which this drive lacks), bits 8..15 are the
-          // ip option and reserved: every other bit must be 0.
-          if ((v & ~(kRelativeOption | kRequestResponseOption)) != 0 ||
-              (v & kRelativeOption) == kRelativeOption ||
+          // the rotary axis direction option (bits 7..6, all four values) where the drive has
+          // 607Bh and takes the direction from 60F2h; the change-immediately option (bits 3..2)
+          // is not implemented, bits 8..15 are the ip option and reserved: every other bit must
+          // be 0.
+          if ((v & ~implemented) != 0 || (v & kRelativeOption) == kRelativeOption ||
               (v & kRequestResponseOption) == kRequestResponseOption) {
             return Unexpected(cia301::SdoAbort::invalid_value);
           }
@@ -99,7 +101,8 @@ std::optional<double> ProfilePositionMode::buffered_target() const {
 }
 
 ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& ctx,
-                                                                  std::uint16_t controlword) const {
+                                                                  std::uint16_t controlword,
+                                                                  bool immediately) const {
   const FactorGroup& f = ctx.factors;
   SetPoint sp;
   const double target = static_cast<double>(ctx.read_signed(cia402::kTargetPosition));
@@ -118,6 +121,28 @@ ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& c
                         : running_                    ? running_->target
                                                       : trajectory_.position();
     sp.target = base + f.position_to_internal(target) - f.position_to_internal(0.0);
+  } else if (ctx.position_range.active()) {
+    // A rotary axis: the target modulo the range, reached from where this set-point starts
+    // (the preceding target of a set of set-points, else the demand) the way the rotary axis
+    // direction option says.
+    const double start = immediately          ? trajectory_.position()
+                         : !buffered_.empty() ? buffered_.back().target
+                         : running_           ? running_->target
+                                              : trajectory_.position();
+    RotaryDirection direction = ctx.rotary_direction.value_or(
+        rotary_direction_of(ctx.read_unsigned(cia402::kPositioningOptionCode)));
+    if (ctx.has(Deviation::pp_rotary_direction_ignored)) direction = RotaryDirection::linear;
+    if (ctx.has(Deviation::pp_rotary_direction_swapped)) {
+      if (direction == RotaryDirection::negative) {
+        direction = RotaryDirection::positive;
+      } else if (direction == RotaryDirection::positive) {
+        direction = RotaryDirection::negative;
+      }
+    }
+    if (ctx.has(Deviation::pp_rotary_linear_as_shortest) && direction == RotaryDirection::linear)
+      direction = RotaryDirection::shortest;
+    const double from = f.position_to_user(start);
+    sp.target = f.position_to_internal(from + ctx.position_range.travel(from, target, direction));
   } else {
     sp.target = f.position_to_internal(target);
   }
@@ -159,9 +184,9 @@ void ProfilePositionMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
   } else {
     if (edge && !ack_ && !ack_due_) {
       // Taken also while halted (it starts when halt is released).
-      const SetPoint sp = read_set_point(ctx, cycle.controlword);
       const bool immediately = (cycle.controlword & kChangeImmediately) != 0 &&
                                !ctx.has(Deviation::pp_change_immediately_ignored);
+      const SetPoint sp = read_set_point(ctx, cycle.controlword, immediately);
       if (immediately || !running_) {
         running_ = sp;
         buffered_.clear();

@@ -32,13 +32,21 @@
 //   4 with 60F2h bits 5..4 (request-response option): 01 the drive resets 6040h bit 4 when the
 //                     last set-point's target is reached (bit 10), 10 when it acknowledges
 //                     (bit 12); bit 12 then returns to 0 as after the master's reset
-// Targets are clamped to the software position limits 607Dh (bit 11 while clamped).
+// Rotary axis (607Bh position range limit set, ModeContext::position_range active): an absolute
+// target is taken modulo the range and reached the way 60F2h bits 7..6 choose
+// (axis/position_range.hpp: 00 as on a linear axis, 01 only negative, 10 only positive, 11 the
+// shortest way; ModeContext::rotary_direction instead where the personality has its own
+// object); a relative target travels its 607Ah and may pass the limits. The trajectory runs in
+// the unwrapped internal frame; the application shows 6062h and 6064h wrapped.
+// Targets are clamped to the software position limits 607Dh (bit 11 while clamped; on a rotary
+// axis in the unwrapped frame: the default full-range limits never clamp).
 // Deviations: pp-set-point-ack-never-cleared, pp-target-reached-before-window-time,
 // pp-change-immediately-ignored, pp-relative-as-absolute, pp-halt-target-reached-missing,
 // pp-max-profile-velocity-ignored, pp-set-point-ack-cleared-while-buffer-full,
 // pp-positioning-option-relative-ignored, pp-set-point-buffer-newest-first (a buffer deeper than
 // one: the cia402-alternative personality's 4), pp-request-response-option-ignored,
-// pp-request-response-release-early. (quick-stop-target-reached-missing is the PDS's:
+// pp-request-response-release-early, pp-rotary-direction-ignored, pp-rotary-direction-swapped,
+// pp-rotary-linear-as-shortest. (quick-stop-target-reached-missing is the PDS's:
 // bit 10 in QUICK STOP ACTIVE, power_drive_system.cpp.)
 #pragma once
 
@@ -54,17 +62,19 @@ namespace drivecheck::reference_drive {
 class ProfilePositionMode final : public OperationMode {
  public:
   // `deviations`: the ones its object's check shows (60F2h's reserved values); the others are
-  // read from the ModeContext at run time.
-  explicit ProfilePositionMode(DeviationSet deviations = {}) : deviations_(deviations) {}
+  // read from the ModeContext at run time. `rotary_option`: 60F2h takes bits 7..6 (the drive
+  // has 607Bh and takes the direction from 60F2h).
+  explicit ProfilePositionMode(DeviationSet deviations = {}, bool rotary_option = false)
+      : deviations_(deviations), rotary_option_(rotary_option) {}
   std::int8_t mode() const override { return 1; }
   // 60F2h positioning option code (optional in CiA 402-2): relative option bits 1..0 (00
   // relative to the preceding target, 01 to the position demand value, 10 to the position
   // actual value 6064h) and request-response option bits 5..4 (00 the bit 4 / bit 12
   // handshake; 01 the drive resets controlword bit 4 itself once the positioning reached its
   // target, 10 as soon as it acknowledged the set-point; then bit 12 follows); 11 is reserved
-  // in each. Every other bit (change-immediately option 3..2, rotary axis direction option
-  // 7..6: no rotary axis here, 607Bh absent; ip option and reserved) must be 0: other values
-  // are refused with 06090030h.
+  // in each. The rotary axis direction option 7..6 (every value) with `rotary_option`. Every
+  // other bit (change-immediately option 3..2, 7..6 without `rotary_option`, ip option and
+  // reserved) must be 0: other values are refused with 06090030h.
   Expected<void, std::string> add_objects(cia301::ObjectDictionary& od) override;
   void on_reset(ModeContext& ctx) override;
   void enter(ModeContext& ctx, const ModeCycle& cycle) override;
@@ -83,10 +93,11 @@ class ProfilePositionMode final : public OperationMode {
     bool change_on_set_point = false;
     bool clamped = false;  // the target was clamped to 607Dh (bit 11 while it is the last one)
   };
-  SetPoint read_set_point(ModeContext& ctx, std::uint16_t controlword) const;
+  SetPoint read_set_point(ModeContext& ctx, std::uint16_t controlword, bool immediately) const;
   void update_target_reached(ModeContext& ctx, const ModeCycle& cycle);
 
   DeviationSet deviations_;
+  bool rotary_option_ = false;
   TrajectoryGenerator trajectory_;
   std::optional<SetPoint> running_;
   std::deque<SetPoint> buffered_;  // ModeContext::setpoint_buffer deep (1: one)

@@ -224,6 +224,28 @@ TEST(ServoDriveIrtsa, HomingOnlyByManufacturerMethods) {
   EXPECT_EQ(rig.read(0x1000), 0x00420192U);
 }
 
+TEST(ServoDriveFesto, PositionRangeOnlyOnARoundAxis) {
+  // Given the Festo drive at 6064h = 0 with 607Bh = 250 .. 750 (0 lies outside: it shows as
+  // 500 once the range is in effect); 60F2h is not in the manual (L3821-3867: the round axis is
+  // selected and directed by 6510h sub 20h)
+  ServoRig rig("festo-cmmp");
+  ASSERT_TRUE(rig.ok());
+  std::uint32_t abort = 0;
+  rig.read(0x60F2, 0, &abort);
+  EXPECT_EQ(abort, 0x06020000U);
+  ASSERT_EQ(rig.read(0x6064), 0U);
+  ASSERT_EQ(rig.write(0x607B, 1, 250, 4), 0U);
+  ASSERT_EQ(rig.write(0x607B, 2, 750, 4), 0U);
+  // When 6510h sub 20h is 0 (off), then 4 (fixed direction positive)
+  rig.run(10ms);
+  const std::uint32_t off = rig.read(0x6064);
+  ASSERT_EQ(rig.write(0x6510, 0x20, 4, 2), 0U);
+  rig.run(10ms);
+  // Then the range takes effect only with the round axis selected
+  EXPECT_EQ(off, 0U);
+  EXPECT_EQ(rig.read(0x6064), 500U);
+}
+
 TEST(ServoDriveIrtsa, HomingSetsThePositionWithoutMotion) {
   // Given the IRTSA drive in SWITCH ON DISABLED, homing mode, 607Ch = 1234, method 81h
   // (L416-421: the home offset becomes the actual position; any state but the fault states)

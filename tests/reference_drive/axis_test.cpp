@@ -9,6 +9,7 @@
 
 #include "reference_drive/axis/axis_model.hpp"
 #include "reference_drive/axis/factor_group.hpp"
+#include "reference_drive/axis/position_range.hpp"
 #include "reference_drive/axis/trajectory.hpp"
 
 namespace drivecheck::reference_drive {
@@ -322,6 +323,85 @@ TEST(FactorGroup, PositionFactorAndPolarity) {
   EXPECT_TRUE(reduce_fraction(4096 * 3, 360, out));
   EXPECT_EQ(out, (Fraction{512, 15}));
   EXPECT_FALSE(reduce_fraction(1, 0, out));
+}
+
+// --- 607Bh position range limit and the 60F2h rotary axis direction option ---------------------
+
+TEST(PositionRange, DefaultsAndZeroLeaveALinearAxis) {
+  // Given the whole INTEGER32 range (the default) and 0 / 0
+  const PositionRange whole = PositionRange::from_limits(-2147483648LL, 2147483647LL);
+  const PositionRange zero = PositionRange::from_limits(0, 0);
+  // When positions beyond any narrower range are wrapped and travelled to
+  // Then nothing wraps and an absolute positioning goes straight there
+  EXPECT_FALSE(whole.active());
+  EXPECT_FALSE(zero.active());
+  EXPECT_DOUBLE_EQ(whole.wrap(5000.0), 5000.0);
+  EXPECT_DOUBLE_EQ(zero.travel(100.0, -900.0, RotaryDirection::positive), -1000.0);
+}
+
+TEST(PositionRange, WrapsIntoMinInclusiveMaxExclusive) {
+  // Given a range of 0 .. 3600 (max and min the same physical position)
+  const PositionRange range = PositionRange::from_limits(0, 3600);
+  // When values at and beyond the limits are wrapped
+  // Then they lie in [0, 3600): reaching max is min, below min comes from max
+  EXPECT_TRUE(range.active());
+  EXPECT_DOUBLE_EQ(range.wrap(3600.0), 0.0);
+  EXPECT_DOUBLE_EQ(range.wrap(3700.0), 100.0);
+  EXPECT_DOUBLE_EQ(range.wrap(-100.0), 3500.0);
+  EXPECT_DOUBLE_EQ(range.wrap(7250.0), 50.0);
+  EXPECT_DOUBLE_EQ(range.wrap(1800.0), 1800.0);
+}
+
+TEST(PositionRange, LinearOptionNeverPassesTheLimits) {
+  // Given a range of -1000 .. 3000 and option 00
+  const PositionRange range = PositionRange::from_limits(-1000, 3000);
+  // When absolute targets on either side are travelled to from 0
+  // Then the axis moves as on a linear axis, inside the range
+  EXPECT_DOUBLE_EQ(range.travel(0.0, 2500.0, RotaryDirection::linear), 2500.0);
+  EXPECT_DOUBLE_EQ(range.travel(0.0, -500.0, RotaryDirection::linear), -500.0);
+  EXPECT_DOUBLE_EQ(range.travel(0.0, 6500.0, RotaryDirection::linear), 2500.0);  // target wrapped
+}
+
+TEST(PositionRange, NegativeOptionOnlyMovesDown) {
+  // Given a range of -1000 .. 3000 and option 01
+  const PositionRange range = PositionRange::from_limits(-1000, 3000);
+  // When a higher and a lower target are travelled to from 0
+  // Then both are reached moving down, the higher one through the min limit
+  EXPECT_DOUBLE_EQ(range.travel(0.0, 1000.0, RotaryDirection::negative), -3000.0);
+  EXPECT_DOUBLE_EQ(range.travel(0.0, -500.0, RotaryDirection::negative), -500.0);
+  // And a target where the axis stands (a fraction off) is no full turn
+  EXPECT_NEAR(range.travel(-0.001, 0.0, RotaryDirection::negative), 0.001, 1e-9);
+}
+
+TEST(PositionRange, PositiveOptionOnlyMovesUp) {
+  // Given a range of -1000 .. 3000 and option 10
+  const PositionRange range = PositionRange::from_limits(-1000, 3000);
+  // When a lower and a higher target are travelled to from 0
+  // Then both are reached moving up, the lower one through the max limit
+  EXPECT_DOUBLE_EQ(range.travel(0.0, -500.0, RotaryDirection::positive), 3500.0);
+  EXPECT_DOUBLE_EQ(range.travel(0.0, 1000.0, RotaryDirection::positive), 1000.0);
+}
+
+TEST(PositionRange, ShortestOptionTakesTheShorterWayPositiveOnATie) {
+  // Given a range of -1000 .. 3000 (period 4000) and option 11
+  const PositionRange range = PositionRange::from_limits(-1000, 3000);
+  // When targets are travelled to whose shorter way passes a limit, and one half a period away
+  // Then the shorter way is taken; half a period away goes positive
+  EXPECT_DOUBLE_EQ(range.travel(0.0, 2500.0, RotaryDirection::shortest), -1500.0);
+  EXPECT_DOUBLE_EQ(range.travel(2500.0, -500.0, RotaryDirection::shortest), 1000.0);
+  EXPECT_DOUBLE_EQ(range.travel(0.0, 1000.0, RotaryDirection::shortest), 1000.0);
+  EXPECT_DOUBLE_EQ(range.travel(0.0, 2000.0, RotaryDirection::shortest), 2000.0);
+  EXPECT_DOUBLE_EQ(range.travel(2000.0, 0.0, RotaryDirection::shortest), 2000.0);
+}
+
+TEST(PositionRange, DirectionOptionIsBitsSevenAndSixOf60F2h) {
+  // Given 60F2h values with other options set too
+  // When the rotary axis direction option is taken from them
+  // Then bits 7..6 decide
+  EXPECT_EQ(rotary_direction_of(0x0001), RotaryDirection::linear);
+  EXPECT_EQ(rotary_direction_of(0x0042), RotaryDirection::negative);
+  EXPECT_EQ(rotary_direction_of(0x0090), RotaryDirection::positive);
+  EXPECT_EQ(rotary_direction_of(0x00C0), RotaryDirection::shortest);
 }
 
 }  // namespace
