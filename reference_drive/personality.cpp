@@ -587,6 +587,7 @@ Expected<PersonalityPlan, std::string> plan_personality(const profile::DriveProf
     }
   }
   plan.drive.dictionary.pdo.mapping_while_valid = p.pdo_mapping_while_valid;
+  plan.drive.dictionary.pdo.cob_id_enable_only = p.pdo_cob_id_enable_only;
   plan.drive.dictionary.pdo.change_mask_index = p.tpdo_transmit_masks;
   plan.parameters_internal = p.parameters_internal;
   plan.application.internal_velocity_unit = {p.internal_units.velocity.numerator,

@@ -94,6 +94,9 @@
 //   pdo_mapping_while_valid: true | false
 //       PdoObjectOptions::mapping_while_valid: the mapping records may be written while their
 //       PDO is valid (Kollmorgen). Standard: false (CiA 301: abort 06010000h).
+//   pdo_cob_id_enable_only: true | false
+//       PdoObjectOptions::cob_id_enable_only: the PDO COB-IDs can only be enabled and disabled
+//       (bit 31); another CAN-ID is refused with 06090030h (CiA 301 §7.5.2.37). Standard: false.
 //   tpdo_transmit_masks: 0x2000..0x5FFF
 //       PdoObjectOptions::change_mask_index (pdo_service.hpp): TPDO n's transmit mask record
 //       at this index + n - 1; a TPDO sent on change compares only the masked bits (Festo

@@ -39,13 +39,16 @@ std::uint64_t raw_value(std::span<const std::uint8_t> data) {
   return load_unsigned(data);
 }
 
-WriteValidator cob_id_validator() {
-  return [](const ObjectDictionary&, const Entry& self,
-            std::span<const std::uint8_t> data) -> Expected<void, SdoAbort> {
+WriteValidator cob_id_validator(bool enable_only) {
+  return [enable_only](const ObjectDictionary&, const Entry& self,
+                       std::span<const std::uint8_t> data) -> Expected<void, SdoAbort> {
     const auto before = static_cast<std::uint32_t>(self.as_unsigned());
     const auto after = static_cast<std::uint32_t>(raw_value(data));
     const auto decoded = decode_pdo_cob_id(after);
     if (!decoded) return Unexpected(SdoAbort::invalid_value);
+    if (enable_only && ((before ^ after) & ~kInvalidBit) != 0) {
+      return Unexpected(SdoAbort::invalid_value);
+    }
     const bool valid_before = (before & kInvalidBit) == 0;
     if (valid_before && decoded->valid && ((before ^ after) & kCobIdBits) != 0) {
       return Unexpected(SdoAbort::invalid_value);
@@ -173,7 +176,7 @@ Expected<void, std::string> add_pdo(ObjectDictionary& od, PdoDirection direction
   auto added_comm = od.add_object(std::move(comm));
   if (!added_comm) return Unexpected(added_comm.error());
   Object& comm_object = **added_comm;
-  comm_object.find(pdo_sub::kCobId)->set_write_validator(cob_id_validator());
+  comm_object.find(pdo_sub::kCobId)->set_write_validator(cob_id_validator(options.cob_id_enable_only));
   comm_object.find(pdo_sub::kTransmissionType)
       ->set_write_validator(transmission_type_validator(direction));
   if (!receive) {

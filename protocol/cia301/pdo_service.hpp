@@ -156,6 +156,10 @@ struct PdoObjectOptions {
   // The mapping (sub 00h..N) may be written while the PDO is valid (Kollmorgen S300/S700,
   // 002 §6.3.5 L7199-7244); sub 01h..N still only while sub 00h is 0. CiA 301: false.
   bool mapping_while_valid = false;
+  // The COB-IDs (sub 01h) support only enabling and disabling the PDO (bit 31): a write that
+  // changes bits 0..30 is refused with 06090030h (CiA 301 §7.5.2.37 allows such a TPDO, answering
+  // 06090030h or 08000000h; the same taken for RPDOs, §7.5.2.35). CiA 301's usual case: false.
+  bool cob_id_enable_only = false;
   // Manufacturer transmit masks (Festo 2014h-2017h, 000 §3.3 L903-909, L1141-1166): 0 none;
   // else TPDO n (1..tpdo_count) gets a RECORD at change_mask_index + n - 1: sub 00h = 2 (ro),
   // sub 01h mask low (payload bits 0-31), sub 02h mask high (bits 32-63), UNSIGNED32 rw,

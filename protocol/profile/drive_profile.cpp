@@ -733,6 +733,7 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
                      "object_types",
                      "objects",
                      "pdo_mapping_while_valid",
+                     "pdo_cob_id_enable_only",
                      "tpdo_transmit_masks",
                      "parameters_internal",
                      "internal_units",
@@ -915,6 +916,9 @@ Personality read_personality(const Reader& r, const YAML::Node& node) {
   }
   if (auto v = map.get("pdo_mapping_while_valid")) {
     p.pdo_mapping_while_valid = boolean(r, *v, "personality.pdo_mapping_while_valid");
+  }
+  if (auto v = map.get("pdo_cob_id_enable_only")) {
+    p.pdo_cob_id_enable_only = boolean(r, *v, "personality.pdo_cob_id_enable_only");
   }
   if (auto v = map.get("parameters_internal")) {
     p.parameters_internal = boolean(r, *v, "personality.parameters_internal");
@@ -1485,6 +1489,9 @@ void emit_personality(YAML::Emitter& out, const Personality& p) {
   }
   if (p.pdo_mapping_while_valid) {
     out << YAML::Key << "pdo_mapping_while_valid" << YAML::Value << "true";
+  }
+  if (p.pdo_cob_id_enable_only) {
+    out << YAML::Key << "pdo_cob_id_enable_only" << YAML::Value << "true";
   }
   if (p.parameters_internal) {
     out << YAML::Key << "parameters_internal" << YAML::Value << "true";

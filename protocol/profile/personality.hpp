@@ -194,6 +194,7 @@ struct Personality {
   std::vector<ObjectType> object_types;
   std::vector<ObjectRule> objects;        // objects added or restricted (ObjectRule)
   bool pdo_mapping_while_valid = false;   // Kollmorgen: mapping written while the PDO is valid
+  bool pdo_cob_id_enable_only = false;    // PDO COB-IDs: only bit 31 changes (CiA 301 §7.5.2.37)
   std::uint16_t tpdo_transmit_masks = 0;  // Festo: index of TPDO1's transmit mask (2014h); 0 none
   bool parameters_internal = false;       // Festo: parameters kept in internal units (L2594)
   InternalUnits internal_units;           // Festo: 6094h/6097h convert into its units
