@@ -85,6 +85,9 @@ struct DeviceServicesConfig {
   // false: a heartbeat consumer timeout takes no NMT reaction at all, whatever 1029h sub 01h
   // holds (EMCY 8130h is still sent; heartbeat-timeout-keeps-nmt-state).
   bool heartbeat_timeout_nmt_reaction = true;
+  // true: 1029h sub 01h = 2 (stopped) acts only in Operational, as 0 does (error-behaviour-
+  // stopped-only-in-operational); false in a conformant device.
+  bool error_behaviour_stopped_only_in_operational = false;
   // true: SYNC frames are consumed in Stopped too (pdo-in-stopped; false in a conformant device).
   bool sync_in_stopped = false;
   // false: once 1003h is full, new errors are not entered (the oldest stay; emcy-history-full-
