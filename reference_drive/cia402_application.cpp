@@ -578,7 +578,10 @@ void Cia402Application::check_limits(can::TimePoint now, can::Duration dt) {
   const bool negative = axis_.switch_active(AxisSwitch::negative_limit);
   const bool positive = axis_.switch_active(AxisSwitch::positive_limit);
   const bool home = axis_.switch_active(AxisSwitch::home);
-  inputs_ = (negative ? 0x1u : 0u) | (positive ? 0x2u : 0u) | (home ? 0x4u : 0u);
+  // Deviation digital-inputs-limit-bits-swapped: positive in bit 0, negative in bit 1.
+  const bool swapped = config_.deviations.has(Deviation::digital_inputs_limit_bits_swapped);
+  inputs_ = ((swapped ? positive : negative) ? 0x1u : 0u) |
+            ((swapped ? negative : positive) ? 0x2u : 0u) | (home ? 0x4u : 0u);
   limit_active_ = negative || positive;
 
   const bool enabled = pds_.state() == cia402::State::operation_enabled;
@@ -598,7 +601,11 @@ void Cia402Application::check_limits(can::TimePoint now, can::Duration dt) {
   const bool monitored =
       axis_.control() == AxisControl::position && axis_.following() && window != kFollowingErrorOff;
   const double error = std::abs(axis_.following_error());
-  if (monitored && error > factors_.distance_to_internal(static_cast<double>(window))) {
+  // Deviation following-error-window-in-increments: 6065h taken as increments.
+  const double limit = config_.deviations.has(Deviation::following_error_window_in_increments)
+                           ? static_cast<double>(window)
+                           : factors_.distance_to_internal(static_cast<double>(window));
+  if (monitored && error > limit) {
     if (!following_error_since_) following_error_since_ = now;
     const auto timeout =
         std::chrono::milliseconds(context_->read_unsigned(cia402::kFollowingErrorTimeOut));
@@ -607,7 +614,7 @@ void Cia402Application::check_limits(can::TimePoint now, can::Duration dt) {
       pds_.raise_fault(faults::kFollowingError);
       pds_.clear_fault_cause(faults::kFollowingError.code);
     }
-  } else if (!monitored || error <= factors_.distance_to_internal(static_cast<double>(window))) {
+  } else if (!monitored || error <= limit) {
     following_error_since_.reset();
     if (monitored || !axis_.following()) context_->following_error = false;
   }

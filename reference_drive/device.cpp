@@ -164,7 +164,8 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   pdos_->set_sync_window_tpdos_sent_late(has(Deviation::sync_window_tpdo_sent_late));  // deviation
   pdos_->set_sync_tpdo_only_first(has(Deviation::sync_tpdo_only_first));               // deviation
   pdos_->set_sync_window_rpdo_not_resumed(
-      has(Deviation::sync_window_rpdo_not_resumed));  // deviation
+      has(Deviation::sync_window_rpdo_not_resumed));                                    // deviation
+  pdos_->set_rpdo_deadline_not_restarted(has(Deviation::rpdo_deadline_not_restarted));  // deviation
 
   cia301::SdoServerConfig sdo = cia301::SdoServerConfig::for_node(od_->node_id());
   sdo.timeout = config_.sdo_timeout;
@@ -245,6 +246,8 @@ Expected<void, std::string> ReferenceDrive::bind_services() {
   services.error_behaviour = !has(Deviation::error_behaviour_ignored);
   services.heartbeat_timeout_nmt_reaction = !has(Deviation::heartbeat_timeout_keeps_nmt_state);
   services.communication_error_without_object = config_.communication_error_without_1029;
+  services.error_behaviour_stopped_only_in_operational =
+      has(Deviation::error_behaviour_stopped_only_in_operational);
   services.sync_in_stopped =
       has(Deviation::pdo_in_stopped) || has(Deviation::sync_tpdo_acyclic_in_stopped);
   services_ = std::make_unique<cia301::DeviceServices>(bus_, *od_, services, std::move(handlers));

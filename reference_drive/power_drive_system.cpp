@@ -234,8 +234,10 @@ bool PowerDriveSystem::try_command(can::TimePoint now) {
   if (!row) return false;  // not a command in this state: ignored, nothing moves
   if (row->number == 11 && has(Deviation::quick_stop_ignored)) return false;
   if (enable_gates(row->number) && !enable_) return false;
-  if (row->number == 15 && !causes_.empty()) return false;  // edge consumed, FAULT stays
-  if (pending_ && *pending_ == row->number) return false;   // already on its way
+  // Edge consumed, FAULT stays (deviation fault-reset-with-cause-present: 15 is taken).
+  if (row->number == 15 && !causes_.empty() && !has(Deviation::fault_reset_with_cause_present))
+    return false;
+  if (pending_ && *pending_ == row->number) return false;  // already on its way
   execute(*row, now);
   return true;
 }

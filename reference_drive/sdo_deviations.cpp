@@ -46,6 +46,19 @@ unsigned mapping_bits(const cia301::ObjectDictionary& od, std::uint16_t index, u
   return bits;
 }
 
+// Whether a 1016h entry above `sub` monitors `node` with a non-zero time.
+bool duplicate_above(const cia301::ObjectDictionary& od, std::uint8_t sub, std::uint8_t node) {
+  const cia301::Object* consumers = od.find(0x1016);
+  if (consumers == nullptr) return false;
+  for (const cia301::Entry& entry : consumers->entries()) {
+    const auto value = entry.as_unsigned();
+    if (entry.sub_index() > sub && ((value >> 16) & 0xFF) == node && (value & 0xFFFF) != 0) {
+      return true;
+    }
+  }
+  return false;
+}
+
 void store_u32(std::vector<std::uint8_t>& data, std::uint32_t value) {
   data.assign(4, 0);
   for (std::size_t i = 0; i < 4; ++i)
@@ -108,7 +121,11 @@ bool SdoDeviations::active() const {
                       Deviation::od_write_back_refused,
                       Deviation::od_object_not_in_eds,
                       Deviation::identity_product_code_wrong,
-                      Deviation::sdo_server_cob_ids_without_node_id}) {
+                      Deviation::sdo_server_cob_ids_without_node_id,
+                      Deviation::sdo_segmented_length_too_low_as_too_high,
+                      Deviation::pdo_mapping_72_bits_accepted,
+                      Deviation::pdo_cob_id_frame_bit_change_accepted,
+                      Deviation::heartbeat_consumer_duplicate_lower_sub_accepted}) {
     if (has(d)) return true;
   }
   return false;
@@ -123,6 +140,21 @@ SdoBefore SdoDeviations::before(const SdoRequestView& r, const cia301::ObjectDic
       mapping_bits(od, r.index, r.data[0]) == 64) {
     out.answer = SdoAnswerView::abort_of(r.index, r.sub, kAbortPdoLength);
     return out;
+  }
+  // The COB-ID of a valid PDO (1400h-15FFh / 1800h-19FFh sub 01h) written with only bit 29
+  // (frame) changed, still valid: confirmed, nothing written (only bits 0..10 compared).
+  if (has(Deviation::pdo_cob_id_frame_bit_change_accepted) && r.kind == Kind::download &&
+      r.expedited && r.sub == 1 && r.data.size() == 4 &&
+      ((r.index >= 0x1400 && r.index <= 0x15FF) || (r.index >= 0x1800 && r.index <= 0x19FF))) {
+    if (const cia301::Entry* entry = od.find(r.index, 1)) {
+      const auto held = static_cast<std::uint32_t>(entry->as_unsigned());
+      const auto next = static_cast<std::uint32_t>(r.data[0] | r.data[1] << 8 | r.data[2] << 16 |
+                                                   static_cast<std::uint32_t>(r.data[3]) << 24);
+      if ((held & 0x80000000U) == 0 && (next & 0x80000000U) == 0 && (held ^ next) == 0x20000000U) {
+        out.answer = SdoAnswerView::confirmed(r.index, r.sub);
+        return out;
+      }
+    }
   }
   // Sub-index FFh of an ARRAY/RECORD: answered 00000007h (object code VAR, no data type).
   if (has(Deviation::od_sub_ff_wrong) && r.kind == Kind::upload && r.sub == 0xFF) {
@@ -215,6 +247,24 @@ std::optional<SdoAnswerView> SdoDeviations::after(const SdoRequestView& r, SdoAn
       if (code == kAbortParameterIncompatible && a.index == 0x1016 &&
           has(Deviation::heartbeat_consumer_duplicate_accepted)) {
         return SdoAnswerView::confirmed(a.index, a.sub);
+      }
+      // The duplicate is at a higher sub-index than the one written: confirmed (the check
+      // compares with the lower sub-indices only).
+      if (code == kAbortParameterIncompatible && a.index == 0x1016 && r.data.size() == 4 &&
+          has(Deviation::heartbeat_consumer_duplicate_lower_sub_accepted) &&
+          duplicate_above(od, a.sub, r.data[2])) {
+        return SdoAnswerView::confirmed(a.index, a.sub);
+      }
+      // 65 to 72 bits enabled: confirmed (the mapping stays off).
+      if (code == kAbortPdoLength && has(Deviation::pdo_mapping_72_bits_accepted) &&
+          r.kind == Kind::download && r.expedited && r.sub == 0 && is_mapping(r.index) &&
+          !r.data.empty() && mapping_bits(od, r.index, r.data[0]) <= 72) {
+        return SdoAnswerView::confirmed(a.index, a.sub);
+      }
+      // Too little data in a segmented download: reported as too much.
+      if (code == kAbortLengthLow && !(r.kind == Kind::download && r.expedited) &&
+          has(Deviation::sdo_segmented_length_too_low_as_too_high)) {
+        a.code = kAbortLengthHigh;
       }
       const bool length =
           code == kAbortLengthMismatch || code == kAbortLengthHigh || code == kAbortLengthLow;

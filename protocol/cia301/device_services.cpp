@@ -290,8 +290,12 @@ void DeviceServices::update_communication_error(can::TimePoint now) {
       flush_emcy(now);
     }
     const auto value = communication_error_behaviour();
-    if (auto reaction = communication_error_command(nmt_.state(), value);
-        reaction && (guarding_fault || config_.heartbeat_timeout_nmt_reaction)) {
+    auto reaction = communication_error_command(nmt_.state(), value);
+    if (config_.error_behaviour_stopped_only_in_operational &&  // fault injection
+        nmt_.state() != NmtState::operational) {
+      reaction.reset();
+    }
+    if (reaction && (guarding_fault || config_.heartbeat_timeout_nmt_reaction)) {
       on_nmt_result(nmt_.apply(*reaction), now);
     }
   } else if (!fault && communication_error_) {

@@ -91,6 +91,9 @@ struct DeviceServicesConfig {
   // another). A manual may document a fixed other reaction (Kollmorgen S300/S700: none, 1).
   // Not used while the dictionary has 1029h sub 01h.
   std::uint8_t communication_error_without_object = 0;
+  // true: 1029h sub 01h = 2 (stopped) acts only in Operational, as 0 does (error-behaviour-
+  // stopped-only-in-operational); false in a conformant device.
+  bool error_behaviour_stopped_only_in_operational = false;
   // true: SYNC frames are consumed in Stopped too (pdo-in-stopped; false in a conformant device).
   bool sync_in_stopped = false;
   // false: once 1003h is full, new errors are not entered (the oldest stay; emcy-history-full-

@@ -619,7 +619,10 @@ void PdoService::apply(Rpdo& pdo, const std::array<std::uint8_t, 8>& data) {
 
 void PdoService::receive(Rpdo& pdo, const can::Frame& frame, can::TimePoint now) {
   ++stats_.rpdos_received;
-  if (pdo.event_timer > can::Duration::zero()) pdo.deadline = now + pdo.event_timer;
+  if (pdo.event_timer > can::Duration::zero() &&
+      !(rpdo_deadline_not_restarted_ && pdo.deadline != can::kForever)) {  // fault injection
+    pdo.deadline = now + pdo.event_timer;
+  }
   set_error(pdo.timeout_error, false, kRpdoTimeout);
   const std::size_t length = frame.length();
   if (length < pdo.length) {

@@ -256,6 +256,10 @@ class PdoService {
   // later synchronous RPDO is discarded too, until the PDOs start again (leaving and entering
   // Operational), instead of processing being resumed with the next SYNC.
   void set_sync_window_rpdo_not_resumed(bool on) { sync_window_rpdo_not_resumed_ = on; }
+  // Fault injection (the reference drive's rpdo-deadline-not-restarted; false in a conformant
+  // device): an RPDO's deadline (event timer) is started by the first RPDO after it was
+  // stopped or timed out, not restarted by each RPDO.
+  void set_rpdo_deadline_not_restarted(bool on) { rpdo_deadline_not_restarted_ = on; }
 
   // A frame from the bus: an RPDO, or an RTR for a TPDO.
   PdoOutput on_frame(const can::Frame& frame, can::TimePoint now);
@@ -382,6 +386,7 @@ class PdoService {
   bool sync_window_tpdos_sent_late_ = false;      // set_sync_window_tpdos_sent_late
   bool sync_tpdo_only_first_ = false;             // set_sync_tpdo_only_first
   bool sync_window_rpdo_not_resumed_ = false;     // set_sync_window_rpdo_not_resumed
+  bool rpdo_deadline_not_restarted_ = false;      // set_rpdo_deadline_not_restarted
   bool sync_rpdos_stopped_ = false;               // (that fault) an RPDO was discarded
   std::vector<Rpdo> rpdos_;
   std::vector<Tpdo> tpdos_;

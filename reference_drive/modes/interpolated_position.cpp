@@ -95,8 +95,10 @@ Expected<void, std::string> InterpolatedPositionMode::add_objects(cia301::Object
     if (fifo_.size() < capacity()) fifo_.push_back(static_cast<std::int32_t>(e.as_signed()));
   });
   // Deviation ip-actual-buffer-size-above-max-accepted: the check is off by one.
+  // Deviation ip-actual-buffer-size-max-refused: off by one the other way.
   const std::uint64_t size_limit =
       deviations_.has(Deviation::ip_actual_buffer_size_above_max_accepted) ? max_buffer_ + 1
+      : deviations_.has(Deviation::ip_actual_buffer_size_max_refused)      ? max_buffer_ - 1
                                                                            : max_buffer_;
   od.find(0x60C4, 2)->set_write_validator(
       [max = size_limit](const cia301::ObjectDictionary&, const cia301::Entry&,

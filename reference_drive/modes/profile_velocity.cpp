@@ -80,7 +80,7 @@ void ProfileVelocityMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
     if (!above_threshold_since_) above_threshold_since_ = cycle.now;
     speed_zero = cycle.now - *above_threshold_since_ <
                  std::chrono::milliseconds(ctx.read_unsigned(cia402::kVelocityThresholdTime));
-  } else {
+  } else if (!ctx.has(Deviation::pv_speed_zero_timer_not_restarted)) {
     above_threshold_since_.reset();
   }
   if (ctx.has(Deviation::pv_speed_zero_bit_never_set)) speed_zero = false;
