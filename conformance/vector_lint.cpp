@@ -5,6 +5,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <fstream>
 #include <map>
@@ -438,6 +439,22 @@ std::string check_clause_citation(const std::string& clause,
   return check_citation(*citation, manuals);
 }
 
+// True when `citation` names `clause` ("CiA 301 §7.5.2.37") as a whole clause number: the
+// next character is not a digit or a dot followed by one (§7.5.2.3 is not §7.5.2.37).
+static bool cites_clause(std::string_view citation, std::string_view clause) {
+  if (clause.empty()) return false;
+  for (auto at = citation.find(clause); at != std::string_view::npos;
+       at = citation.find(clause, at + 1)) {
+    const auto end = at + clause.size();
+    const bool digit_next =
+        end < citation.size() && std::isdigit(static_cast<unsigned char>(citation[end]));
+    const bool subclause_next = end + 1 < citation.size() && citation[end] == '.' &&
+                                std::isdigit(static_cast<unsigned char>(citation[end + 1]));
+    if (!digit_next && !subclause_next) return true;
+  }
+  return false;
+}
+
 std::vector<std::string> check_refusal_not_applicable(const Vector& vector, const Step& step,
                                                       bool in_finally,
                                                       const std::vector<ManualEntry>& manuals) {
@@ -460,6 +477,9 @@ std::vector<std::string> check_refusal_not_applicable(const Vector& vector, cons
   // A must-level vector that writes an object every device it applies to has: a refusal of it
   // would turn what may be a failure into not applicable. The value may still be optional
   // (a mode, an option code), but then a feature says so (mode.*, option.*), not a refusal.
+  // Except where the object's own clause lets the device refuse the value with the codes of a
+  // named set, and the set's citation names that clause (pdo-cob-id-fixed: CiA 301 §7.5.2.37
+  // lets a TPDO's COB-ID support enabling and disabling only).
   if (vector.level == Level::must) {
     const auto row = write->index >= 0x6000 && write->index <= 0x67FF
                          ? cia402::find_object_requirement(write->index, write->sub)
@@ -468,7 +488,8 @@ std::vector<std::string> check_refusal_not_applicable(const Vector& vector, cons
         row &&
         (row->kind == cia301::ObjectClass::mandatory ||
          (row->kind == cia301::ObjectClass::conditional && condition_met(row->condition, vector)));
-    if (mandatory)
+    const auto& refusal = *write->refused_means_not_applicable;
+    if (mandatory && !(!refusal.set.empty() && cites_clause(refusal.citation, row->clause)))
       messages.push_back(fmt::format(
           "sdo_write refused_means_not_applicable: {:04X}h sub {} ({}) is mandatory here ({}): "
           "in a must-level vector a refusal of it must not make the vector not applicable; "

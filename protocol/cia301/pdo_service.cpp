@@ -176,7 +176,8 @@ Expected<void, std::string> add_pdo(ObjectDictionary& od, PdoDirection direction
   auto added_comm = od.add_object(std::move(comm));
   if (!added_comm) return Unexpected(added_comm.error());
   Object& comm_object = **added_comm;
-  comm_object.find(pdo_sub::kCobId)->set_write_validator(cob_id_validator(options.cob_id_enable_only));
+  comm_object.find(pdo_sub::kCobId)
+      ->set_write_validator(cob_id_validator(options.cob_id_enable_only));
   comm_object.find(pdo_sub::kTransmissionType)
       ->set_write_validator(transmission_type_validator(direction));
   if (!receive) {

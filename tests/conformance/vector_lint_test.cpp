@@ -152,11 +152,29 @@ TEST_F(LintTree, RefusalMeansNotApplicableIsCitedAndNotOfAMandatoryObject) {
     - sdo_write: {index: 0x6060, sub: 0, value: 4, size: 1}
       refused_means_not_applicable: value-range
       clause: "CiA 402-2 §6060h"
+- id: a/clause-of-the-object
+  title: t
+  source: "CiA 301 §1"
+  requires: [pdo]
+  steps:
+    - sdo_write: {index: 0x1800, sub: 1, value: 0x800001A0, size: 4}
+      refused_means_not_applicable: pdo-cob-id-fixed
+      clause: "CiA 301 §7.5.2.37"
+- id: a/other-clause
+  title: t
+  source: "CiA 301 §1"
+  requires: [pdo]
+  steps:
+    - sdo_write: {index: 0x1800, sub: 1, value: 0x800001A0, size: 4}
+      refused_means_not_applicable: value-range
+      clause: "CiA 301 §7.5.2.37"
 )yaml");
   // When linted
   const auto report = lint_vector_tree({root_ / "vectors", root_ / "manuals", {}});
-  // Then the first three are errors at their steps' lines; the last two are fine
-  ASSERT_EQ(report.errors.size(), 3U) << report.errors[0].to_string();
+  // Then the first three and the last are errors at their steps' lines; a/fine, a/should-
+  // mandatory and a/clause-of-the-object (a set citing the object's own clause, §7.5.2.37,
+  // which lets the device refuse the value) are fine
+  ASSERT_EQ(report.errors.size(), 4U) << report.errors[0].to_string();
   EXPECT_NE(report.errors[0].to_string().find(
                 "v.yaml:6: vector a/no-clause: sdo_write refused_means_not_applicable: give "
                 "clause:"),
@@ -172,6 +190,11 @@ TEST_F(LintTree, RefusalMeansNotApplicableIsCitedAndNotOfAMandatoryObject) {
                 "finally:"),
             std::string::npos)
       << report.errors[2].to_string();
+  EXPECT_NE(report.errors[3].to_string().find(
+                "vector a/other-clause: sdo_write refused_means_not_applicable: 1800h sub 1 "
+                "(TPDO1 communication parameter) is mandatory here"),
+            std::string::npos)
+      << report.errors[3].to_string();
 }
 
 TEST_F(LintTree, DeviationIdsMustBeVectors) {
