@@ -269,6 +269,16 @@ void run(const RunOptions& options) {
     usage_error("run", "--deviation injects faults into the embedded drive: only with --bus sim");
   std::optional<std::set<std::string>> rerun_ids;
   if (!options.rerun.empty()) rerun_ids = failed_ids(options.rerun);
+  // A result judged from a file (the EDS lint, the ESI's SII checks) that --filter, --level or
+  // --rerun leaves out.
+  const auto result_deselected = [&](const conformance::VectorResult& result) {
+    if (!selected_by_filters(options.filters, result.id)) return true;
+    if (!options.levels.empty() &&
+        std::find(options.levels.begin(), options.levels.end(),
+                  conformance::to_string(result.level)) == options.levels.end())
+      return true;
+    return rerun_ids && !rerun_ids->contains(result.id);
+  };
 
   // Vectors, profile, EDS: all bad input is reported before the bus is touched.
   // The shipped tree and the user's --vectors directories (cli/vector_dirs.hpp).
@@ -493,14 +503,7 @@ void run(const RunOptions& options) {
     for (auto& vector : conformance::generate_esi_vectors(*esi, *device))
       vectors.vectors.push_back(std::move(vector));
     esi_results = conformance::esi_sii_results(*esi, *device, sii, *profile, options.strict);
-    std::erase_if(esi_results, [&](const conformance::VectorResult& result) {
-      if (!selected_by_filters(options.filters, result.id)) return true;
-      if (!options.levels.empty() &&
-          std::find(options.levels.begin(), options.levels.end(),
-                    conformance::to_string(result.level)) == options.levels.end())
-        return true;
-      return rerun_ids && !rerun_ids->contains(result.id);
-    });
+    std::erase_if(esi_results, result_deselected);
   }
   // The selection first, then its order: a shuffle depends on the seed and the selection only.
   std::erase_if(vectors.vectors, [&](const conformance::Vector& vector) {
@@ -522,14 +525,7 @@ void run(const RunOptions& options) {
   if (eds_od) {
     lint_results =
         conformance::eds_lint_results(eds_diagnostics, options.eds, *profile, options.strict);
-    std::erase_if(lint_results, [&](const conformance::VectorResult& result) {
-      if (!selected_by_filters(options.filters, result.id)) return true;
-      if (!options.levels.empty() &&
-          std::find(options.levels.begin(), options.levels.end(),
-                    conformance::to_string(result.level)) == options.levels.end())
-        return true;
-      return rerun_ids && !rerun_ids->contains(result.id);
-    });
+    std::erase_if(lint_results, result_deselected);
   }
   for (auto& result : esi_results)
     lint_results.push_back(std::move(result));
