@@ -13,7 +13,7 @@ drivecheck_add_gtest(ethercat_master_raw_link_tests
     ${CMAKE_CURRENT_LIST_DIR}/master_raw_link_test.cpp
   LIBRARIES drivecheck::ethercat_master drivecheck::ethercat_raw)
 add_test(NAME ethercat.veth-master COMMAND ethercat_master_raw_link_tests)
-set_tests_properties(ethercat.veth-master PROPERTIES LABELS ethercat TIMEOUT 120
+set_tests_properties(ethercat.veth-master PROPERTIES RUN_SERIAL TRUE LABELS ethercat TIMEOUT 120
   SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]")
 
 # `drivecheck run --bus ethercat:IF` against `drivecheck drive --bus ethercat:PEER` on a veth
@@ -28,5 +28,5 @@ target_compile_definitions(ethercat_run_veth_tests PRIVATE
   DRIVECHECK_BINARY="$<TARGET_FILE:drivecheck>")
 add_dependencies(ethercat_run_veth_tests drivecheck)
 add_test(NAME ethercat.run-veth COMMAND ethercat_run_veth_tests)
-set_tests_properties(ethercat.run-veth PROPERTIES LABELS ethercat TIMEOUT 480
+set_tests_properties(ethercat.run-veth PROPERTIES RUN_SERIAL TRUE LABELS ethercat TIMEOUT 480
   SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]")
