@@ -702,9 +702,13 @@ Expected<void, std::string> Cia402Application::simulate(std::string_view name, s
     return Unexpected("simulate " + std::string(name) + ": value " + std::to_string(value) +
                       " out of range (" + std::string(allowed) + ")");
   };
-  const auto position = [this](std::int64_t user) {
+  // The factor group as the dictionary holds it now: a simulate step may come right after an
+  // SDO write of 6093h, before the next control cycle reads it (factors_), and the conversion
+  // must not depend on that phase.
+  const FactorGroup factors = od_ != nullptr ? read_factor_group(*od_) : factors_;
+  const auto position = [&factors](std::int64_t user) {
     // User position units of the physical frame (no polarity: the layout is physical).
-    return factors_.distance_to_internal(static_cast<double>(user));
+    return factors.distance_to_internal(static_cast<double>(user));
   };
   const auto force = [&](AxisSwitch which) -> Expected<void, std::string> {
     if (value < -1 || value > 1) return bad_value("-1 layout, 0 off, 1 on");
