@@ -39,7 +39,10 @@ void CyclicSyncMode::latch(ModeContext& ctx, can::TimePoint at) {
                                 : static_cast<double>(ctx.read_signed(cia402::kPositionOffset));
       const double target = static_cast<double>(ctx.read_signed(cia402::kTargetPosition)) + offset;
       start_ = tracking_ ? ctx.axis.position() : ctx.axis.demand_position();
-      end_ = ctx.clamp_position(f.position_to_internal(target));
+      // Deviation csp-software-limit-ignored: 607Dh not applied to the set-points.
+      end_ = ctx.has(Deviation::csp_software_limit_ignored)
+                 ? f.position_to_internal(target)
+                 : ctx.clamp_position(f.position_to_internal(target));
       feed_forward_ =
           f.velocity_to_internal(static_cast<double>(ctx.read_signed(cia402::kVelocityOffset)));
       break;

@@ -14,7 +14,8 @@
 // application's 6065h/6066h check, CiA 402-2 6066h; it stays set through the fault reaction
 // the reference drive takes on it, until the drive is enabled again); bit 10 0 (reserved).
 // Deviations: csp/csv/cst-follows-bit-never-set, csv-velocity-offset-ignored,
-// cst-torque-offset-ignored, csp-position-offset-ignored, csp-following-error-bit-never-set.
+// cst-torque-offset-ignored, csp-position-offset-ignored, csp-following-error-bit-never-set,
+// csp-software-limit-ignored.
 #pragma once
 
 #include <cstdint>

@@ -169,7 +169,9 @@ void InterpolatedPositionMode::on_sync(ModeContext& ctx, can::TimePoint at) {
   const double record = static_cast<double>(fifo_.front());
   fifo_.pop_front();
   start_ = end_;
-  end_ = ctx.clamp_position(ctx.factors.position_to_internal(record));
+  // Deviation ip-software-limit-ignored: 607Dh not applied to the records.
+  const double end = ctx.factors.position_to_internal(record);
+  end_ = deviations_.has(Deviation::ip_software_limit_ignored) ? end : ctx.clamp_position(end);
   segment_at_ = at;
 }
 

@@ -25,7 +25,8 @@
 // Records written before bit 4 is set wait in the FIFO (only 60C4h sub 6 = 0 clears it).
 // Deviations: ip-active-bit-never-set, ip-records-cleared-on-enable, and of 60C4h
 // ip-buffer-clear-any-value-enables, ip-record-size-zero-accepted,
-// ip-actual-buffer-size-above-max-accepted, ip-buffer-resize-drops-record.
+// ip-actual-buffer-size-above-max-accepted, ip-buffer-resize-drops-record,
+// ip-software-limit-ignored.
 #pragma once
 
 #include <algorithm>
