@@ -86,7 +86,8 @@ struct ModeContext {
   // A position target (internal) clamped to the software limits.
   double clamp_position(double target) {
     if (min_position > max_position) return target;
-    if (target < min_position) {
+    // Deviation software-limit-min-ignored: the min limit is never applied.
+    if (target < min_position && !has(Deviation::software_limit_min_ignored)) {
       position_limited = true;
       return min_position;
     }

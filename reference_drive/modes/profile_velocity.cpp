@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace drivecheck::reference_drive {
 namespace {
@@ -40,7 +41,11 @@ void ProfileVelocityMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
   const double max_profile = static_cast<double>(ctx.read_unsigned(cia402::kMaxProfileVelocity));
   if (max_profile > 0.0) limit = std::min(limit, f.speed_to_internal(max_profile));
   const double target_user = static_cast<double>(ctx.read_signed(cia402::kTargetVelocity));
-  const double target = std::clamp(f.velocity_to_internal(target_user), -limit, limit);
+  // Deviation pv-max-velocity-positive-only: the limit is applied to positive velocities only.
+  const double lowest = ctx.has(Deviation::pv_max_velocity_positive_only)
+                            ? -std::numeric_limits<double>::infinity()
+                            : -limit;
+  const double target = std::clamp(f.velocity_to_internal(target_user), lowest, limit);
 
   if (!cycle.drive_enabled) {
     ramp_.reset(ctx.axis.position(), ctx.axis.velocity());
