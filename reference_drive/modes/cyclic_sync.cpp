@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 
 #include "reference_drive/modes/interpolated_position.hpp"
 
@@ -64,7 +65,11 @@ void CyclicSyncMode::latch(ModeContext& ctx, can::TimePoint at) {
                                 ? 0.0
                                 : static_cast<double>(ctx.read_signed(cia402::kTorqueOffset));
       const double target = static_cast<double>(ctx.read_signed(cia402::kTargetTorque)) + offset;
-      command_ = std::clamp(target, -limit, limit);
+      // Deviation max-torque-positive-only: 6072h limits positive torques only.
+      const double lowest = ctx.has(Deviation::max_torque_positive_only)
+                                ? -std::numeric_limits<double>::infinity()
+                                : -limit;
+      command_ = std::clamp(target, lowest, limit);
       break;
     }
   }

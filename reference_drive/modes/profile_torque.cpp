@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace drivecheck::reference_drive {
@@ -22,8 +23,12 @@ void ProfileTorqueMode::enter(ModeContext& ctx, const ModeCycle& cycle) {
 void ProfileTorqueMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
   const double dt = std::chrono::duration<double>(cycle.period).count();
   const double limit = ctx.axis.torque_limit();
+  // Deviation max-torque-positive-only: 6072h limits positive torques only.
+  const double lowest = ctx.has(Deviation::max_torque_positive_only)
+                            ? -std::numeric_limits<double>::infinity()
+                            : -limit;
   const double target =
-      std::clamp(static_cast<double>(ctx.read_signed(cia402::kTargetTorque)), -limit, limit);
+      std::clamp(static_cast<double>(ctx.read_signed(cia402::kTargetTorque)), lowest, limit);
   if (!cycle.drive_enabled && !cycle.halt) {
     demand_ = 0.0;
     segment_.reset();
