@@ -299,8 +299,12 @@ void ProfilePositionMode::update_target_reached(ModeContext& ctx, const ModeCycl
   const double window = ctx.factors.distance_to_internal(
       static_cast<double>(ctx.read_unsigned(cia402::kPositionWindow)));
   // Deviation pp-target-reached-on-demand: the demand's arrival is taken for the axis's.
-  const bool inside = demand_there && (ctx.has(Deviation::pp_target_reached_on_demand) ||
-                                       std::abs(ctx.axis.position() - last_target_) <= window);
+  // Deviation pp-position-window-signed: target - actual <= window, not |target - actual|.
+  const double off = ctx.has(Deviation::pp_position_window_signed)
+                         ? last_target_ - ctx.axis.position()
+                         : std::abs(ctx.axis.position() - last_target_);
+  const bool inside =
+      demand_there && (ctx.has(Deviation::pp_target_reached_on_demand) || off <= window);
   if (!inside) {
     in_window_since_.reset();
     reached_ = false;
