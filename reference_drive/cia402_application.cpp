@@ -600,7 +600,10 @@ void Cia402Application::check_limits(can::TimePoint now, can::Duration dt) {
       static_cast<std::uint32_t>(context_->read_unsigned(cia402::kFollowingErrorWindow));
   const bool monitored =
       axis_.control() == AxisControl::position && axis_.following() && window != kFollowingErrorOff;
-  const double error = std::abs(axis_.following_error());
+  // Deviation following-error-one-direction: the signed error, so a lag one way never counts.
+  const double error = config_.deviations.has(Deviation::following_error_one_direction)
+                           ? axis_.following_error()
+                           : std::abs(axis_.following_error());
   // Deviation following-error-window-in-increments: 6065h taken as increments.
   const double limit = config_.deviations.has(Deviation::following_error_window_in_increments)
                            ? static_cast<double>(window)
