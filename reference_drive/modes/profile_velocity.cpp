@@ -81,7 +81,9 @@ void ProfileVelocityMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
   const double threshold =
       f.speed_to_internal(static_cast<double>(ctx.read_unsigned(cia402::kVelocityThreshold)));
   bool speed_zero = true;
-  if (std::abs(actual) > threshold) {
+  // Deviation pv-speed-zero-signed: 606Ch compared with 606Fh signed, not its magnitude.
+  const double speed = ctx.has(Deviation::pv_speed_zero_signed) ? actual : std::abs(actual);
+  if (speed > threshold) {
     if (!above_threshold_since_) above_threshold_since_ = cycle.now;
     speed_zero = cycle.now - *above_threshold_since_ <
                  std::chrono::milliseconds(ctx.read_unsigned(cia402::kVelocityThresholdTime));
