@@ -513,6 +513,8 @@ void Cia402Application::read_parameters() {
   factors_.velocity = in_axis_units(factors_.velocity, config_.internal_velocity_unit);
   factors_.acceleration = in_axis_units(factors_.acceleration, config_.internal_acceleration_unit);
   if (config_.deviations.has(Deviation::factor_polarity_ignored)) factors_.polarity = 0;
+  if (config_.deviations.has(Deviation::factor_position_polarity_set_points_only))
+    factors_.position_polarity_when_read = false;
   axis_.set_acceleration_factor(factors_.acceleration_to_internal(1.0));
   axis_.set_torque_limit(static_cast<double>(context_->read_unsigned(cia402::kMaxTorque)));
   const double max_motor_speed =

@@ -31,7 +31,8 @@ double FactorGroup::position_to_internal(double user) const {
 }
 
 double FactorGroup::position_to_user(double internal) const {
-  const double sign = (polarity & kPositionPolarity) != 0 ? -1.0 : 1.0;
+  const double sign =
+      (polarity & kPositionPolarity) != 0 && position_polarity_when_read ? -1.0 : 1.0;
   return sign * internal / ratio(position);
 }
 

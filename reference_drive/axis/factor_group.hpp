@@ -44,6 +44,9 @@ class FactorGroup {
   Fraction velocity{};      // 6094h
   Fraction acceleration{};  // 6097h
   std::uint8_t polarity = 0;
+  // Deviation factor-position-polarity-set-points-only clears it: position_to_user leaves the
+  // position polarity out (the values read back keep the internal sign).
+  bool position_polarity_when_read = true;
 
   // Position (607Ah, 6064h, ...): user ↔ internal, polarity applied.
   double position_to_internal(double user) const;
