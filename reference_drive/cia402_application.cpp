@@ -582,8 +582,11 @@ void Cia402Application::check_limits(can::TimePoint now, can::Duration dt) {
   const bool home = axis_.switch_active(AxisSwitch::home);
   // Deviation digital-inputs-limit-bits-swapped: positive in bit 0, negative in bit 1.
   const bool swapped = config_.deviations.has(Deviation::digital_inputs_limit_bits_swapped);
+  // Deviation digital-inputs-home-switch-in-bit-3: the home switch in bit 3 (interlock).
+  const std::uint32_t home_bit =
+      config_.deviations.has(Deviation::digital_inputs_home_switch_in_bit_3) ? 0x8u : 0x4u;
   inputs_ = ((swapped ? positive : negative) ? 0x1u : 0u) |
-            ((swapped ? negative : positive) ? 0x2u : 0u) | (home ? 0x4u : 0u);
+            ((swapped ? negative : positive) ? 0x2u : 0u) | (home ? home_bit : 0u);
   limit_active_ = negative || positive;
 
   const bool enabled = pds_.state() == cia402::State::operation_enabled;
