@@ -206,7 +206,10 @@ bool PowerDriveSystem::try_command(can::TimePoint now) {
   std::uint16_t controlword = forced_.value_or(controlword_);
   // Without a latched 0→1 edge, bit 7 counts as high before: the fault reset row cannot match.
   std::uint16_t previous = cia402::controlword::kFaultReset;
-  if (!forced_ && reset_edge_ && state_ == State::fault) {
+  // Deviation fault-reset-needs-command-bits-clear: the edge counts only with bits 0..3 clear.
+  const bool command_bits_block_reset =
+      has(Deviation::fault_reset_needs_command_bits_clear) && (controlword_ & 0x000F) != 0;
+  if (!forced_ && reset_edge_ && state_ == State::fault && !command_bits_block_reset) {
     // A rising edge since the last step counts even if bit 7 fell again before this step.
     controlword = static_cast<std::uint16_t>(controlword | cia402::controlword::kFaultReset);
     previous = 0;
