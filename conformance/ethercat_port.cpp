@@ -192,7 +192,12 @@ SdoOutcome EthercatPort::download(VectorRun& run, const SdoRequest& request,
   // on this link for it to read.
   run.note_download_request(request.mux, data.size());
   const bool complete = request.transfer == Transfer::complete_access;
-  auto done = master_.sdo_download(0, request.mux, data, complete);
+  // `transfer: segmented` (a download that is not expedited, CiA 301 §7.2.4.3): a CoE normal
+  // transfer, whatever the size; the rest as the size needs.
+  const auto transfer = request.transfer == Transfer::segmented
+                            ? ethercat::CoeDownloadTransfer::normal
+                            : ethercat::CoeDownloadTransfer::expedited_if_it_fits;
+  auto done = master_.sdo_download(0, request.mux, data, complete, transfer);
   if (done) {
     outcome.ok = true;
     run.note_confirmed_download(request.mux);

@@ -30,6 +30,10 @@
 
 namespace drivecheck::ethercat {
 
+// How a download of at most 4 bytes travels: expedited (the data in the initiate), or as a normal
+// transfer (size indicated, the data after it) as CiA 301's "segmented" download does on CAN.
+enum class CoeDownloadTransfer : std::uint8_t { expedited_if_it_fits, normal };
+
 struct CoeSdoClientOptions {
   std::size_t write_size = 128;  // the slave's write mailbox (SM0) length, header included
   bool expedited = true;         // false: every download is a normal transfer

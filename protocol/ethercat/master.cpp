@@ -349,12 +349,13 @@ Expected<std::vector<std::uint8_t>, MasterError> Master::sdo_upload(std::size_t 
 
 Expected<void, MasterError> Master::sdo_download(std::size_t slave, Multiplexer mux,
                                                  std::span<const std::uint8_t> data,
-                                                 bool complete_access) {
+                                                 bool complete_access,
+                                                 CoeDownloadTransfer transfer) {
   if (auto ok = check_slave(slave); !ok) return ok;
   if (!slaves_[slave].mailbox) {
     return master_error(MasterErrc::not_configured, fmt::format("slave {} has no mailbox", slave));
   }
-  return slaves_[slave].mailbox->sdo_download(mux, data, complete_access);
+  return slaves_[slave].mailbox->sdo_download(mux, data, complete_access, transfer);
 }
 
 std::vector<CoeEmergency> Master::take_emergencies(std::size_t slave) {

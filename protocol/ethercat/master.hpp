@@ -82,9 +82,10 @@ class Master {
 
   Expected<std::vector<std::uint8_t>, MasterError> sdo_upload(std::size_t slave, Multiplexer mux,
                                                               bool complete_access = false);
-  Expected<void, MasterError> sdo_download(std::size_t slave, Multiplexer mux,
-                                           std::span<const std::uint8_t> data,
-                                           bool complete_access = false);
+  Expected<void, MasterError> sdo_download(
+      std::size_t slave, Multiplexer mux, std::span<const std::uint8_t> data,
+      bool complete_access = false,
+      CoeDownloadTransfer transfer = CoeDownloadTransfer::expedited_if_it_fits);
   // CoE emergencies read from the slave's mailbox so far (taken out).
   std::vector<CoeEmergency> take_emergencies(std::size_t slave);
   // Reads the slave's read mailbox until it is empty, queueing emergencies (other unsolicited

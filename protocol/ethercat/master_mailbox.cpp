@@ -253,9 +253,11 @@ Expected<std::vector<std::uint8_t>, MasterError> MasterMailbox::sdo_upload(Multi
 
 Expected<void, MasterError> MasterMailbox::sdo_download(Multiplexer mux,
                                                         std::span<const std::uint8_t> data,
-                                                        bool complete_access) {
+                                                        bool complete_access,
+                                                        CoeDownloadTransfer transfer) {
   if (auto ok = configured(); !ok) return ok;
-  CoeSdoClient client({.write_size = out_->length});
+  CoeSdoClient client({.write_size = out_->length,
+                       .expedited = transfer == CoeDownloadTransfer::expedited_if_it_fits});
   auto request = client.start_download(mux, data, complete_access);
   return run_sdo(client, std::move(request), mux);
 }

@@ -70,8 +70,9 @@ class MasterMailbox {
   // mailbox_timeout (the client's abort 05040000h is sent), mailbox_error (ERR reply).
   Expected<std::vector<std::uint8_t>, MasterError> sdo_upload(Multiplexer mux,
                                                               bool complete_access = false);
-  Expected<void, MasterError> sdo_download(Multiplexer mux, std::span<const std::uint8_t> data,
-                                           bool complete_access = false);
+  Expected<void, MasterError> sdo_download(
+      Multiplexer mux, std::span<const std::uint8_t> data, bool complete_access = false,
+      CoeDownloadTransfer transfer = CoeDownloadTransfer::expedited_if_it_fits);
 
   std::deque<CoeEmergency>& emergencies() { return emergencies_; }
   MailboxMaster& protocol() { return master_; }
