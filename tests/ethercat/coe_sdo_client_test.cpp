@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "protocol/ethercat/coe.hpp"
 #include "protocol/ethercat/coe_sdo_server.hpp"
 #include "tests/ethercat/coe_test_dictionary.hpp"
 
@@ -47,6 +48,27 @@ TEST(CoeSdoClient, RoundTripsEverySizeThroughTheServer) {
     ASSERT_FALSE(up.error) << size;
     EXPECT_EQ(client.value(), value) << size;
   }
+}
+
+TEST(CoeSdoClient, NormalTransferOfASmallValueWhenExpeditedIsOff) {
+  // Given a client that may not send expedited downloads (a vector's `transfer: segmented`)
+  auto od = test::make_test_dictionary();
+  CoeSdoServer server(od, {.read_size = 32});
+  CoeSdoClient client({.write_size = 32, .expedited = false});
+  // When it downloads 2 octets
+  const Bytes request = client.start_download({0x2000, 0}, Bytes{0x34, 0x12});
+  // Then the initiate is a normal one: size indicated, the 2 octets after it, not expedited
+  const auto m = decode_sdo_request(request);
+  ASSERT_TRUE(m);
+  const auto& d = std::get<CoeDownloadInitiate>(*m);
+  EXPECT_FALSE(d.expedited);
+  EXPECT_TRUE(d.size_indicated);
+  EXPECT_EQ(d.complete_size, 2u);
+  EXPECT_EQ(d.data, (Bytes{0x34, 0x12}));
+  // And the server takes it
+  const auto down = run(client, server, request);
+  ASSERT_TRUE(down.done);
+  EXPECT_FALSE(down.error);
 }
 
 TEST(CoeSdoClient, ReportsServerAborts) {
