@@ -174,7 +174,8 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
       if (write->value) {
         std::string error;
         if (const auto resolved = value_of(*write->value, error))
-          value = fmt::format("{}", *resolved);
+          // As the manuals write values: small ones and negative ones in decimal, others in hex.
+          value = *resolved < 10 ? fmt::format("{}", *resolved) : fmt::format("{:X}h", *resolved);
       }
       message_ = fmt::format(
           "device refused {:04X}h{} = {} ({:08X}h), a value it may refuse ({}): {}, "

@@ -272,6 +272,22 @@ TEST_F(EngineTest, RefusedOptionalValueMakesTheVectorNotApplicable) {
   EXPECT_TRUE(peer.finished());
 }
 
+TEST_F(EngineTest, RefusedValueIsNamedInHexAsTheManualsWriteIt) {
+  // Given a drive that refuses 6083h = 10000 (2710h) with 06090031h (value too high)
+  test_support::ScriptedPeer peer(*peer_port_);
+  peer.expect("601#2383600010270000")  // ccs=1 n=0 e=1 s=1, 6083h sub 0, data 00002710h
+      .reply("581#8083600031000906");  // abort 6083h sub 0, 06090031h
+  // When the vector writes it with refused_means_not_applicable: value-range
+  const auto result =
+      run(make_vector("    - sdo_write: {index: 0x6083, sub: 0, value: 10000, size: 4}\n"
+                      "      refused_means_not_applicable: value-range\n"
+                      "      clause: \"CiA 402-2 §6083h\"\n"));
+  // Then the not-applicable message names the value in hex, not in decimal
+  EXPECT_EQ(result.verdict, Verdict::not_applicable) << result.message;
+  EXPECT_NE(result.message.find("device refused 6083h = 2710h (06090031h)"), std::string::npos)
+      << result.message;
+}
+
 TEST_F(EngineTest, RefusalOutsideTheSetStillFails) {
   // Given a drive that refuses 6088h = 1 with 06010002h (read only): not "value not supported"
   test_support::ScriptedPeer peer(*peer_port_);
