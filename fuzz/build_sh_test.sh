@@ -13,9 +13,12 @@ out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
 
 export CC=clang-19 CXX=clang++-19
-# OSS-Fuzz's address-sanitizer flags.
+# OSS-Fuzz's address-sanitizer flags, plus UBSan as in the fuzz preset: scripts/test runs the
+# fuzz smoke run on this very build (WORK_DIR/drivecheck-fuzz) instead of compiling every
+# target a second time, so it must catch what the fuzz preset catches.
 export CFLAGS="-O1 -fno-omit-frame-pointer -gline-tables-only -fsanitize=address \
--fsanitize-address-use-after-scope -fsanitize=fuzzer-no-link"
+-fsanitize-address-use-after-scope -fsanitize=undefined -fno-sanitize-recover=undefined \
+-fsanitize=fuzzer-no-link"
 export CXXFLAGS="$CFLAGS"
 export LIB_FUZZING_ENGINE=-fsanitize=fuzzer
 export OUT="$out/out" WORK="$work" SRC="$(dirname "$root")" DRIVECHECK_JOBS=2
