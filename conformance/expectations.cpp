@@ -308,8 +308,7 @@ StepStatus VectorRun::run_expectation(const Step& step) {
     }
     const auto bound = [](const ValueSpec& spec, std::int64_t v) {
       if (spec.saved.empty()) return fmt::format("{}", v);
-      return spec.offset == 0 ? fmt::format("${} = {}", spec.saved, v)
-                              : fmt::format("${}{:+} = {}", spec.saved, spec.offset, v);
+      return fmt::format("{} = {}", to_text(spec), v);
     };
     const auto expected =
         e->range

@@ -67,10 +67,12 @@ std::optional<std::int64_t> VectorRun::value_of(const ValueSpec& spec, std::stri
         fmt::format("no value was saved as '{}' (its sdo_read failed or did not run)", spec.saved);
     return std::nullopt;
   }
+  // $name*m/d+k: the product first, then the division (toward zero), then the sum.
+  std::int64_t product = 0;
   std::int64_t sum = 0;
-  if (__builtin_add_overflow(it->second, spec.offset, &sum)) {
-    error = fmt::format("${}{:+}: {} {:+} is outside INTEGER64", spec.saved, spec.offset,
-                        it->second, spec.offset);
+  if (__builtin_mul_overflow(it->second, spec.multiplier, &product) ||
+      __builtin_add_overflow(product / spec.divisor, spec.offset, &sum)) {
+    error = fmt::format("{}: {} is outside INTEGER64 on the way", to_text(spec), it->second);
     return std::nullopt;
   }
   return sum;
@@ -273,8 +275,7 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
         // A bound from a saved value shows how it was computed: [$p+398 = 1398, ...].
         const auto bound = [](const ValueSpec& spec, std::int64_t v) {
           if (spec.saved.empty()) return fmt::format("{}", v);
-          return spec.offset == 0 ? fmt::format("${} = {}", spec.saved, v)
-                                  : fmt::format("${}{:+} = {}", spec.saved, spec.offset, v);
+          return fmt::format("{} = {}", to_text(spec), v);
         };
         expected = fmt::format("{}: value in [{}, {}]", what, bound(expect.low, *low),
                                bound(expect.high, *high));

@@ -63,8 +63,16 @@ struct ValueSpec {
   std::int64_t literal = 0;
   std::string saved;        // non-empty: the name given to an earlier sdo_read's `save:`
   std::int64_t offset = 0;  // with `saved`: added to the saved value
+  // With `saved`: `$name*multiplier/divisor+offset`, the division rounding toward zero (a
+  // bound on a measured ratio, e.g. a speed with an acceleration factor of 4/1 against the same
+  // speed with 1/1: FORMAT.md "Saved values").
+  std::int64_t multiplier = 1;
+  std::int64_t divisor = 1;
   friend bool operator==(const ValueSpec&, const ValueSpec&) = default;
 };
+
+// `$name*m/d+k` as a vector writes it (`$name`, `$name+k`, `$name*m/d` ...), or the literal.
+std::string to_text(const ValueSpec& value);
 
 enum class NodeKind : std::uint8_t { dut, broadcast, other, value };
 struct NodeSpec {

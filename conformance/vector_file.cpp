@@ -670,13 +670,33 @@ class Parser {
           saved = saved.substr(0, sign);
         }
       }
-      if (is_device_value(saved)) return ValueSpec{0, saved, offset};  // device_values.hpp
+      // `$name*m`, `$name/d`, `$name*m/d` (before the offset): a scaled saved value, m and d
+      // positive integers. A name saved whole wins here too.
+      std::int64_t multiplier = 1;
+      std::int64_t divisor = 1;
+      for (const char op : {'/', '*'}) {
+        const auto at = saved.find_last_of(op);
+        if (at == std::string::npos || saves_.count(saved) != 0 || is_device_value(saved)) continue;
+        const auto digits = saved.substr(at + 1);
+        const auto amount = parse_integer(digits);
+        if (at == 0 || !amount || digits.starts_with('+') || digits.starts_with('-') ||
+            amount->value < 1 ||
+            amount->bits > static_cast<std::uint64_t>(std::numeric_limits<std::int32_t>::max())) {
+          error(node, fmt::format("{}: '{}': expected $name*m/d+k with integers m, d from 1 to "
+                                  "2^31-1 (the product first, then the division toward zero)",
+                                  what, *text));
+          return std::nullopt;
+        }
+        (op == '*' ? multiplier : divisor) = amount->value;
+        saved = saved.substr(0, at);
+      }
+      if (is_device_value(saved)) return ValueSpec{0, saved, offset, multiplier, divisor};
       if (saves_.count(saved) == 0) {
         error(node, fmt::format("{}: '{}' names no value saved earlier in this vector (save: {})",
                                 what, *text, saved));
         return std::nullopt;
       }
-      return ValueSpec{0, saved, offset};
+      return ValueSpec{0, saved, offset, multiplier, divisor};
     }
     auto value = integer<std::int64_t>(node, what, std::numeric_limits<std::int64_t>::min(),
                                        std::numeric_limits<std::int64_t>::max());
@@ -820,7 +840,9 @@ class Parser {
         if (low && high) {
           expect.low = *low;
           expect.high = *high;
-          const bool comparable = low->saved == high->saved;  // both literal, or one name
+          const bool comparable =  // both literal, or one name with one scale
+              low->saved == high->saved && low->multiplier == high->multiplier &&
+              low->divisor == high->divisor;
           const auto lo = low->saved.empty() ? low->literal : low->offset;
           const auto hi = high->saved.empty() ? high->literal : high->offset;
           if (comparable && lo > hi) error(range, "range: low is above high");
@@ -1484,7 +1506,8 @@ class Parser {
         const auto low = value_spec(range[0], "range low");
         const auto high = value_spec(range[1], "range high");
         if (!low || !high) return std::nullopt;
-        if (low->saved == high->saved &&
+        if (low->saved == high->saved && low->multiplier == high->multiplier &&
+            low->divisor == high->divisor &&
             (low->saved.empty() ? low->literal > high->literal : low->offset > high->offset)) {
           error(range, "poll: range: low is above high");
           return std::nullopt;

@@ -16,6 +16,16 @@
 #include "protocol/profile/vocabulary.hpp"
 
 namespace drivecheck::conformance {
+
+std::string to_text(const ValueSpec& value) {
+  if (value.saved.empty()) return fmt::format("{}", value.literal);
+  std::string text = "$" + value.saved;
+  if (value.multiplier != 1) text += fmt::format("*{}", value.multiplier);
+  if (value.divisor != 1) text += fmt::format("/{}", value.divisor);
+  if (value.offset != 0) text += fmt::format("{:+}", value.offset);
+  return text;
+}
+
 namespace {
 
 // The keywords of the model's enums, as FORMAT.md spells them (the loader's inverse).
@@ -136,11 +146,7 @@ std::string pattern_bytes(const std::vector<std::optional<std::uint8_t>>& bytes)
 }
 
 std::string value_text(const ValueSpec& value) {
-  if (!value.saved.empty()) {
-    if (value.offset == 0) return "$" + value.saved;
-    return fmt::format("${}{:+}", value.saved, value.offset);
-  }
-  return fmt::format("{}", value.literal);
+  return to_text(value);
 }
 
 class Writer {

@@ -942,6 +942,24 @@ TEST_F(EngineDriveTest, RangeAroundASavedValue) {
   EXPECT_NE(fail.message.find("value in [$type+1 = "), std::string::npos) << fail.message;
 }
 
+TEST_F(EngineDriveTest, RangeOfAScaledSavedValue) {
+  // Given the drive's device type 1000h saved, then read again against scaled bounds
+  const auto pass =
+      run(make_vector("    - sdo_read: {index: 0x1000, sub: 0}\n      save: type\n"
+                      "    - sdo_read: {index: 0x1000, sub: 0}\n"
+                      "      expect: {range: [\"$type*3/4\", \"$type*5/4\"]}\n"));
+  // Then bounds that hold the value pass
+  EXPECT_EQ(pass.verdict, Verdict::pass) << pass.message;
+  // And bounds of twice to three times the value fail, showing how they were computed
+  const auto fail =
+      run(make_vector("    - sdo_read: {index: 0x1000, sub: 0}\n      save: type\n"
+                      "    - sdo_read: {index: 0x1000, sub: 0}\n"
+                      "      expect: {range: [\"$type*2\", \"$type*3-1\"]}\n"));
+  EXPECT_EQ(fail.verdict, Verdict::fail);
+  EXPECT_NE(fail.message.find("value in [$type*2 = "), std::string::npos) << fail.message;
+  EXPECT_NE(fail.message.find(", $type*3-1 = "), std::string::npos) << fail.message;
+}
+
 TEST_F(EngineDriveTest, DutLostAfterSilentVectors) {
   // Given one vector where the drive answers, then four where it says nothing
   std::vector<Vector> vectors;

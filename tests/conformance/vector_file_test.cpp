@@ -485,6 +485,38 @@ TEST(VectorFile, SavedValuePlusOrMinusALiteral) {
             std::string::npos);
 }
 
+TEST(VectorFile, SavedValueScaledByALiteralRatio) {
+  // Given a saved speed used as $v*3, $v*5/2+1 and $v/4 (a bound on a measured ratio)
+  const auto set =
+      parse_vectors(std::string(kHead) +
+                        "  steps:\n"
+                        "    - sdo_read: {index: 0x606C, sub: 0}\n"
+                        "      save: v\n"
+                        "    - sdo_read: {index: 0x606C, sub: 0}\n"
+                        "      expect: {range: [\"$v*3\", \"$v*5/2+1\"]}\n"
+                        "    - sdo_write: {index: 0x60FF, sub: 0, value: $v/4, size: 4}\n",
+                    "v.yaml");
+  // When parsed
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  const auto& steps = set.vectors.at(0).steps;
+  // Then each carries the name, the multiplier, the divisor and the offset
+  const auto& range = std::get<SdoReadStep>(steps.at(1).action).expect;
+  EXPECT_EQ(range.low, (ValueSpec{0, "v", 0, 3, 1}));
+  EXPECT_EQ(range.high, (ValueSpec{0, "v", 1, 5, 2}));
+  EXPECT_EQ(*std::get<SdoWriteStep>(steps.at(2).action).value, (ValueSpec{0, "v", 0, 1, 4}));
+  EXPECT_EQ(to_text(range.high), "$v*5/2+1");
+  // And a zero, negative or non-integer factor, or the divisor first, is an error naming the line
+  for (const char* bad : {"$v*0", "$v/-2", "$v*x", "$v/2*3"}) {
+    EXPECT_NE(
+        only_error(std::string(kHead) +
+                   "  steps:\n    - sdo_read: {index: 0x606C, sub: 0}\n      save: v\n" +
+                   "    - sdo_write: {index: 0x60FF, sub: 0, value: \"" + bad + "\", size: 4}\n")
+            .find("v.yaml:8: value: '" + std::string(bad) + "': expected $name*m/d+k"),
+        std::string::npos)
+        << bad;
+  }
+}
+
 TEST(VectorFile, DeviceValuesOkOrAbortAndSilencePatterns) {
   // Given $dut values, ok-or-abort and a frame pattern in expect_silence
   const auto set = parse_vectors(
