@@ -510,6 +510,8 @@ void Cia402Application::on_cycle(ReferenceDrive& drive, can::TimePoint now) {
 void Cia402Application::read_parameters() {
   const cia301::ObjectDictionary& od = *od_;
   factors_ = read_factor_group(od);
+  if (config_.deviations.has(Deviation::factor_acceleration_from_velocity_factor))
+    factors_.acceleration = factors_.velocity;  // 6094h's ratio where 6097h's belongs
   factors_.velocity = in_axis_units(factors_.velocity, config_.internal_velocity_unit);
   factors_.acceleration = in_axis_units(factors_.acceleration, config_.internal_acceleration_unit);
   if (config_.deviations.has(Deviation::factor_polarity_ignored)) factors_.polarity = 0;
