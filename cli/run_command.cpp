@@ -509,6 +509,9 @@ void run(const RunOptions& options) {
     for (auto& vector : conformance::generate_esi_vectors(*esi, *device))
       vectors.vectors.push_back(std::move(vector));
     esi_results = conformance::esi_sii_results(*esi, *device, sii, *profile, options.strict);
+    for (auto& result :
+         conformance::esi_pdo_mapping_results(*esi, *device, *profile, options.strict))
+      esi_results.push_back(std::move(result));
     std::erase_if(esi_results, result_deselected);
   }
   // The selection first, then its order: a shuffle depends on the seed and the selection only.

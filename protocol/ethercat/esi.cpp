@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <fstream>
 #include <map>
@@ -130,6 +131,27 @@ class Walker {
     return out;
   }
 
+  // ETG.2000 Flags/PdoMapping (EtherCATBase.xsd enumeration: T R TR RT t r tr rt).
+  Result<std::optional<EsiPdoMapping>> pdo_mapping(const pugi::xml_node& flags) const {
+    const pugi::xml_node m = flags.child("PdoMapping");
+    if (!m) return std::optional<EsiPdoMapping>();
+    const std::string_view v = trim(m.text().get());
+    static constexpr std::array<std::string_view, 8> kValues = {"R", "T", "RT", "TR",
+                                                                "r", "t", "rt", "tr"};
+    if (std::find(kValues.begin(), kValues.end(), v) == kValues.end()) {
+      return Unexpected(Failure{
+          line(m), fmt::format("<PdoMapping> '{}' is none of R, T, RT, TR (or the same in lower "
+                               "case: ETG.2000 EtherCATBase.xsd)",
+                               std::string(v))});
+    }
+    EsiPdoMapping mapping;
+    mapping.text = v;
+    mapping.line = line(m);
+    mapping.rx = v.find_first_of("Rr") != std::string_view::npos;
+    mapping.tx = v.find_first_of("Tt") != std::string_view::npos;
+    return std::optional<EsiPdoMapping>(std::move(mapping));
+  }
+
   Result<std::optional<EsiAccess>> access(const pugi::xml_node& flags, std::string& read_r,
                                           std::string& write_r) const {
     const pugi::xml_node a = flags.child("Access");
@@ -211,6 +233,9 @@ Result<void> expand_sub_item(const Walker& w, const std::map<std::string, DataTy
     auto a = w.access(flags, sub.read_restrictions, sub.write_restrictions);
     if (!a) return Unexpected(a.error());
     sub.access = *a;
+    auto mapping = w.pdo_mapping(flags);
+    if (!mapping) return Unexpected(mapping.error());
+    sub.pdo_mapping = std::move(*mapping);
   }
   if (item.child("SubIdx")) {
     auto idx = w.child_number(item, "SubIdx", 0xFF);
@@ -267,6 +292,12 @@ Result<EsiObject> read_object(const Walker& w, const std::map<std::string, DataT
     object.bit_size = static_cast<std::uint32_t>(*bits);
   }
   const pugi::xml_node info = node.child("Info");
+  std::optional<EsiPdoMapping> object_mapping;  // the Object's Flags/PdoMapping
+  if (const pugi::xml_node flags = node.child("Flags")) {
+    auto mapping = w.pdo_mapping(flags);
+    if (!mapping) return Unexpected(mapping.error());
+    object_mapping = std::move(*mapping);
+  }
   const auto type = types.find(object.type);
   if (type != types.end() && !type->second.sub_items.empty()) {
     object.structured = true;
@@ -274,6 +305,10 @@ Result<EsiObject> read_object(const Walker& w, const std::map<std::string, DataT
       if (auto r = expand_sub_item(w, types, item, object.entries); !r) {
         return Unexpected(r.error());
       }
+    }
+    // A sub-item without its own PdoMapping takes the Object's (where the Object gives one).
+    for (EsiSubItem& entry : object.entries) {
+      if (!entry.pdo_mapping) entry.pdo_mapping = object_mapping;
     }
     // Defaults: Info/SubItem by Name, else by position.
     std::size_t position = 0;
@@ -301,6 +336,7 @@ Result<EsiObject> read_object(const Walker& w, const std::map<std::string, DataT
   var.name = object.name;
   var.type = object.type;
   var.bit_size = object.bit_size;
+  var.pdo_mapping = std::move(object_mapping);
   if (const pugi::xml_node flags = node.child("Flags")) {
     auto a = w.access(flags, var.read_restrictions, var.write_restrictions);
     if (!a) return Unexpected(a.error());

@@ -19,11 +19,17 @@
 //                                                 LBound, Elements) stands for its elements
 //       Objects/Object (Index, Name, Type,       a Type naming a DataType with SubItems gives
 //         BitSize, Info/DefaultData,              the object's sub-indices; Info/SubItem (by
-//         Info/SubItem, Flags/Access)             Name, else by position) their DefaultData
+//         Info/SubItem, Flags/Access,             Name, else by position) their DefaultData
+//         Flags/PdoMapping)
 //
 // Numbers are ETG.2000 HexDecValue: "#x1A00" hexadecimal, else decimal. DefaultData is
 // hexBinary, the value's octets in transfer order (little endian: "92010200" is 00020192h).
 // Access is ro/rw/wo (Flags/Access; its ReadRestrictions/WriteRestrictions are kept as text).
+// PdoMapping is R, T, RT or TR, or the same in lower case (the enumeration of the ETG.2000
+// schema EtherCATBase.xsd, ObjectType and SubItemType Flags): R the entry may be mapped into an
+// RxPDO (1600h+, outputs), T into a TxPDO (1A00h+, inputs); what distinguishes the lower case
+// is not public to us, so both cases are read alike. An entry of a structured object takes its
+// SubItem's PdoMapping, else the Object's. Any other value is an error.
 // Not read: Profile/DictionaryFile (an external dictionary: a clear error names it), modules
 // (Slots/Modules), EEPROM, DC, InfoReference. Bad input gives a TextError naming file:line (the
 // XML parser's offset turned into a line); a well-formed file with a missing or malformed
@@ -42,6 +48,14 @@ namespace drivecheck::ethercat {
 
 enum class EsiAccess : std::uint8_t { ro, rw, wo };
 std::string_view to_string(EsiAccess access);
+
+// Flags/PdoMapping: the directions the entry may be mapped in.
+struct EsiPdoMapping {
+  bool rx = false;   // R: into an RxPDO (1600h+, master to slave)
+  bool tx = false;   // T: into a TxPDO (1A00h+, slave to master)
+  std::string text;  // as written: R, T, RT, TR, r, t, rt, tr
+  int line = 0;      // the <PdoMapping> element
+};
 
 struct EsiPdoEntry {
   std::uint16_t index = 0;  // 0: a gap (padding) of bit_length bits
@@ -74,6 +88,8 @@ struct EsiSubItem {
   std::optional<EsiAccess> access;
   std::string read_restrictions;   // Flags/Access@ReadRestrictions, e.g. "PreOp"
   std::string write_restrictions;  // Flags/Access@WriteRestrictions
+  // Flags/PdoMapping (the SubItem's, else the Object's); absent: the ESI gives none.
+  std::optional<EsiPdoMapping> pdo_mapping;
   std::optional<std::vector<std::uint8_t>> default_data;
   int line = 0;
 };

@@ -194,5 +194,105 @@ TEST(EsiReader, FindsTheDeviceBySlaveIdentity) {
   EXPECT_EQ(find_esi_device(*esi, std::nullopt, std::nullopt), &esi->devices[0]);
 }
 
+// PdoMapping flags, Dc/OpMode, Slots and Modules. Line numbers matter below: keep the layout.
+constexpr const char* kModular = R"(<?xml version="1.0"?>
+<EtherCATInfo Version="1.6">
+  <Vendor><Id>2</Id><Name>Example</Name></Vendor>
+  <Descriptions>
+    <Devices>
+      <Device Physics="YY">
+        <Type ProductCode="#x7" RevisionNo="1">Coupler</Type>
+        <Name>Modular drive</Name>
+        <Profile>
+          <Dictionary>
+            <DataTypes>
+              <DataType><Name>DT7000</Name><BitSize>48</BitSize>
+                <SubItem><SubIdx>0</SubIdx><Name>count</Name><Type>USINT</Type><BitSize>8</BitSize><Flags><Access>ro</Access></Flags></SubItem>
+                <SubItem><SubIdx>1</SubIdx><Name>Out</Name><Type>UINT</Type><BitSize>16</BitSize><Flags><Access>rw</Access><PdoMapping>R</PdoMapping></Flags></SubItem>
+                <SubItem><SubIdx>2</SubIdx><Name>Both</Name><Type>UINT</Type><BitSize>16</BitSize><Flags><Access>rw</Access></Flags></SubItem>
+              </DataType>
+            </DataTypes>
+            <Objects>
+              <Object><Index>#x6041</Index><Name>Statusword</Name><Type>UINT</Type><BitSize>16</BitSize><Flags><Access>ro</Access><PdoMapping>T</PdoMapping></Flags></Object>
+              <Object><Index>#x6040</Index><Name>Controlword</Name><Type>UINT</Type><BitSize>16</BitSize><Flags><Access>rw</Access><PdoMapping>rt</PdoMapping></Flags></Object>
+              <Object><Index>#x7000</Index><Name>Record</Name><Type>DT7000</Type><BitSize>48</BitSize><Flags><PdoMapping>TR</PdoMapping></Flags></Object>
+              <Object><Index>#x1000</Index><Name>Device type</Name><Type>UDINT</Type><BitSize>32</BitSize><Flags><Access>ro</Access></Flags></Object>
+            </Objects>
+          </Dictionary>
+        </Profile>
+        <Dc>
+          <OpMode><Name>FreeRun</Name><Desc>Free run</Desc><AssignActivate>0</AssignActivate></OpMode>
+          <OpMode><Name>DC</Name><Desc>DC-Synchron</Desc><AssignActivate>#x300</AssignActivate>
+            <CycleTimeSync0 Factor="1">0</CycleTimeSync0><ShiftTimeSync0 Input="0">-2000</ShiftTimeSync0>
+            <CycleTimeSync1 Factor="0">0</CycleTimeSync1></OpMode>
+        </Dc>
+        <Slots MaxSlotCount="2" SlotPdoIncrement="#x10">
+          <Slot MinInstances="1" MaxInstances="1"><Name>Axis</Name><ModuleIdent Default="1">#x100</ModuleIdent><ModuleIdent>#x101</ModuleIdent></Slot>
+          <Slot MinInstances="0" MaxInstances="1" SlotGroup="2"><Name>Option</Name><ModuleClass><Class>IO</Class></ModuleClass></Slot>
+        </Slots>
+      </Device>
+    </Devices>
+    <Modules>
+      <Module><Type ModuleIdent="#x100" ModuleClass="Axis">AX1</Type><Name>Axis module</Name>
+        <TxPdo><Index>#x1A00</Index><Name>Status</Name><Entry><Index>#x6041</Index><SubIndex>0</SubIndex><BitLen>16</BitLen></Entry></TxPdo>
+        <DcOpModeName>DC</DcOpModeName>
+      </Module>
+    </Modules>
+  </Descriptions>
+</EtherCATInfo>
+)";
+
+std::string modular_error_of(const std::string& from, const std::string& to) {
+  std::string text = kModular;
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  const auto esi = read_esi(text, "bad.xml");
+  return esi ? std::string("(read)") : esi.error().to_string();
+}
+
+TEST(EsiReader, ReadsPdoMappingFlagsOfObjectsAndSubItems) {
+  // Given VARs flagged T and rt, a record whose SubItem 1 says R and whose Object says TR, and
+  // an object without PdoMapping
+  const auto esi = read_esi(kModular, "modular.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const EsiDevice& d = esi->devices[0];
+  // When read; Then each entry has its directions, lower case read as upper case
+  const auto* status = d.find(0x6041, 0);
+  ASSERT_NE(status, nullptr);
+  ASSERT_TRUE(status->pdo_mapping);
+  EXPECT_TRUE(status->pdo_mapping->tx);
+  EXPECT_FALSE(status->pdo_mapping->rx);
+  EXPECT_EQ(status->pdo_mapping->text, "T");
+  EXPECT_EQ(status->pdo_mapping->line, 19);
+  const auto* control = d.find(0x6040, 0);
+  ASSERT_TRUE(control && control->pdo_mapping);
+  EXPECT_TRUE(control->pdo_mapping->rx && control->pdo_mapping->tx);
+  // And a SubItem's own flag wins; one without takes the Object's
+  const auto* out = d.find(0x7000, 1);
+  ASSERT_TRUE(out && out->pdo_mapping);
+  EXPECT_TRUE(out->pdo_mapping->rx);
+  EXPECT_FALSE(out->pdo_mapping->tx);
+  const auto* both = d.find(0x7000, 2);
+  ASSERT_TRUE(both && both->pdo_mapping);
+  EXPECT_TRUE(both->pdo_mapping->rx && both->pdo_mapping->tx);
+  EXPECT_EQ(both->pdo_mapping->text, "TR");
+  EXPECT_FALSE(d.find(0x1000, 0)->pdo_mapping);
+}
+
+TEST(EsiReader, RefusesAnUnknownPdoMappingWithItsLine) {
+  // Given PdoMapping values outside the schema's enumeration, When read, Then file:line names it
+  EXPECT_NE(modular_error_of("<PdoMapping>T</PdoMapping>", "<PdoMapping>X</PdoMapping>")
+                .find("bad.xml:19: <PdoMapping> 'X' is none of R, T, RT, TR"),
+            std::string::npos)
+      << modular_error_of("<PdoMapping>T</PdoMapping>", "<PdoMapping>X</PdoMapping>");
+  EXPECT_NE(modular_error_of("<PdoMapping>R</PdoMapping>", "<PdoMapping>Rt</PdoMapping>")
+                .find("bad.xml:14: <PdoMapping> 'Rt'"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<PdoMapping>TR</PdoMapping>", "<PdoMapping></PdoMapping>")
+                .find("bad.xml:21: <PdoMapping> ''"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace drivecheck::ethercat
