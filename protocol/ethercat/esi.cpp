@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <climits>
+#include <cstdint>
 #include <fstream>
 #include <map>
 #include <pugixml.hpp>
@@ -150,6 +152,20 @@ class Walker {
     mapping.rx = v.find_first_of("Rr") != std::string_view::npos;
     mapping.tx = v.find_first_of("Tt") != std::string_view::npos;
     return std::optional<EsiPdoMapping>(std::move(mapping));
+  }
+
+  // An xs:int (signed decimal) in element `node`'s text.
+  Result<std::int64_t> signed_number(const pugi::xml_node& node, std::string_view what) const {
+    const std::string_view t = trim(node.text().get());
+    std::int64_t value = 0;
+    const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), value, 10);
+    if (t.empty() || ec != std::errc() || end != t.data() + t.size() || value < INT32_MIN ||
+        value > INT32_MAX) {
+      return Unexpected(Failure{line(node), fmt::format("{} '{}' is not an xs:int (a signed "
+                                                        "decimal of 32 bits)",
+                                                        what, std::string(t))});
+    }
+    return value;
   }
 
   Result<std::optional<EsiAccess>> access(const pugi::xml_node& flags, std::string& read_r,
@@ -381,6 +397,57 @@ Result<std::map<std::string, DataType>> read_data_types(const Walker& w,
   return types;
 }
 
+Result<std::optional<EsiDcTime>> read_dc_time(const Walker& w, const pugi::xml_node& op_mode,
+                                              const char* name) {
+  const pugi::xml_node node = op_mode.child(name);
+  if (!node) return std::optional<EsiDcTime>();
+  EsiDcTime time;
+  auto value = w.signed_number(node, fmt::format("<{}>", name));
+  if (!value) return Unexpected(value.error());
+  time.value = *value;
+  if (const pugi::xml_attribute factor = node.attribute("Factor")) {
+    const std::string_view text = trim(factor.value());
+    std::int64_t f = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), f, 10);
+    if (text.empty() || ec != std::errc() || end != text.data() + text.size() || f < INT32_MIN ||
+        f > INT32_MAX) {
+      return Unexpected(Failure{
+          w.line(node), fmt::format("{}@Factor '{}' is not an xs:int", name, std::string(text))});
+    }
+    time.factor = f;
+  }
+  if (node.attribute("Input")) {
+    auto input = w.flag(node, "Input");
+    if (!input) return Unexpected(input.error());
+    time.input = *input;
+  }
+  return std::optional<EsiDcTime>(time);
+}
+
+Result<std::vector<EsiDcOpMode>> read_dc(const Walker& w, const pugi::xml_node& dc) {
+  std::vector<EsiDcOpMode> out;
+  for (const pugi::xml_node& node : dc.children("OpMode")) {
+    EsiDcOpMode mode;
+    mode.line = w.line(node);
+    if (!node.child("Name")) return Unexpected(Failure{mode.line, "<OpMode> has no <Name>"});
+    mode.name = trim(node.child("Name").text().get());
+    mode.desc = trim(node.child("Desc").text().get());
+    auto assign = w.child_number(node, "AssignActivate", 0xFFFF);
+    if (!assign) return Unexpected(assign.error());
+    mode.assign_activate = static_cast<std::uint16_t>(*assign);
+    for (auto [name, field] : {std::pair{"CycleTimeSync0", &mode.cycle_time_sync0},
+                               std::pair{"ShiftTimeSync0", &mode.shift_time_sync0},
+                               std::pair{"CycleTimeSync1", &mode.cycle_time_sync1},
+                               std::pair{"ShiftTimeSync1", &mode.shift_time_sync1}}) {
+      auto time = read_dc_time(w, node, name);
+      if (!time) return Unexpected(time.error());
+      *field = *time;
+    }
+    out.push_back(std::move(mode));
+  }
+  return out;
+}
+
 Result<EsiDevice> read_device(const Walker& w, const pugi::xml_node& node) {
   EsiDevice device;
   device.line = w.line(node);
@@ -431,6 +498,11 @@ Result<EsiDevice> read_device(const Walker& w, const pugi::xml_node& node) {
       if (!pdo) return Unexpected(pdo.error());
       list->push_back(std::move(*pdo));
     }
+  }
+  if (const pugi::xml_node dc = node.child("Dc")) {
+    auto modes = read_dc(w, dc);
+    if (!modes) return Unexpected(modes.error());
+    device.dc_op_modes = std::move(*modes);
   }
   const pugi::xml_node profile = node.child("Profile");
   if (const pugi::xml_node file = profile.child("DictionaryFile")) {

@@ -21,19 +21,23 @@
 //         BitSize, Info/DefaultData,              the object's sub-indices; Info/SubItem (by
 //         Info/SubItem, Flags/Access,             Name, else by position) their DefaultData
 //         Flags/PdoMapping)
+//     Dc/OpMode (Name, Desc, AssignActivate,     the distributed-clock operation modes a
+//       CycleTimeSync0/1 @Factor,                 configuration tool offers (shown by
+//       ShiftTimeSync0/1 @Factor @Input)          `drivecheck esi show`; no check reads them)
 //
-// Numbers are ETG.2000 HexDecValue: "#x1A00" hexadecimal, else decimal. DefaultData is
-// hexBinary, the value's octets in transfer order (little endian: "92010200" is 00020192h).
-// Access is ro/rw/wo (Flags/Access; its ReadRestrictions/WriteRestrictions are kept as text).
-// PdoMapping is R, T, RT or TR, or the same in lower case (the enumeration of the ETG.2000
-// schema EtherCATBase.xsd, ObjectType and SubItemType Flags): R the entry may be mapped into an
-// RxPDO (1600h+, outputs), T into a TxPDO (1A00h+, inputs); what distinguishes the lower case
-// is not public to us, so both cases are read alike. An entry of a structured object takes its
-// SubItem's PdoMapping, else the Object's. Any other value is an error.
+// Numbers are ETG.2000 HexDecValue: "#x1A00" hexadecimal, else decimal (the DC times are
+// xs:int: signed decimal, ns). DefaultData is hexBinary, the value's octets in transfer order
+// (little endian: "92010200" is 00020192h). Access is ro/rw/wo (Flags/Access; its
+// ReadRestrictions/WriteRestrictions are kept as text). PdoMapping is R, T, RT or TR, or the
+// same in lower case (the enumeration of the ETG.2000 schema EtherCATBase.xsd, ObjectType and
+// SubItemType Flags): R the entry may be mapped into an RxPDO (1600h+, outputs), T into a
+// TxPDO (1A00h+, inputs); what distinguishes the lower case is not public to us, so both cases
+// are read alike. An entry of a structured object takes its SubItem's PdoMapping, else the
+// Object's. Any other value is an error.
 // Not read: Profile/DictionaryFile (an external dictionary: a clear error names it), modules
-// (Slots/Modules), EEPROM, DC, InfoReference. Bad input gives a TextError naming file:line (the
-// XML parser's offset turned into a line); a well-formed file with a missing or malformed
-// field names the line of the element.
+// (Slots/Modules), EEPROM, InfoReference, Dc/OpMode/Sm. Bad input gives a TextError
+// naming file:line (the XML parser's offset turned into a line); a well-formed file with a
+// missing or malformed field names the line of the element.
 #pragma once
 
 #include <cstdint>
@@ -115,6 +119,24 @@ struct EsiSyncManager {
   int line = 0;
 };
 
+// Dc/OpMode: one distributed-clock operation mode. Times in ns as written (xs:int); a Factor
+// (when given) is the multiple of the master's cycle a configuration tool adds.
+struct EsiDcTime {
+  std::int64_t value = 0;
+  std::optional<std::int64_t> factor;
+  std::optional<bool> input;  // ShiftTimeSync*@Input
+};
+struct EsiDcOpMode {
+  std::string name;
+  std::string desc;
+  std::uint16_t assign_activate = 0;  // the value for ESC register 0980h (ETG.2000 AssignActivate)
+  std::optional<EsiDcTime> cycle_time_sync0;
+  std::optional<EsiDcTime> shift_time_sync0;
+  std::optional<EsiDcTime> cycle_time_sync1;
+  std::optional<EsiDcTime> shift_time_sync1;
+  int line = 0;
+};
+
 struct EsiCoe {
   bool sdo_info = false;
   bool pdo_assign = false;
@@ -131,7 +153,8 @@ struct EsiDevice {
   std::vector<EsiSyncManager> sync_managers;
   std::vector<EsiPdo> rx_pdos;
   std::vector<EsiPdo> tx_pdos;
-  std::vector<EsiObject> objects;  // in file order
+  std::vector<EsiObject> objects;        // in file order
+  std::vector<EsiDcOpMode> dc_op_modes;  // Dc/OpMode, in order
   int line = 0;
 
   const EsiObject* find(std::uint16_t index) const;

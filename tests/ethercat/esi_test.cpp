@@ -294,5 +294,46 @@ TEST(EsiReader, RefusesAnUnknownPdoMappingWithItsLine) {
             std::string::npos);
 }
 
+TEST(EsiReader, ReadsDcOpModes) {
+  // Given two Dc/OpModes, When read, Then their names, AssignActivate and times
+  const auto esi = read_esi(kModular, "modular.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const auto& modes = esi->devices[0].dc_op_modes;
+  ASSERT_EQ(modes.size(), 2u);
+  EXPECT_EQ(modes[0].name, "FreeRun");
+  EXPECT_EQ(modes[0].assign_activate, 0);
+  EXPECT_FALSE(modes[0].cycle_time_sync0);
+  EXPECT_EQ(modes[1].name, "DC");
+  EXPECT_EQ(modes[1].desc, "DC-Synchron");
+  EXPECT_EQ(modes[1].assign_activate, 0x300);
+  EXPECT_EQ(modes[1].line, 28);
+  ASSERT_TRUE(modes[1].cycle_time_sync0);
+  EXPECT_EQ(modes[1].cycle_time_sync0->value, 0);
+  EXPECT_EQ(modes[1].cycle_time_sync0->factor, 1);
+  ASSERT_TRUE(modes[1].shift_time_sync0);
+  EXPECT_EQ(modes[1].shift_time_sync0->value, -2000);
+  EXPECT_EQ(modes[1].shift_time_sync0->input, false);
+  ASSERT_TRUE(modes[1].cycle_time_sync1);
+  EXPECT_EQ(modes[1].cycle_time_sync1->factor, 0);
+  EXPECT_FALSE(modes[1].shift_time_sync1);
+}
+
+TEST(EsiReader, RefusesBadDcOpModesWithTheirLine) {
+  // Given an OpMode without AssignActivate, one without Name, and a time that is no xs:int
+  EXPECT_NE(modular_error_of("<AssignActivate>#x300</AssignActivate>", "")
+                .find("bad.xml:28: <OpMode> has no <AssignActivate>"),
+            std::string::npos)
+      << modular_error_of("<AssignActivate>#x300</AssignActivate>", "");
+  EXPECT_NE(modular_error_of("<Name>FreeRun</Name>", "").find("bad.xml:27: <OpMode> has no <Name>"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("-2000</Shift", "#x10</Shift")
+                .find("bad.xml:29: <ShiftTimeSync0> '#x10' is not an xs:int"),
+            std::string::npos)
+      << modular_error_of("-2000</Shift", "#x10</Shift");
+  EXPECT_NE(modular_error_of("Factor=\"1\"", "Factor=\"one\"")
+                .find("bad.xml:29: CycleTimeSync0@Factor 'one' is not an xs:int"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace drivecheck::ethercat
