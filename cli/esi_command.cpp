@@ -3,9 +3,9 @@
 //
 //   drivecheck esi show FILE
 //       the vendor, each device (identity, CoE, SyncManagers, PDOs, the Dictionary's objects
-//       with their access and PdoMapping flags, the distributed-clock operation modes Dc/OpMode),
-//       each with its file:line; exit 0, 2 unreadable or malformed file (the reader's
-//       "file:line: message" on stderr).
+//       with their access and PdoMapping flags, the distributed-clock operation modes Dc/OpMode,
+//       the Slots of a modular device) and the file's Modules, each with its file:line; exit 0,
+//       2 unreadable or malformed file (the reader's "file:line: message" on stderr).
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -96,6 +96,29 @@ void print_device(const EsiFile& esi, const EsiDevice& d) {
           dc_time(m.cycle_time_sync1), dc_time(m.shift_time_sync1));
     }
   }
+  if (const auto& slots = d.slots) {
+    fmt::print("  Slots ({}:{}): MaxSlotCount {}, SlotPdoIncrement {}, SlotIndexIncrement {}\n",
+               esi.file, slots->line,
+               slots->max_slot_count ? fmt::format("{}", *slots->max_slot_count) : "-",
+               slots->pdo_increment ? fmt::format("{:X}h", *slots->pdo_increment) : "-",
+               slots->index_increment ? fmt::format("{:X}h", *slots->index_increment) : "-");
+    for (const auto& s : slots->slots) {
+      std::vector<std::string> idents;
+      for (const std::uint32_t ident : s.module_idents) {
+        const auto* module = esi.find_module(ident);
+        idents.push_back(fmt::format(
+            "{:08X}h{}{}", ident, s.default_ident == ident ? " (default)" : "",
+            module != nullptr ? fmt::format(" '{}'", module->name) : " (not in this file)"));
+      }
+      fmt::print("    Slot '{}' ({}:{}): {}..{} instance(s){}: {}{}\n", s.name, esi.file, s.line,
+                 s.min_instances, s.max_instances,
+                 s.slot_group ? fmt::format(", group {}", *s.slot_group) : std::string(),
+                 idents.empty() ? std::string() : fmt::format("{}", fmt::join(idents, ", ")),
+                 s.module_classes.empty()
+                     ? std::string()
+                     : fmt::format("classes {}", fmt::join(s.module_classes, ", ")));
+    }
+  }
 }
 
 void run_show(const EsiOptions& options) {
@@ -105,10 +128,20 @@ void run_show(const EsiOptions& options) {
     exit_with(kExitUsage);
     return;
   }
-  fmt::print("ESI {}: vendor '{}' ({:08X}h), {} device(s)\n", options.file, esi->vendor_name,
-             esi->vendor_id, esi->devices.size());
+  fmt::print("ESI {}: vendor '{}' ({:08X}h), {} device(s), {} module(s)\n", options.file,
+             esi->vendor_name, esi->vendor_id, esi->devices.size(), esi->modules.size());
   for (const auto& device : esi->devices)
     print_device(*esi, device);
+  for (const auto& m : esi->modules) {
+    fmt::print("Module '{}' ({}:{}): ModuleIdent {:08X}h{}, type '{}'{}\n", m.name, esi->file,
+               m.line, m.ident,
+               m.module_class.empty() ? std::string() : fmt::format(", class {}", m.module_class),
+               m.type,
+               m.dc_op_mode_name.empty() ? std::string()
+                                         : fmt::format(", Dc OpMode '{}'", m.dc_op_mode_name));
+    print_pdos(*esi, "RxPdo", m.rx_pdos, "  ");
+    print_pdos(*esi, "TxPdo", m.tx_pdos, "  ");
+  }
 }
 
 }  // namespace
@@ -121,7 +154,7 @@ void add_esi_command(CLI::App& app) {
   CLI::App* show = esi->add_subcommand(
       "show",
       "Print what drivecheck reads of an ESI: devices, PDOs, dictionary with access and "
-      "PdoMapping and DC operation modes (exit 2: unreadable)");
+      "PdoMapping, DC operation modes, slots and modules (exit 2: unreadable)");
   show->add_option("FILE", options->file, "ESI file")->required();
   show->callback([options] { run_show(*options); });
 }

@@ -448,6 +448,101 @@ Result<std::vector<EsiDcOpMode>> read_dc(const Walker& w, const pugi::xml_node& 
   return out;
 }
 
+// An optional HexDecValue attribute of at most 32 bits.
+Result<std::optional<std::uint32_t>> attribute_u32(const Walker& w, const pugi::xml_node& node,
+                                                   const char* name) {
+  auto v = w.attribute_number(node, name, 0xFFFFFFFF);
+  if (!v) return Unexpected(v.error());
+  if (!*v) return std::optional<std::uint32_t>();
+  return std::optional<std::uint32_t>(static_cast<std::uint32_t>(**v));
+}
+
+Result<EsiSlots> read_slots(const Walker& w, const pugi::xml_node& node) {
+  EsiSlots slots;
+  slots.line = w.line(node);
+  for (auto [name, field] : {std::pair{"MaxSlotCount", &slots.max_slot_count},
+                             std::pair{"SlotPdoIncrement", &slots.pdo_increment},
+                             std::pair{"SlotIndexIncrement", &slots.index_increment}}) {
+    auto v = attribute_u32(w, node, name);
+    if (!v) return Unexpected(v.error());
+    *field = *v;
+  }
+  for (const pugi::xml_node& s : node.children("Slot")) {
+    EsiSlot slot;
+    slot.line = w.line(s);
+    slot.name = trim(s.child("Name").text().get());
+    for (auto [name, field] : {std::pair{"MinInstances", &slot.min_instances},
+                               std::pair{"MaxInstances", &slot.max_instances}}) {
+      auto v = attribute_u32(w, s, name);
+      if (!v) return Unexpected(v.error());
+      if (!*v) {
+        return Unexpected(Failure{slot.line, fmt::format("<Slot> has no {} (required)", name)});
+      }
+      *field = **v;
+    }
+    if (slot.min_instances > slot.max_instances) {
+      return Unexpected(Failure{slot.line, fmt::format("<Slot> MinInstances {} exceeds "
+                                                       "MaxInstances {}",
+                                                       slot.min_instances, slot.max_instances)});
+    }
+    for (auto [name, field] : {std::pair{"SlotGroup", &slot.slot_group},
+                               std::pair{"SlotPdoIncrement", &slot.pdo_increment},
+                               std::pair{"SlotIndexIncrement", &slot.index_increment}}) {
+      auto v = attribute_u32(w, s, name);
+      if (!v) return Unexpected(v.error());
+      *field = *v;
+    }
+    for (const pugi::xml_node& ident : s.children("ModuleIdent")) {
+      auto v = w.number(ident.text().get(), ident, "<ModuleIdent>", 0xFFFFFFFF);
+      if (!v) return Unexpected(v.error());
+      slot.module_idents.push_back(static_cast<std::uint32_t>(*v));
+      if (ident.attribute("Default")) {
+        // Default is a HexDecValue in the schema: non-zero marks the slot's default module.
+        auto d = w.attribute_number(ident, "Default", 0xFFFFFFFF);
+        if (!d) return Unexpected(d.error());
+        if (**d != 0) slot.default_ident = static_cast<std::uint32_t>(*v);
+      }
+    }
+    for (const pugi::xml_node& c : s.children("ModuleClass")) {
+      const std::string_view text = trim(c.child("Class").text().get());
+      if (text.empty()) {
+        return Unexpected(Failure{w.line(c), "<ModuleClass> has no <Class>"});
+      }
+      slot.module_classes.emplace_back(text);
+    }
+    if (slot.module_idents.empty() && slot.module_classes.empty()) {
+      return Unexpected(
+          Failure{slot.line, "<Slot> names no module (no <ModuleIdent>, no <ModuleClass>)"});
+    }
+    slots.slots.push_back(std::move(slot));
+  }
+  return slots;
+}
+
+Result<EsiModule> read_module(const Walker& w, const pugi::xml_node& node) {
+  EsiModule module;
+  module.line = w.line(node);
+  const pugi::xml_node type = node.child("Type");
+  if (!type) return Unexpected(Failure{module.line, "<Module> has no <Type>"});
+  auto ident = w.attribute_number(type, "ModuleIdent", 0xFFFFFFFF);
+  if (!ident) return Unexpected(ident.error());
+  if (!*ident) return Unexpected(Failure{w.line(type), "<Type> has no ModuleIdent (required)"});
+  module.ident = static_cast<std::uint32_t>(**ident);
+  module.module_class = trim(type.attribute("ModuleClass").value());
+  module.type = trim(type.text().get());
+  module.name = trim(node.child("Name").text().get());
+  for (const auto& [element, list] :
+       {std::pair{"RxPdo", &module.rx_pdos}, std::pair{"TxPdo", &module.tx_pdos}}) {
+    for (const pugi::xml_node& p : node.children(element)) {
+      auto pdo = read_pdo(w, p);
+      if (!pdo) return Unexpected(pdo.error());
+      list->push_back(std::move(*pdo));
+    }
+  }
+  module.dc_op_mode_name = trim(node.child("DcOpModeName").text().get());
+  return module;
+}
+
 Result<EsiDevice> read_device(const Walker& w, const pugi::xml_node& node) {
   EsiDevice device;
   device.line = w.line(node);
@@ -504,6 +599,11 @@ Result<EsiDevice> read_device(const Walker& w, const pugi::xml_node& node) {
     if (!modes) return Unexpected(modes.error());
     device.dc_op_modes = std::move(*modes);
   }
+  if (const pugi::xml_node slots = node.child("Slots")) {
+    auto read = read_slots(w, slots);
+    if (!read) return Unexpected(read.error());
+    device.slots = std::move(*read);
+  }
   const pugi::xml_node profile = node.child("Profile");
   if (const pugi::xml_node file = profile.child("DictionaryFile")) {
     return Unexpected(Failure{w.line(file),
@@ -556,6 +656,13 @@ const EsiSubItem* EsiDevice::find(std::uint16_t index, std::uint8_t sub) const {
   return nullptr;
 }
 
+const EsiModule* EsiFile::find_module(std::uint32_t ident) const {
+  for (const EsiModule& m : modules) {
+    if (m.ident == ident) return &m;
+  }
+  return nullptr;
+}
+
 std::vector<const EsiPdo*> EsiDevice::default_rx_assignment() const {
   std::vector<const EsiPdo*> out;
   for (const EsiPdo& p : rx_pdos) {
@@ -601,6 +708,17 @@ Expected<EsiFile, TextError> read_esi(std::string_view text, const std::string& 
     auto device = read_device(w, node);
     if (!device) return Unexpected(TextError{file, device.error().line, device.error().message});
     esi.devices.push_back(std::move(*device));
+  }
+  for (const pugi::xml_node& node :
+       root.child("Descriptions").child("Modules").children("Module")) {
+    auto module = read_module(w, node);
+    if (!module) return Unexpected(TextError{file, module.error().line, module.error().message});
+    if (esi.find_module(module->ident) != nullptr) {
+      return Unexpected(TextError{
+          file, module->line,
+          fmt::format("<Module> with ModuleIdent {:08X}h is there twice", module->ident)});
+    }
+    esi.modules.push_back(std::move(*module));
   }
   if (esi.devices.empty()) {
     return Unexpected(TextError{file, w.line(root),

@@ -24,6 +24,11 @@
 //     Dc/OpMode (Name, Desc, AssignActivate,     the distributed-clock operation modes a
 //       CycleTimeSync0/1 @Factor,                 configuration tool offers (shown by
 //       ShiftTimeSync0/1 @Factor @Input)          `drivecheck esi show`; no check reads them)
+//     Slots (@MaxSlotCount @SlotPdoIncrement     a modular device's slots: which modules
+//       @SlotIndexIncrement), Slot (@MinInstances (ModuleIdent, @Default; or ModuleClass)
+//       @MaxInstances @SlotGroup, Name)           each slot takes
+//   EtherCATInfo/Descriptions/Modules/Module     the modules: Type@ModuleIdent @ModuleClass,
+//                                                 Name, RxPdo/TxPdo, DcOpModeName
 //
 // Numbers are ETG.2000 HexDecValue: "#x1A00" hexadecimal, else decimal (the DC times are
 // xs:int: signed decimal, ns). DefaultData is hexBinary, the value's octets in transfer order
@@ -34,8 +39,8 @@
 // TxPDO (1A00h+, inputs); what distinguishes the lower case is not public to us, so both cases
 // are read alike. An entry of a structured object takes its SubItem's PdoMapping, else the
 // Object's. Any other value is an error.
-// Not read: Profile/DictionaryFile (an external dictionary: a clear error names it), modules
-// (Slots/Modules), EEPROM, InfoReference, Dc/OpMode/Sm. Bad input gives a TextError
+// Not read: Profile/DictionaryFile (an external dictionary: a clear error names it), EEPROM,
+// InfoReference, Dc/OpMode/Sm, a Module's Profile and Mailbox. Bad input gives a TextError
 // naming file:line (the XML parser's offset turned into a line); a well-formed file with a
 // missing or malformed field names the line of the element.
 #pragma once
@@ -137,6 +142,39 @@ struct EsiDcOpMode {
   int line = 0;
 };
 
+// Slots/Slot: a place for one or more modules of a modular device.
+struct EsiSlot {
+  std::string name;
+  std::uint32_t min_instances = 0;
+  std::uint32_t max_instances = 0;
+  std::optional<std::uint32_t> slot_group;
+  std::vector<std::uint32_t> module_idents;      // ModuleIdent elements, in order
+  std::optional<std::uint32_t> default_ident;    // the ModuleIdent with @Default true/1
+  std::vector<std::string> module_classes;       // ModuleClass/Class (the other form)
+  std::optional<std::uint32_t> pdo_increment;    // @SlotPdoIncrement
+  std::optional<std::uint32_t> index_increment;  // @SlotIndexIncrement
+  int line = 0;
+};
+struct EsiSlots {
+  std::optional<std::uint32_t> max_slot_count;
+  std::optional<std::uint32_t> pdo_increment;    // Slots@SlotPdoIncrement
+  std::optional<std::uint32_t> index_increment;  // Slots@SlotIndexIncrement
+  std::vector<EsiSlot> slots;
+  int line = 0;
+};
+
+// Descriptions/Modules/Module.
+struct EsiModule {
+  std::uint32_t ident = 0;   // Type@ModuleIdent
+  std::string module_class;  // Type@ModuleClass
+  std::string type;          // Type's text
+  std::string name;
+  std::vector<EsiPdo> rx_pdos;
+  std::vector<EsiPdo> tx_pdos;
+  std::string dc_op_mode_name;  // DcOpModeName: the Dc/OpMode the module needs
+  int line = 0;
+};
+
 struct EsiCoe {
   bool sdo_info = false;
   bool pdo_assign = false;
@@ -155,6 +193,7 @@ struct EsiDevice {
   std::vector<EsiPdo> tx_pdos;
   std::vector<EsiObject> objects;        // in file order
   std::vector<EsiDcOpMode> dc_op_modes;  // Dc/OpMode, in order
+  std::optional<EsiSlots> slots;         // Slots (a modular device)
   int line = 0;
 
   const EsiObject* find(std::uint16_t index) const;
@@ -169,6 +208,9 @@ struct EsiFile {
   std::uint32_t vendor_id = 0;
   std::string vendor_name;
   std::vector<EsiDevice> devices;
+  std::vector<EsiModule> modules;  // Descriptions/Modules/Module
+
+  const EsiModule* find_module(std::uint32_t ident) const;
 };
 
 // `file` names the input in errors.

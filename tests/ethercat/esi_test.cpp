@@ -335,5 +335,65 @@ TEST(EsiReader, RefusesBadDcOpModesWithTheirLine) {
             std::string::npos);
 }
 
+TEST(EsiReader, ReadsSlotsAndModules) {
+  // Given a device with two slots and a file with one module
+  const auto esi = read_esi(kModular, "modular.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  // When read; Then the slots with their instances, modules (the default marked) or classes
+  const auto& slots = esi->devices[0].slots;
+  ASSERT_TRUE(slots);
+  EXPECT_EQ(slots->max_slot_count, 2u);
+  EXPECT_EQ(slots->pdo_increment, 0x10u);
+  ASSERT_EQ(slots->slots.size(), 2u);
+  EXPECT_EQ(slots->slots[0].name, "Axis");
+  EXPECT_EQ(slots->slots[0].min_instances, 1u);
+  EXPECT_EQ(slots->slots[0].module_idents, (std::vector<std::uint32_t>{0x100, 0x101}));
+  EXPECT_EQ(slots->slots[0].default_ident, 0x100u);
+  EXPECT_EQ(slots->slots[0].line, 33);
+  EXPECT_EQ(slots->slots[1].slot_group, 2u);
+  EXPECT_EQ(slots->slots[1].module_classes, (std::vector<std::string>{"IO"}));
+  // And the module with its ident, class, PDOs and DC operation mode
+  ASSERT_EQ(esi->modules.size(), 1u);
+  const auto* module = esi->find_module(0x100);
+  ASSERT_NE(module, nullptr);
+  EXPECT_EQ(module->name, "Axis module");
+  EXPECT_EQ(module->module_class, "Axis");
+  EXPECT_EQ(module->line, 39);
+  ASSERT_EQ(module->tx_pdos.size(), 1u);
+  EXPECT_EQ(module->tx_pdos[0].entries.at(0).index, 0x6041);
+  EXPECT_EQ(module->dc_op_mode_name, "DC");
+  EXPECT_EQ(esi->find_module(0x101), nullptr);
+}
+
+TEST(EsiReader, RefusesBadSlotsAndModulesWithTheirLine) {
+  // Given a slot without MaxInstances, a slot naming no module, a module without ModuleIdent, a
+  // module twice and a bad ModuleIdent
+  EXPECT_NE(modular_error_of("MinInstances=\"1\" MaxInstances=\"1\"", "MinInstances=\"1\"")
+                .find("bad.xml:33: <Slot> has no MaxInstances (required)"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<ModuleClass><Class>IO</Class></ModuleClass>", "")
+                .find("bad.xml:34: <Slot> names no module"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<Type ModuleIdent=\"#x100\" ", "<Type ")
+                .find("bad.xml:39: <Type> has no ModuleIdent (required)"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<ModuleIdent Default=\"1\">#x100</ModuleIdent>",
+                             "<ModuleIdent>#xG</ModuleIdent>")
+                .find("bad.xml:33: <ModuleIdent> '#xG' is not a number"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<DcOpModeName>DC</DcOpModeName>\n      </Module>",
+                             "</Module><Module><Type ModuleIdent=\"256\">X</Type><Name>Y</Name>"
+                             "</Module>")
+                .find("bad.xml:41: <Module> with ModuleIdent 00000100h is there twice"),
+            std::string::npos)
+      << modular_error_of("<DcOpModeName>DC</DcOpModeName>\n      </Module>",
+                          "</Module><Module><Type ModuleIdent=\"256\">X</Type><Name>Y</Name>"
+                          "</Module>");
+  EXPECT_NE(modular_error_of("MinInstances=\"0\" MaxInstances=\"1\"",
+                             "MinInstances=\"2\" MaxInstances=\"1\"")
+                .find("bad.xml:34: <Slot> MinInstances 2 exceeds MaxInstances 1"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace drivecheck::ethercat
