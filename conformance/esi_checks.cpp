@@ -96,7 +96,9 @@ void add_entry_checks(const EsiFile& esi, const EsiObject& object, const EsiSubI
                       cited("CiA 301 §7.4.5 (access: ro and rw entries are read by SDO)")};
     vector.steps.push_back(Step{read, {}, 0, {}});
     vector.note =
-        "The ESI's Flags/Access says the entry can be read (ETG.2000: the access an SDO has); "
+        "The ESI's Flags/Access says the entry can be read (ETG.2000 .../Dictionary/Objects/"
+        "Object/Flags/Access, or DataType/SubItem/Flags/Access: the access an SDO has; the "
+        "ETG.2000 section is unconfirmed, its text not public to us); "
         "its BitSize the octets an upload carries.";
     out.push_back(std::move(vector));
   }
@@ -508,8 +510,15 @@ std::vector<VectorResult> esi_sii_results(const EsiFile& esi, const EsiDevice& d
                                      item.what, item.expected),
                          Level::must, Setup::none);
     vector.sources = {cited(esi_source(esi, item.line, item.what)),
-                      cited("ETG.2000 (the ESI of a slave is found by the vendor ID, product "
-                            "code and revision its SII holds)")};
+                      cited("ETG.2000 EtherCATInfo/Vendor/Id, Descriptions/Devices/Device/"
+                            "Type@ProductCode, @RevisionNo (section unconfirmed; the schema's "
+                            "Type@CheckProductCode, @CheckRevisionNo: how a configuration tool "
+                            "compares them with the slave's)")};
+    vector.note =
+        "A configuration tool finds a slave's ESI by the vendor ID, product code and revision "
+        "its SII holds (the ESI schema's Type@CheckProductCode/@CheckRevisionNo say how they "
+        "are compared); the ETG.2000 section that says so is unconfirmed (not public to us), so "
+        "the citation gives the element path.";
     VectorResult result = result_for(vector);
     const std::string expected = fmt::format("{:08X}h", item.expected);
     const std::string actual = fmt::format("{:08X}h", item.actual);
