@@ -30,6 +30,7 @@ void add_drive_command(CLI::App& app);
 void add_fuzz_command(CLI::App& app);
 void add_decode_command(CLI::App& app);
 void add_eds_command(CLI::App& app);
+void add_esi_command(CLI::App& app);
 void add_vectors_command(CLI::App& app);
 void add_report_command(CLI::App& app);
 // `profiles` and `deviations` (cli/list_commands.cpp).

@@ -49,6 +49,7 @@ int main(int argc, char** argv) {
   drivecheck::cli::add_fuzz_command(app);
   drivecheck::cli::add_decode_command(app);
   drivecheck::cli::add_eds_command(app);
+  drivecheck::cli::add_esi_command(app);
   drivecheck::cli::add_vectors_command(app);
   drivecheck::cli::add_report_command(app);
   drivecheck::cli::add_list_commands(app);

@@ -365,10 +365,13 @@ void run(const RunOptions& options) {
   // The ESI (--esi, EtherCAT only): read before the bus is touched; its device is chosen once
   // the master has read the slave's SII (below).
   std::optional<ethercat::EsiFile> esi;
+  std::string esi_sha256;
+  std::optional<conformance::EsiDeviceIdentity> esi_identity;
   if (!options.esi.empty()) {
     auto read = ethercat::read_esi_file(options.esi);
     if (!read) bad_input(fmt::format("drivecheck run: {}", read.error().to_string()));
     esi.emplace(std::move(*read));
+    esi_sha256 = conformance::sha256_file(options.esi).value_or("");
   }
 
   // The bus: the embedded drive on a simulated bus, or a real interface.
@@ -495,14 +498,20 @@ void run(const RunOptions& options) {
           "words 0Ah-0Bh); it describes {}",
           options.esi, sii.product_code, fmt::join(described, ", ")));
     }
+    esi_identity = conformance::EsiDeviceIdentity{
+        esi->vendor_id, device->product_code, device->revision_number, device->name, device->line};
     fmt::print(
-        "drivecheck run: ESI {}: device '{}' ({}:{}), {} object(s), {} RxPDO(s), {} "
-        "TxPDO(s)\n",
-        options.esi, device->name, options.esi, device->line, device->objects.size(),
+        "drivecheck run: ESI {} (sha256 {}): device '{}' ({}:{}): vendor ID {:08X}h, product "
+        "code {:08X}h, revision {:08X}h; {} object(s), {} RxPDO(s), {} TxPDO(s)\n",
+        options.esi, esi_sha256, device->name, options.esi, device->line, esi->vendor_id,
+        device->product_code, device->revision_number, device->objects.size(),
         device->rx_pdos.size(), device->tx_pdos.size());
     for (auto& vector : conformance::generate_esi_vectors(*esi, *device))
       vectors.vectors.push_back(std::move(vector));
     esi_results = conformance::esi_sii_results(*esi, *device, sii, *profile, options.strict);
+    for (auto& result :
+         conformance::esi_pdo_mapping_results(*esi, *device, *profile, options.strict))
+      esi_results.push_back(std::move(result));
     std::erase_if(esi_results, result_deselected);
   }
   // The selection first, then its order: a shuffle depends on the seed and the selection only.
@@ -606,6 +615,9 @@ void run(const RunOptions& options) {
   info.eds_file = options.eds;
   info.eds_sha256 = eds_sha256;
   info.eds_findings = std::move(eds_findings);
+  info.esi_file = options.esi;
+  info.esi_sha256 = esi_sha256;
+  info.esi_device = esi_identity;
   info.seed = options.seed;
   info.order = conformance::to_string(*order);
   std::string selection_text = fmt::format("{}", fmt::join(options.filters, " "));

@@ -96,7 +96,9 @@ void add_entry_checks(const EsiFile& esi, const EsiObject& object, const EsiSubI
                       cited("CiA 301 §7.4.5 (access: ro and rw entries are read by SDO)")};
     vector.steps.push_back(Step{read, {}, 0, {}});
     vector.note =
-        "The ESI's Flags/Access says the entry can be read (ETG.2000: the access an SDO has); "
+        "The ESI's Flags/Access says the entry can be read (ETG.2000 .../Dictionary/Objects/"
+        "Object/Flags/Access, or DataType/SubItem/Flags/Access: the access an SDO has; the "
+        "ETG.2000 section is unconfirmed, its text not public to us); "
         "its BitSize the octets an upload carries.";
     out.push_back(std::move(vector));
   }
@@ -290,7 +292,178 @@ void add_assignment_check(const EsiFile& esi, const EsiDevice& device, bool rx,
   out.push_back(std::move(vector));
 }
 
+// ---- PdoMapping (Flags/PdoMapping, ETG.2000 EtherCATBase.xsd) -------------------------------
+
+// Whether the ESI's Dictionary flags any entry with PdoMapping: without one it says nothing
+// about mappability (the element is optional), and the checks are not applicable.
+bool gives_pdo_mapping(const EsiDevice& device) {
+  for (const EsiObject& object : device.objects) {
+    for (const EsiSubItem& entry : object.entries) {
+      if (entry.pdo_mapping) return true;
+    }
+  }
+  return false;
+}
+
+const char* direction_text(bool rx) {
+  return rx ? "RxPDO-mappable (PdoMapping R)" : "TxPDO-mappable (PdoMapping T)";
+}
+
+// index << 8 | sub of every entry the ESI lets a PDO of that direction map, sorted.
+std::vector<std::uint32_t> mappable_entries(const EsiDevice& device, bool rx) {
+  std::vector<std::uint32_t> out;
+  for (const EsiObject& object : device.objects) {
+    for (const EsiSubItem& entry : object.entries) {
+      if (entry.pdo_mapping && (rx ? entry.pdo_mapping->rx : entry.pdo_mapping->tx))
+        out.push_back(std::uint32_t{object.index} << 8 | entry.sub_index);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+constexpr const char* kMappingNote =
+    "A warning, not a failure: the ESI's Flags/PdoMapping (R, T, RT, TR; ETG.2000 "
+    "EtherCATBase.xsd) says in which direction an entry may be mapped, and a PDO that maps an "
+    "entry its own ESI does not flag so contradicts it (CiA 301 lets only mappable objects be "
+    "mapped: abort 06040041h). Which side is wrong, and whether ETG.2000 binds the device's "
+    "mappings to the flags (or only a configuration tool's offer), its text would say; that "
+    "text is not public to us (the ETG.2000 section is unconfirmed), so the rule is not "
+    "confirmed and the check warns. Lower-case flags (r, t) are read as their upper case: the "
+    "schema allows them, their distinct meaning is not confirmed.";
+
+// The PDO mapping objects the ESI knows: its RxPdo/TxPdo and the Dictionary's objects in
+// 1600h-17FFh / 1A00h-1BFFh, with the number of mapping entries the ESI gives each.
+std::vector<std::pair<std::uint16_t, std::size_t>> mapping_objects(const EsiDevice& device,
+                                                                   bool rx) {
+  const std::uint16_t first = rx ? 0x1600 : 0x1A00;
+  const std::uint16_t last = rx ? 0x17FF : 0x1BFF;
+  std::vector<std::pair<std::uint16_t, std::size_t>> out;
+  const auto add = [&](std::uint16_t index, std::size_t entries) {
+    for (auto& [i, n] : out) {
+      if (i == index) {
+        n = std::max(n, entries);
+        return;
+      }
+    }
+    out.emplace_back(index, entries);
+  };
+  for (const EsiPdo& pdo : rx ? device.rx_pdos : device.tx_pdos)
+    add(pdo.index, pdo.entries.size());
+  for (const EsiObject& object : device.objects) {
+    if (object.index < first || object.index > last) continue;
+    std::size_t highest = 0;
+    for (const EsiSubItem& entry : object.entries)
+      highest = std::max<std::size_t>(highest, entry.sub_index);
+    add(object.index, highest);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// esi/pdo/<idx>/mappable: the mapping the device holds after a reset, read live, against the
+// ESI's flags.
+void add_live_mappable_checks(const EsiFile& esi, const EsiDevice& device, bool rx,
+                              std::vector<Vector>& out) {
+  const auto mappable = mappable_entries(device, rx);
+  for (const auto& [index, entries] : mapping_objects(device, rx)) {
+    if (entries == 0) continue;
+    auto vector = base(fmt::format("esi/pdo/{:04x}/mappable", index),
+                       fmt::format("{}PDO mapping {:04X}h SHOULD map only entries its ESI flags {}",
+                                   rx ? "Rx" : "Tx", index, direction_text(rx)),
+                       Level::should, Setup::reset_node);
+    const EsiObject* object = device.find(index);
+    vector.sources = {
+        cited(esi_source(esi, object != nullptr ? object->line : device.line,
+                         fmt::format("Flags/PdoMapping of the Dictionary; {:04X}h", index))),
+        cited("CiA 301 §7.5.2.36, §7.5.2.38 (mapping entry: index << 16 | sub-index << 8 | "
+              "length); CiA 301 §7.2.4.3.17 (06040041h: object cannot be mapped)")};
+    SdoReadStep count{index, 0, Transfer::automatic, {}, false, "count"};
+    count.expect.kind = SdoExpect::Kind::range;
+    count.expect.low.literal = 0;
+    count.expect.high.literal = static_cast<std::int64_t>(entries);
+    vector.steps.push_back(
+        Step{count, "the entries in use (the ESI describes up to this many)", 0, {}});
+    for (std::size_t sub = 1; sub <= entries; ++sub) {
+      SdoReadStep entry{index, static_cast<std::uint8_t>(sub), Transfer::automatic, {}, false, {}};
+      entry.expect.mapping_entry = SdoExpect::MappingEntry{"count", mappable, direction_text(rx)};
+      vector.steps.push_back(Step{entry, {}, 0, {}});
+    }
+    vector.note = kMappingNote;
+    out.push_back(std::move(vector));
+  }
+}
+
 }  // namespace
+
+std::vector<VectorResult> esi_pdo_mapping_results(const EsiFile& esi, const EsiDevice& device,
+                                                  const profile::DriveProfile& profile,
+                                                  bool strict) {
+  std::vector<VectorResult> results;
+  const bool flags = gives_pdo_mapping(device);
+  for (const bool rx : {true, false}) {
+    for (const EsiPdo& pdo : rx ? device.rx_pdos : device.tx_pdos) {
+      Vector vector = base(fmt::format("esi/pdo/{:04x}/entries-mappable", pdo.index),
+                           fmt::format("The ESI's {} {:04X}h SHOULD list only entries it flags {}",
+                                       rx ? "RxPdo" : "TxPdo", pdo.index, direction_text(rx)),
+                           Level::should, Setup::none);
+      vector.sources = {
+          cited(
+              esi_source(esi, pdo.line,
+                         fmt::format("{} {:04X}h Entry list", rx ? "RxPdo" : "TxPdo", pdo.index))),
+          cited("ETG.2000 EtherCATInfo/Descriptions/Devices/Device/Profile/Dictionary/Objects/"
+                "Object/Flags/PdoMapping (section unconfirmed)")};
+      vector.note = std::string(kMappingNote) +
+                    " Judged from the file alone: an ESI that contradicts itself is an ESI "
+                    "defect.";
+      VectorResult result = result_for(vector);
+      if (!flags) {
+        result.verdict = Verdict::not_applicable;
+        result.message =
+            "the ESI's Dictionary gives no Flags/PdoMapping: it says nothing about which "
+            "entries may be mapped";
+        results.push_back(std::move(result));
+        continue;
+      }
+      std::vector<std::string> wrong;
+      std::size_t step = 0;
+      for (const auto& entry : pdo.entries) {
+        ++step;
+        const std::string what = fmt::format("{} {:04X}h entry {} ({}:{})", rx ? "RxPdo" : "TxPdo",
+                                             pdo.index, step, esi.file, entry.line);
+        const std::string expected = fmt::format("{:04X}h sub {} {}, or a gap", entry.index,
+                                                 entry.sub_index, direction_text(rx));
+        std::string actual;
+        bool ok = true;
+        if (entry.index == 0) {
+          actual = "a gap";
+        } else if (const EsiSubItem* item = device.find(entry.index, entry.sub_index)) {
+          ok = item->pdo_mapping && (rx ? item->pdo_mapping->rx : item->pdo_mapping->tx);
+          actual = item->pdo_mapping ? fmt::format("PdoMapping {} ({}:{})", item->pdo_mapping->text,
+                                                   esi.file, item->pdo_mapping->line)
+                                     : fmt::format("no PdoMapping ({}:{})", esi.file, item->line);
+        } else {
+          ok = false;
+          actual = "not in the ESI's Dictionary";
+        }
+        result.checks.push_back(Check{step, "esi", what + ": " + expected, actual, ok, {}, {}});
+        if (!ok)
+          wrong.push_back(fmt::format("{:04X}h sub {} ({})", entry.index, entry.sub_index, actual));
+      }
+      if (wrong.empty()) {
+        decide_verdict(result, vector, profile, Outcome::pass, {}, strict);
+      } else {
+        decide_verdict(result, vector, profile, Outcome::fail,
+                       fmt::format("ESI {}:{}: {} {:04X}h: Expected every entry {}; Actual {}",
+                                   esi.file, pdo.line, rx ? "RxPdo" : "TxPdo", pdo.index,
+                                   direction_text(rx), fmt::join(wrong, ", ")),
+                       strict);
+      }
+      results.push_back(std::move(result));
+    }
+  }
+  return results;
+}
 
 std::vector<Vector> generate_esi_vectors(const EsiFile& esi, const EsiDevice& device) {
   std::vector<Vector> out;
@@ -305,6 +478,10 @@ std::vector<Vector> generate_esi_vectors(const EsiFile& esi, const EsiDevice& de
     add_mapping_check(esi, device, pdo, true, out);
   for (const EsiPdo& pdo : device.tx_pdos)
     add_mapping_check(esi, device, pdo, false, out);
+  if (gives_pdo_mapping(device)) {
+    add_live_mappable_checks(esi, device, true, out);
+    add_live_mappable_checks(esi, device, false, out);
+  }
   return out;
 }
 
@@ -333,8 +510,15 @@ std::vector<VectorResult> esi_sii_results(const EsiFile& esi, const EsiDevice& d
                                      item.what, item.expected),
                          Level::must, Setup::none);
     vector.sources = {cited(esi_source(esi, item.line, item.what)),
-                      cited("ETG.2000 (the ESI of a slave is found by the vendor ID, product "
-                            "code and revision its SII holds)")};
+                      cited("ETG.2000 EtherCATInfo/Vendor/Id, Descriptions/Devices/Device/"
+                            "Type@ProductCode, @RevisionNo (section unconfirmed; the schema's "
+                            "Type@CheckProductCode, @CheckRevisionNo: how a configuration tool "
+                            "compares them with the slave's)")};
+    vector.note =
+        "A configuration tool finds a slave's ESI by the vendor ID, product code and revision "
+        "its SII holds (the ESI schema's Type@CheckProductCode/@CheckRevisionNo say how they "
+        "are compared); the ETG.2000 section that says so is unconfirmed (not public to us), so "
+        "the citation gives the element path.";
     VectorResult result = result_for(vector);
     const std::string expected = fmt::format("{:08X}h", item.expected);
     const std::string actual = fmt::format("{:08X}h", item.actual);

@@ -38,6 +38,19 @@
 //   <idx>/mapping                  each RxPdo/TxPdo: <idx>:00 and its entries against the ESI's
 //                                  Entry list: MUST where the PDO is Fixed or the CoE has no
 //                                  PdoConfig (the mapping cannot be written), else SHOULD
+// PdoMapping (Flags/PdoMapping of the Dictionary: R, T, RT, TR; lower case read alike), only
+// where the ESI flags some entry (otherwise it says nothing about mappability: not applicable):
+//   <idx>/mappable          each PDO mapping object the ESI knows (RxPdo/TxPdo, and its
+//                           Dictionary's 1600h-17FFh/1A00h-1BFFh), read after a reset: sub 0 at
+//                           most the entries the ESI describes, and each entry in use an
+//                           object the ESI flags for that direction (R for 1600h+, T for
+//                           1A00h+), or a gap
+//   <idx>/entries-mappable  the ESI's own RxPdo/TxPdo Entry lists against its own flags,
+//                           judged from the file (an ESI that contradicts itself is an ESI
+//                           defect): results, not vectors
+//   Both SHOULD (a warning): CiA 301 lets only mappable objects be mapped, but whether ETG.2000
+//   binds a device's mappings to its ESI's flags is in ETG.2000's text, which is not public to
+//   us (the vector's note says so); `--strict` makes them fail.
 // 1003h sub 1..FEh (present only while errors are recorded) get no read; 1010h/1011h sub 1+
 // (a read is the capability) and the 1003h history get no default check.
 #pragma once
@@ -62,5 +75,12 @@ std::vector<VectorResult> esi_sii_results(const ethercat::EsiFile& esi,
                                           const ethercat::EsiDevice& device,
                                           const ethercat::SiiHeader& sii,
                                           const profile::DriveProfile& profile, bool strict);
+
+// The esi/pdo/<idx>/entries-mappable results: the ESI's RxPdo/TxPdo Entry lists against its
+// own Flags/PdoMapping (no bus).
+std::vector<VectorResult> esi_pdo_mapping_results(const ethercat::EsiFile& esi,
+                                                  const ethercat::EsiDevice& device,
+                                                  const profile::DriveProfile& profile,
+                                                  bool strict);
 
 }  // namespace drivecheck::conformance

@@ -35,7 +35,7 @@ Expected<VectorSetDigest, std::string> vector_set_digest(
 
 // The editions of the standards whose clauses the vectors cite ("CiA 301 §7.2.4.3.17",
 // "CiA 402-2 §6060h modes of operation"): one table, shown once in every report.
-inline constexpr std::array<std::array<std::string_view, 3>, 2> kCitedStandards{{
+inline constexpr std::array<std::array<std::string_view, 3>, 3> kCitedStandards{{
     // CiA 301 v4.2.0: the edition the clause numbers were taken from; the SDO abort-code table
     // (protocol/cia301/sdo_abort_codes.inc: §7.2.4.3.17 Table 22) was checked against it.
     {"CiA 301", "CANopen application layer and communication profile", "v4.2.0 (2011-02-21)"},
@@ -46,6 +46,13 @@ inline constexpr std::array<std::array<std::string_view, 3>, 2> kCitedStandards{
      "CANopen device profile for drives and motion control, part 2: operation modes and "
      "application data (IEC 61800-7-201 profile type 1)",
      "v4.1.0 (to be confirmed: citations name objects and sections, not clause numbers)"},
+    // ETG.2000 (the ESI format) is cited by element path, never by section: its text is not
+    // public to us. The paths and values are those of the ESI schema published with it
+    // (EtherCATInfo.xsd/EtherCATBase.xsd 1.9, which names ETG.2000 1.0.5; public copy in
+    // github.com/synapticon/siitool examples/).
+    {"ETG.2000", "EtherCAT Slave Information (ESI) Specification",
+     "cited by element path of its schema EtherCATInfo.xsd 1.9 (ETG.2000 1.0.5); no section "
+     "numbers: the text is not public to us"},
 }};
 
 // The documents for RunInfo::documents: the standards above, then each manual of

@@ -218,6 +218,16 @@ struct DutIdentity {
   std::optional<std::uint32_t> serial;
 };
 
+// The identity the ESI (ETG.2000 EtherCATInfo) gives the device a run was matched to:
+// Vendor/Id, Device/Type@ProductCode, @RevisionNo and Device/Name.
+struct EsiDeviceIdentity {
+  std::uint32_t vendor_id = 0;
+  std::uint32_t product_code = 0;
+  std::uint32_t revision = 0;
+  std::string name;
+  int line = 0;  // the <Device> element's line in the ESI (0: not known, e.g. read back)
+};
+
 // A document that vectors cite (vectors/manuals.yaml): a drive manual by its file name, or a
 // standard ("CiA 301", "CiA 402-2") whose clause numbers the citations use. A citation
 // "<key> §<section> ..." refers to the document whose key it starts with.
@@ -255,6 +265,11 @@ struct RunInfo {
   // The EDS's reader and lint findings (an EDS with errors is refused, so warnings), one line
   // each as `drivecheck eds lint` prints them: "file:line: warning: message [id]". Empty: none.
   std::vector<std::string> eds_findings;
+  // The ESI (`--esi`, EtherCAT): its file and sha256 ("" when none), as the EDS ones, and the
+  // ESI device the slave was matched to (by the SII's product code and revision), once.
+  std::string esi_file;
+  std::string esi_sha256;
+  std::optional<EsiDeviceIdentity> esi_device;
   std::string personality;              // embedded default: the personality the drive took
   std::vector<std::string> deviations;  // embedded default: deviations injected into the drive
   std::uint64_t seed = 0;

@@ -192,8 +192,40 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     return StepStatus::ok;
   }
   if (const auto* read = std::get_if<SdoReadStep>(&action)) {
-    const auto outcome = sdo_upload({read->index, read->sub}, read->transfer, read->block_size);
     const auto what = fmt::format("read {:04X}h sub {}", read->index, read->sub);
+    if (const auto& entry = read->expect.mapping_entry) {
+      std::string error;
+      const auto count = value_of(ValueSpec{0, entry->count, 0}, error);
+      if (!count) return harness_error(name, error);
+      if (read->sub > *count) {
+        check(name, fmt::format("{}: a mapping entry if in use (entries 1..{})", what, *count),
+              "not in use: not read", true);
+        return StepStatus::ok;
+      }
+      const auto outcome = sdo_upload({read->index, read->sub}, read->transfer, read->block_size);
+      const auto expected = fmt::format("{}: an entry {}, or a gap", what, entry->direction);
+      if (!outcome.ok || outcome.data.empty() || outcome.data.size() > 4)
+        return fail(name, expected, outcome.describe(), outcome.observed());
+      const auto raw = static_cast<std::uint32_t>(cia301::load_unsigned(outcome.data));
+      const auto index = static_cast<std::uint16_t>(raw >> 16);
+      const auto sub = static_cast<std::uint8_t>(raw >> 8);
+      const bool gap = index <= 0x0007;
+      const bool mappable = std::binary_search(entry->mappable.begin(), entry->mappable.end(),
+                                               std::uint32_t{index} << 8 | sub);
+      const auto actual =
+          fmt::format("{:08X}h: {}", raw,
+                      gap ? std::string("a gap")
+                          : fmt::format("{:04X}h sub {} ({} bits){}", index, sub, raw & 0xFFu,
+                                        mappable ? "" : ", which the ESI does not flag so"));
+      if (!gap && !mappable) {
+        Observation observed;
+        observed.value = raw;
+        return fail(name, expected, actual, observed);
+      }
+      check(name, expected, actual, true);
+      return StepStatus::ok;
+    }
+    const auto outcome = sdo_upload({read->index, read->sub}, read->transfer, read->block_size);
     const auto& expect = read->expect;
     if (expect.kind == SdoExpect::Kind::abort) {
       const auto expected = fmt::format("{}: {}", what, expect.abort.describe());

@@ -124,6 +124,19 @@ struct SdoExpect {
   // Kind::value, an abort in this set also meets the expectation, where CiA lets the device
   // refuse (an optional sub-index such as FFh absent, a parameter not writable while valid).
   std::optional<AbortExpect> or_abort;
+  // Generated checks only (esi_checks.hpp; no YAML form): the read is entry `sub` of a PDO
+  // mapping object (1600h+/1A00h+), judged against the objects the ESI lets that direction
+  // map. Past the mapping's count (sub 0, saved as `count` by an earlier step) the entry is not
+  // in use: not read, it passes. In use, its value (index << 16 | sub-index << 8 | bits) MUST
+  // name an entry in `mappable` (index << 8 | sub-index, sorted), or be a gap (index 0, or a
+  // CiA 301 dummy entry 0001h-0007h).
+  struct MappingEntry {
+    std::string count;
+    std::vector<std::uint32_t> mappable;
+    std::string direction;  // for the messages: "RxPDO-mappable (PdoMapping R)"
+    friend bool operator==(const MappingEntry&, const MappingEntry&) = default;
+  };
+  std::optional<MappingEntry> mapping_entry;
   friend bool operator==(const SdoExpect&, const SdoExpect&) = default;
 };
 

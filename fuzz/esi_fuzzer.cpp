@@ -7,7 +7,10 @@
 //     once, every structured object's entries have sub-indices in file order of its DataType,
 //     and every entry's DefaultData (where given) is at most 8 octets longer than its BitSize
 //     says (a reader that mixes up defaults and entries shows here); the default assignment is
-//     the PDOs with an Sm; find_esi_device finds each device by its own identity.
+//     the PDOs with an Sm; find_esi_device finds each device by its own identity;
+//   - every Flags/PdoMapping read gives a direction (R and/or T) and is one of the schema's
+//     values, with a line in the input; every Slot has MinInstances <= MaxInstances and names
+//     a module or a class; every Module's ModuleIdent is there once and find_module finds it.
 #include <cstddef>
 #include <cstdint>
 #include <set>
@@ -58,6 +61,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       for (const ethercat::EsiSubItem& entry : object.entries) {
         DRIVECHECK_FUZZ_CHECK(entry.line >= 1 && static_cast<std::size_t>(entry.line) <= lines,
                               "an entry's line is outside the input");
+        if (const auto& mapping = entry.pdo_mapping) {
+          const std::set<std::string> values{"R", "T", "RT", "TR", "r", "t", "rt", "tr"};
+          DRIVECHECK_FUZZ_CHECK_DETAIL(
+              values.contains(mapping->text) && (mapping->rx || mapping->tx),
+              "a PdoMapping outside the schema's values, or no "
+              "direction",
+              mapping->text);
+          DRIVECHECK_FUZZ_CHECK(
+              mapping->line >= 1 && static_cast<std::size_t>(mapping->line) <= lines,
+              "a PdoMapping's line is outside the input");
+        }
       }
     }
     std::size_t with_sm = 0;
@@ -68,6 +82,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     DRIVECHECK_FUZZ_CHECK(
         ethercat::find_esi_device(*esi, device.product_code, device.revision_number) != nullptr,
         "a device is not found by its own identity");
+    if (const auto& slots = device.slots) {
+      for (const ethercat::EsiSlot& slot : slots->slots) {
+        DRIVECHECK_FUZZ_CHECK(slot.min_instances <= slot.max_instances,
+                              "a slot with more minimum than maximum instances");
+        DRIVECHECK_FUZZ_CHECK(!slot.module_idents.empty() || !slot.module_classes.empty(),
+                              "a slot that names no module");
+      }
+    }
+  }
+  std::set<std::uint32_t> idents;
+  for (const ethercat::EsiModule& module : esi->modules) {
+    DRIVECHECK_FUZZ_CHECK_DETAIL(idents.insert(module.ident).second, "a ModuleIdent is there twice",
+                                 std::to_string(module.ident));
+    DRIVECHECK_FUZZ_CHECK(esi->find_module(module.ident) == &module,
+                          "a module is not found by its own ModuleIdent");
   }
   return 0;
 }

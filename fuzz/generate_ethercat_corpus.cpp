@@ -231,7 +231,8 @@ Bytes bytes_of(std::string_view text) {
 
 // The esi target: the reference drive's ESI (reference_drive/ethercat/reference_drive.xml,
 // beside the fuzz dir), the same cut off in the middle, a minimal device with an ARRAY type,
-// and files the reader refuses (no root, a bad number); tokens of the elements it reads.
+// a modular device with PdoMapping flags, a Dc/OpMode, Slots and a Module, and files the reader
+// refuses (no root, a bad number); tokens of the elements it reads.
 void esi_target(const fs::path& dir) {
   const std::string reference =
       read_text(dir / ".." / "reference_drive" / "ethercat" / "reference_drive.xml");
@@ -257,6 +258,29 @@ void esi_target(const fs::path& dir) {
       "</BitLen></Entry></RxPdo>"
       "<Mailbox><CoE SdoInfo=\"true\" PdoAssign=\"1\"/></Mailbox>"
       "</Device></Devices></Descriptions></EtherCATInfo>";
+  // PdoMapping flags (an Object's, a SubItem's), Dc/OpMode, Slots and a Module.
+  const std::string modular =
+      "<EtherCATInfo><Vendor><Id>2</Id></Vendor><Descriptions><Devices><Device>"
+      "<Type ProductCode=\"#x7\" RevisionNo=\"1\">t</Type><Name>n</Name>"
+      "<Profile><Dictionary><DataTypes>"
+      "<DataType><Name>R</Name><SubItem><SubIdx>0</SubIdx><Name>c</Name><Type>USINT</Type>"
+      "<BitSize>8</BitSize><Flags><Access>ro</Access></Flags></SubItem>"
+      "<SubItem><SubIdx>1</SubIdx><Name>o</Name><Type>UINT</Type><BitSize>16</BitSize>"
+      "<Flags><Access>rw</Access><PdoMapping>R</PdoMapping></Flags></SubItem></DataType>"
+      "</DataTypes><Objects>"
+      "<Object><Index>#x6041</Index><Type>UINT</Type><BitSize>16</BitSize>"
+      "<Flags><Access>ro</Access><PdoMapping>T</PdoMapping></Flags></Object>"
+      "<Object><Index>#x7000</Index><Type>R</Type><Flags><PdoMapping>rt</PdoMapping></Flags>"
+      "</Object></Objects></Dictionary></Profile>"
+      "<Dc><OpMode><Name>DC</Name><AssignActivate>#x300</AssignActivate>"
+      "<CycleTimeSync0 Factor=\"1\">0</CycleTimeSync0><ShiftTimeSync0 Input=\"0\">-2000"
+      "</ShiftTimeSync0></OpMode></Dc>"
+      "<Slots MaxSlotCount=\"2\"><Slot MinInstances=\"0\" MaxInstances=\"1\"><Name>s</Name>"
+      "<ModuleIdent Default=\"1\">#x100</ModuleIdent></Slot></Slots>"
+      "</Device></Devices><Modules><Module><Type ModuleIdent=\"#x100\">m</Type><Name>m</Name>"
+      "<TxPdo><Index>#x1A00</Index><Entry><Index>#x6041</Index><SubIndex>0</SubIndex>"
+      "<BitLen>16</BitLen></Entry></TxPdo><DcOpModeName>DC</DcOpModeName></Module></Modules>"
+      "</Descriptions></EtherCATInfo>";
   std::string bad_number = minimal;
   bad_number.replace(bad_number.find("#x1C12"), 6, "#xZZ");
   const std::vector<std::pair<std::string, Bytes>> seeds = {
@@ -264,10 +288,12 @@ void esi_target(const fs::path& dir) {
       {"reference-drive-cut",
        bytes_of(std::string_view(reference).substr(0, reference.size() / 2))},
       {"minimal-array-device", bytes_of(minimal)},
+      {"modular-dc-pdo-mapping", bytes_of(modular)},
       {"bad-number", bytes_of(bad_number)},
       {"no-root", bytes_of("<?xml version=\"1.0\"?>\n<EDS/>\n")},
   };
   std::string dict = kDictHeader;
+  // clang-format off
   for (const char* element :
        {"EtherCATInfo",   "Vendor",      "Id",       "Descriptions", "Devices",
         "Device",         "Type",        "Name",     "Profile",      "Dictionary",
@@ -275,19 +301,30 @@ void esi_target(const fs::path& dir) {
         "ArrayInfo",      "LBound",      "Elements", "SubItem",      "SubIdx",
         "Flags",          "Access",      "Objects",  "Object",       "Index",
         "Info",           "DefaultData", "Sm",       "RxPdo",        "TxPdo",
-        "Entry",          "SubIndex",    "BitLen",   "Mailbox",      "CoE"}) {
+        "Entry",          "SubIndex",    "BitLen",   "Mailbox",      "CoE",
+        "PdoMapping",     "Dc",          "OpMode",   "Desc",         "AssignActivate",
+        "CycleTimeSync0", "ShiftTimeSync0", "CycleTimeSync1", "ShiftTimeSync1", "Slots",
+        "Slot",           "ModuleIdent", "ModuleClass", "Class",     "Modules",
+        "Module",         "DcOpModeName"}) {
+    // clang-format on
     dict += fmt::format("# esi.hpp: element {}\n", element);
     dict += token(fmt::format("open_{}", element), bytes_of(fmt::format("<{}>", element)));
     dict += token(fmt::format("close_{}", element), bytes_of(fmt::format("</{}>", element)));
   }
-  for (const char* attribute : {"ProductCode", "RevisionNo", "Fixed", "Mandatory", "StartAddress",
-                                "DefaultSize", "ControlByte", "Enable", "SdoInfo", "PdoAssign",
-                                "PdoConfig", "CompleteAccess", "WriteRestrictions"}) {
+  for (const char* attribute : {"ProductCode",       "RevisionNo",       "Fixed",
+                                "Mandatory",         "StartAddress",     "DefaultSize",
+                                "ControlByte",       "Enable",           "SdoInfo",
+                                "PdoAssign",         "PdoConfig",        "CompleteAccess",
+                                "WriteRestrictions", "Factor",           "Input",
+                                "MaxSlotCount",      "SlotPdoIncrement", "SlotIndexIncrement",
+                                "MinInstances",      "MaxInstances",     "SlotGroup",
+                                "Default",           "ModuleIdent",      "ModuleClass"}) {
     dict += fmt::format("# esi.hpp: attribute {}\n", attribute);
     dict += token(fmt::format("attr_{}", attribute), bytes_of(fmt::format(" {}=\"", attribute)));
   }
   dict += "# esi.hpp: HexDecValue, access\n" + token("hex", bytes_of("#x")) +
-          token("ro", bytes_of("ro")) + token("rw", bytes_of("rw")) + token("wo", bytes_of("wo"));
+          token("ro", bytes_of("ro")) + token("rw", bytes_of("rw")) + token("wo", bytes_of("wo")) +
+          token("RT", bytes_of("RT")) + token("TR", bytes_of("TR"));
   write_target(dir, "esi", seeds, dict);
 }
 

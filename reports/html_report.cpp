@@ -654,6 +654,13 @@ void render_run_info(std::string& out, const RunResult& result) {
       fmt::format_to(std::back_inserter(out), "<li>{}</li>", esc(line));
     out += "</ul></dd>";
   }
+  if (!info.esi_file.empty()) row("ESI", info.esi_file + "  sha256 " + info.esi_sha256);
+  if (const auto& device = info.esi_device) {
+    // The identity the ESI gives the device the slave was matched to (beside 1018h's above).
+    row("ESI device", fmt::format("{}: vendor ID {:08X}h, product code {:08X}h, revision {:08X}h",
+                                  device->name.empty() ? std::string("(no name)") : device->name,
+                                  device->vendor_id, device->product_code, device->revision));
+  }
   row("Date", info.started_utc);
   row("Bus", fmt::format("{}, node {}", info.bus, info.node));
   if (!info.personality.empty()) row("Reference drive personality", info.personality);

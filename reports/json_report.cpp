@@ -555,6 +555,27 @@ RunResult read_run(Reader& reader, const json& document) {
         }
       }
     }
+    if (run.contains("esi")) {  // optional: a run with --esi only
+      Scope inner(reader, "esi");
+      const json& esi = reader.object(run, "esi");
+      info.esi_file = reader.string(esi, "file");
+      info.esi_sha256 = reader.string(esi, "sha256");
+      if (esi.contains("device")) {
+        Scope device_scope(reader, "device");
+        const json& device = reader.object(esi, "device");
+        conformance::EsiDeviceIdentity identity;
+        const auto u32 = [&](const char* key) {
+          const auto value = reader.optional_u32(device, key);
+          if (!value) throw ReadError{reader.where(key) + ": missing"};
+          return *value;
+        };
+        identity.vendor_id = u32("vendor_id");
+        identity.product_code = u32("product_code");
+        identity.revision = u32("revision");
+        identity.name = reader.string(device, "name");
+        info.esi_device = std::move(identity);
+      }
+    }
     info.personality = reader.string(run, "personality");
     {
       Scope inner(reader, "deviations");
@@ -634,6 +655,15 @@ std::string render_json(const RunResult& result) {
   if (!info.capabilities.empty()) run["capabilities"] = info.capabilities;
   run["eds"] = {{"file", info.eds_file}, {"sha256", info.eds_sha256}};
   if (!info.eds_findings.empty()) run["eds"]["findings"] = info.eds_findings;
+  if (!info.esi_file.empty()) {  // --esi only (EtherCAT)
+    run["esi"] = {{"file", info.esi_file}, {"sha256", info.esi_sha256}};
+    if (const auto& device = info.esi_device) {
+      run["esi"]["device"] = {{"vendor_id", device->vendor_id},
+                              {"product_code", device->product_code},
+                              {"revision", device->revision},
+                              {"name", device->name}};
+    }
+  }
   run["personality"] = info.personality;
   run["deviations"] = info.deviations;
   run["seed"] = info.seed;

@@ -79,6 +79,14 @@ void add_run_properties(pugi::xml_node properties, const RunResult& result) {
   if (!info.eds_sha256.empty()) add_property(properties, "eds.sha256", info.eds_sha256);
   for (std::size_t i = 0; i < info.eds_findings.size(); ++i)
     add_property(properties, fmt::format("eds.finding.{}", i + 1), info.eds_findings[i]);
+  if (!info.esi_file.empty()) add_property(properties, "esi.file", info.esi_file);
+  if (!info.esi_sha256.empty()) add_property(properties, "esi.sha256", info.esi_sha256);
+  if (const auto& device = info.esi_device) {
+    add_property(properties, "esi.vendor_id", hex32(device->vendor_id));
+    add_property(properties, "esi.product_code", hex32(device->product_code));
+    add_property(properties, "esi.revision", hex32(device->revision));
+    add_property(properties, "esi.name", device->name);
+  }
   add_property(properties, "profile", info.profile_name);
   if (!info.profile_choice.empty()) add_property(properties, "profile.choice", info.profile_choice);
   for (std::size_t i = 0; i < info.capabilities.size(); ++i)

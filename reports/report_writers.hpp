@@ -38,8 +38,9 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& p
 //   { "schema_version": 4, "generator": "drivecheck <version>",
 //     "run": { tool_version, revision, vector_set: {sha256, files}, documents: [{key, title,
 //              edition}], started_utc, bus, node, profile: {name,title,file,commissioning?},
-//              eds: {file,sha256}, personality, deviations: [..], seed, order, strict,
-//              allow_motion, allow_factory_restore, filter, dut: {...} (absent = not
+//              eds: {file,sha256}, esi?: {file, sha256, device?: {vendor_id,
+//              product_code, revision, name}} (--esi only), personality, deviations: [..], seed,
+//              order, strict, allow_motion, allow_factory_restore, filter, dut: {...} (absent = not
 //              readable), interrupted, dut_lost, harness_notes, simulated_ns, simulated_s, wall_s
 //              },
 //     "counts": { pass, fail, warning, deviation, not-applicable, error, interrupted, total }

@@ -3,7 +3,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
+#include <climits>
+#include <cstdint>
 #include <fstream>
 #include <map>
 #include <pugixml.hpp>
@@ -130,6 +133,41 @@ class Walker {
     return out;
   }
 
+  // ETG.2000 Flags/PdoMapping (EtherCATBase.xsd enumeration: T R TR RT t r tr rt).
+  Result<std::optional<EsiPdoMapping>> pdo_mapping(const pugi::xml_node& flags) const {
+    const pugi::xml_node m = flags.child("PdoMapping");
+    if (!m) return std::optional<EsiPdoMapping>();
+    const std::string_view v = trim(m.text().get());
+    static constexpr std::array<std::string_view, 8> kValues = {"R", "T", "RT", "TR",
+                                                                "r", "t", "rt", "tr"};
+    if (std::find(kValues.begin(), kValues.end(), v) == kValues.end()) {
+      return Unexpected(Failure{
+          line(m), fmt::format("<PdoMapping> '{}' is none of R, T, RT, TR (or the same in lower "
+                               "case: ETG.2000 EtherCATBase.xsd)",
+                               std::string(v))});
+    }
+    EsiPdoMapping mapping;
+    mapping.text = v;
+    mapping.line = line(m);
+    mapping.rx = v.find_first_of("Rr") != std::string_view::npos;
+    mapping.tx = v.find_first_of("Tt") != std::string_view::npos;
+    return std::optional<EsiPdoMapping>(std::move(mapping));
+  }
+
+  // An xs:int (signed decimal) in element `node`'s text.
+  Result<std::int64_t> signed_number(const pugi::xml_node& node, std::string_view what) const {
+    const std::string_view t = trim(node.text().get());
+    std::int64_t value = 0;
+    const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), value, 10);
+    if (t.empty() || ec != std::errc() || end != t.data() + t.size() || value < INT32_MIN ||
+        value > INT32_MAX) {
+      return Unexpected(Failure{line(node), fmt::format("{} '{}' is not an xs:int (a signed "
+                                                        "decimal of 32 bits)",
+                                                        what, std::string(t))});
+    }
+    return value;
+  }
+
   Result<std::optional<EsiAccess>> access(const pugi::xml_node& flags, std::string& read_r,
                                           std::string& write_r) const {
     const pugi::xml_node a = flags.child("Access");
@@ -211,6 +249,9 @@ Result<void> expand_sub_item(const Walker& w, const std::map<std::string, DataTy
     auto a = w.access(flags, sub.read_restrictions, sub.write_restrictions);
     if (!a) return Unexpected(a.error());
     sub.access = *a;
+    auto mapping = w.pdo_mapping(flags);
+    if (!mapping) return Unexpected(mapping.error());
+    sub.pdo_mapping = std::move(*mapping);
   }
   if (item.child("SubIdx")) {
     auto idx = w.child_number(item, "SubIdx", 0xFF);
@@ -267,6 +308,12 @@ Result<EsiObject> read_object(const Walker& w, const std::map<std::string, DataT
     object.bit_size = static_cast<std::uint32_t>(*bits);
   }
   const pugi::xml_node info = node.child("Info");
+  std::optional<EsiPdoMapping> object_mapping;  // the Object's Flags/PdoMapping
+  if (const pugi::xml_node flags = node.child("Flags")) {
+    auto mapping = w.pdo_mapping(flags);
+    if (!mapping) return Unexpected(mapping.error());
+    object_mapping = std::move(*mapping);
+  }
   const auto type = types.find(object.type);
   if (type != types.end() && !type->second.sub_items.empty()) {
     object.structured = true;
@@ -274,6 +321,10 @@ Result<EsiObject> read_object(const Walker& w, const std::map<std::string, DataT
       if (auto r = expand_sub_item(w, types, item, object.entries); !r) {
         return Unexpected(r.error());
       }
+    }
+    // A sub-item without its own PdoMapping takes the Object's (where the Object gives one).
+    for (EsiSubItem& entry : object.entries) {
+      if (!entry.pdo_mapping) entry.pdo_mapping = object_mapping;
     }
     // Defaults: Info/SubItem by Name, else by position.
     std::size_t position = 0;
@@ -301,6 +352,7 @@ Result<EsiObject> read_object(const Walker& w, const std::map<std::string, DataT
   var.name = object.name;
   var.type = object.type;
   var.bit_size = object.bit_size;
+  var.pdo_mapping = std::move(object_mapping);
   if (const pugi::xml_node flags = node.child("Flags")) {
     auto a = w.access(flags, var.read_restrictions, var.write_restrictions);
     if (!a) return Unexpected(a.error());
@@ -343,6 +395,152 @@ Result<std::map<std::string, DataType>> read_data_types(const Walker& w,
     types.insert_or_assign(name, std::move(t));
   }
   return types;
+}
+
+Result<std::optional<EsiDcTime>> read_dc_time(const Walker& w, const pugi::xml_node& op_mode,
+                                              const char* name) {
+  const pugi::xml_node node = op_mode.child(name);
+  if (!node) return std::optional<EsiDcTime>();
+  EsiDcTime time;
+  auto value = w.signed_number(node, fmt::format("<{}>", name));
+  if (!value) return Unexpected(value.error());
+  time.value = *value;
+  if (const pugi::xml_attribute factor = node.attribute("Factor")) {
+    const std::string_view text = trim(factor.value());
+    std::int64_t f = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), f, 10);
+    if (text.empty() || ec != std::errc() || end != text.data() + text.size() || f < INT32_MIN ||
+        f > INT32_MAX) {
+      return Unexpected(Failure{
+          w.line(node), fmt::format("{}@Factor '{}' is not an xs:int", name, std::string(text))});
+    }
+    time.factor = f;
+  }
+  if (node.attribute("Input")) {
+    auto input = w.flag(node, "Input");
+    if (!input) return Unexpected(input.error());
+    time.input = *input;
+  }
+  return std::optional<EsiDcTime>(time);
+}
+
+Result<std::vector<EsiDcOpMode>> read_dc(const Walker& w, const pugi::xml_node& dc) {
+  std::vector<EsiDcOpMode> out;
+  for (const pugi::xml_node& node : dc.children("OpMode")) {
+    EsiDcOpMode mode;
+    mode.line = w.line(node);
+    if (!node.child("Name")) return Unexpected(Failure{mode.line, "<OpMode> has no <Name>"});
+    mode.name = trim(node.child("Name").text().get());
+    mode.desc = trim(node.child("Desc").text().get());
+    auto assign = w.child_number(node, "AssignActivate", 0xFFFF);
+    if (!assign) return Unexpected(assign.error());
+    mode.assign_activate = static_cast<std::uint16_t>(*assign);
+    for (auto [name, field] : {std::pair{"CycleTimeSync0", &mode.cycle_time_sync0},
+                               std::pair{"ShiftTimeSync0", &mode.shift_time_sync0},
+                               std::pair{"CycleTimeSync1", &mode.cycle_time_sync1},
+                               std::pair{"ShiftTimeSync1", &mode.shift_time_sync1}}) {
+      auto time = read_dc_time(w, node, name);
+      if (!time) return Unexpected(time.error());
+      *field = *time;
+    }
+    out.push_back(std::move(mode));
+  }
+  return out;
+}
+
+// An optional HexDecValue attribute of at most 32 bits.
+Result<std::optional<std::uint32_t>> attribute_u32(const Walker& w, const pugi::xml_node& node,
+                                                   const char* name) {
+  auto v = w.attribute_number(node, name, 0xFFFFFFFF);
+  if (!v) return Unexpected(v.error());
+  if (!*v) return std::optional<std::uint32_t>();
+  return std::optional<std::uint32_t>(static_cast<std::uint32_t>(**v));
+}
+
+Result<EsiSlots> read_slots(const Walker& w, const pugi::xml_node& node) {
+  EsiSlots slots;
+  slots.line = w.line(node);
+  for (auto [name, field] : {std::pair{"MaxSlotCount", &slots.max_slot_count},
+                             std::pair{"SlotPdoIncrement", &slots.pdo_increment},
+                             std::pair{"SlotIndexIncrement", &slots.index_increment}}) {
+    auto v = attribute_u32(w, node, name);
+    if (!v) return Unexpected(v.error());
+    *field = *v;
+  }
+  for (const pugi::xml_node& s : node.children("Slot")) {
+    EsiSlot slot;
+    slot.line = w.line(s);
+    slot.name = trim(s.child("Name").text().get());
+    for (auto [name, field] : {std::pair{"MinInstances", &slot.min_instances},
+                               std::pair{"MaxInstances", &slot.max_instances}}) {
+      auto v = attribute_u32(w, s, name);
+      if (!v) return Unexpected(v.error());
+      if (!*v) {
+        return Unexpected(Failure{slot.line, fmt::format("<Slot> has no {} (required)", name)});
+      }
+      *field = **v;
+    }
+    if (slot.min_instances > slot.max_instances) {
+      return Unexpected(Failure{slot.line, fmt::format("<Slot> MinInstances {} exceeds "
+                                                       "MaxInstances {}",
+                                                       slot.min_instances, slot.max_instances)});
+    }
+    for (auto [name, field] : {std::pair{"SlotGroup", &slot.slot_group},
+                               std::pair{"SlotPdoIncrement", &slot.pdo_increment},
+                               std::pair{"SlotIndexIncrement", &slot.index_increment}}) {
+      auto v = attribute_u32(w, s, name);
+      if (!v) return Unexpected(v.error());
+      *field = *v;
+    }
+    for (const pugi::xml_node& ident : s.children("ModuleIdent")) {
+      auto v = w.number(ident.text().get(), ident, "<ModuleIdent>", 0xFFFFFFFF);
+      if (!v) return Unexpected(v.error());
+      slot.module_idents.push_back(static_cast<std::uint32_t>(*v));
+      if (ident.attribute("Default")) {
+        // Default is a HexDecValue in the schema: non-zero marks the slot's default module.
+        auto d = w.attribute_number(ident, "Default", 0xFFFFFFFF);
+        if (!d) return Unexpected(d.error());
+        if (**d != 0) slot.default_ident = static_cast<std::uint32_t>(*v);
+      }
+    }
+    for (const pugi::xml_node& c : s.children("ModuleClass")) {
+      const std::string_view text = trim(c.child("Class").text().get());
+      if (text.empty()) {
+        return Unexpected(Failure{w.line(c), "<ModuleClass> has no <Class>"});
+      }
+      slot.module_classes.emplace_back(text);
+    }
+    if (slot.module_idents.empty() && slot.module_classes.empty()) {
+      return Unexpected(
+          Failure{slot.line, "<Slot> names no module (no <ModuleIdent>, no <ModuleClass>)"});
+    }
+    slots.slots.push_back(std::move(slot));
+  }
+  return slots;
+}
+
+Result<EsiModule> read_module(const Walker& w, const pugi::xml_node& node) {
+  EsiModule module;
+  module.line = w.line(node);
+  const pugi::xml_node type = node.child("Type");
+  if (!type) return Unexpected(Failure{module.line, "<Module> has no <Type>"});
+  auto ident = w.attribute_number(type, "ModuleIdent", 0xFFFFFFFF);
+  if (!ident) return Unexpected(ident.error());
+  if (!*ident) return Unexpected(Failure{w.line(type), "<Type> has no ModuleIdent (required)"});
+  module.ident = static_cast<std::uint32_t>(**ident);
+  module.module_class = trim(type.attribute("ModuleClass").value());
+  module.type = trim(type.text().get());
+  module.name = trim(node.child("Name").text().get());
+  for (const auto& [element, list] :
+       {std::pair{"RxPdo", &module.rx_pdos}, std::pair{"TxPdo", &module.tx_pdos}}) {
+    for (const pugi::xml_node& p : node.children(element)) {
+      auto pdo = read_pdo(w, p);
+      if (!pdo) return Unexpected(pdo.error());
+      list->push_back(std::move(*pdo));
+    }
+  }
+  module.dc_op_mode_name = trim(node.child("DcOpModeName").text().get());
+  return module;
 }
 
 Result<EsiDevice> read_device(const Walker& w, const pugi::xml_node& node) {
@@ -396,6 +594,16 @@ Result<EsiDevice> read_device(const Walker& w, const pugi::xml_node& node) {
       list->push_back(std::move(*pdo));
     }
   }
+  if (const pugi::xml_node dc = node.child("Dc")) {
+    auto modes = read_dc(w, dc);
+    if (!modes) return Unexpected(modes.error());
+    device.dc_op_modes = std::move(*modes);
+  }
+  if (const pugi::xml_node slots = node.child("Slots")) {
+    auto read = read_slots(w, slots);
+    if (!read) return Unexpected(read.error());
+    device.slots = std::move(*read);
+  }
   const pugi::xml_node profile = node.child("Profile");
   if (const pugi::xml_node file = profile.child("DictionaryFile")) {
     return Unexpected(Failure{w.line(file),
@@ -448,6 +656,13 @@ const EsiSubItem* EsiDevice::find(std::uint16_t index, std::uint8_t sub) const {
   return nullptr;
 }
 
+const EsiModule* EsiFile::find_module(std::uint32_t ident) const {
+  for (const EsiModule& m : modules) {
+    if (m.ident == ident) return &m;
+  }
+  return nullptr;
+}
+
 std::vector<const EsiPdo*> EsiDevice::default_rx_assignment() const {
   std::vector<const EsiPdo*> out;
   for (const EsiPdo& p : rx_pdos) {
@@ -493,6 +708,17 @@ Expected<EsiFile, TextError> read_esi(std::string_view text, const std::string& 
     auto device = read_device(w, node);
     if (!device) return Unexpected(TextError{file, device.error().line, device.error().message});
     esi.devices.push_back(std::move(*device));
+  }
+  for (const pugi::xml_node& node :
+       root.child("Descriptions").child("Modules").children("Module")) {
+    auto module = read_module(w, node);
+    if (!module) return Unexpected(TextError{file, module.error().line, module.error().message});
+    if (esi.find_module(module->ident) != nullptr) {
+      return Unexpected(TextError{
+          file, module->line,
+          fmt::format("<Module> with ModuleIdent {:08X}h is there twice", module->ident)});
+    }
+    esi.modules.push_back(std::move(*module));
   }
   if (esi.devices.empty()) {
     return Unexpected(TextError{file, w.line(root),

@@ -111,6 +111,24 @@ std::string_view esi_access(AccessType access) {
   return "ro";
 }
 
+// Flags/PdoMapping: the directions the drive lets a mapping take the entry in, as its PDO
+// service checks a mapping entry (cia301::check_pdo_mapping_entry: an RxPDO maps a writable
+// entry, a TxPDO a readable one); "" for an entry that no PDO maps.
+std::string pdo_mapping(const cia301::Entry& entry) {
+  if (!entry.pdo_mappable() || cia301::is_variable_length(entry.type())) return "";
+  std::string out;
+  if (cia301::is_writable(entry.access())) out += 'R';
+  if (cia301::is_readable(entry.access())) out += 'T';
+  return out;
+}
+
+std::string flags(const cia301::Entry& entry) {
+  const std::string mapping = pdo_mapping(entry);
+  return fmt::format(
+      "<Flags><Access>{}</Access>{}</Flags>", esi_access(entry.access()),
+      mapping.empty() ? std::string() : fmt::format("<PdoMapping>{}</PdoMapping>", mapping));
+}
+
 // The entry's size in bits: the type's, else (strings, domains) its present length.
 std::size_t bit_size(const cia301::Entry& entry) {
   const auto& info = cia301::info(entry.type());
@@ -264,8 +282,7 @@ Expected<std::string, std::string> drive_esi_text(const cia301::ObjectDictionary
                            esi_type(entry.type(), entry.bytes().size()));
       items += fmt::format("                  <BitSize>{}</BitSize>\n", bits);
       items += fmt::format("                  <BitOffs>{}</BitOffs>\n", offset);
-      items += fmt::format("                  <Flags><Access>{}</Access></Flags>\n",
-                           esi_access(entry.access()));
+      items += fmt::format("                  {}\n", flags(entry));
       items += "                </SubItem>\n";
       // Sub 0 takes 16 bits of the structure (ETG.2000 convention: an UNSIGNED8 and a pad).
       offset += entry.sub_index() == 0 ? 16 : bits;
@@ -311,8 +328,7 @@ Expected<std::string, std::string> drive_esi_text(const cia301::ObjectDictionary
         out += fmt::format("                <Info><DefaultData>{}</DefaultData></Info>\n",
                            default_data(*entry));
       }
-      out += fmt::format("                <Flags><Access>{}</Access></Flags>\n",
-                         esi_access(entry->access()));
+      out += fmt::format("                {}\n", flags(*entry));
     }
     out += "              </Object>\n";
   }

@@ -65,6 +65,8 @@ TEST(CliHelp, EverySubcommandHasHelpExitingZero) {
                                                        {"eds"},
                                                        {"eds", "lint"},
                                                        {"eds", "dump"},
+                                                       {"esi"},
+                                                       {"esi", "show"},
                                                        {"vectors"},
                                                        {"vectors", "lint"},
                                                        {"vectors", "list"},
@@ -153,6 +155,29 @@ TEST(CliUsage, BadOptionValuesExitTwo) {
   EXPECT_TRUE(not_esi.out.empty()) << not_esi.out;  // refused before the bus is touched
   EXPECT_NE(not_esi.err.find("reference_drive.eds:"), std::string::npos) << not_esi.err;
   EXPECT_NE(not_esi.err.find(": not well-formed XML"), std::string::npos) << not_esi.err;
+}
+
+TEST(CliEsi, ShowPrintsTheDeviceItsPdosAndPdoMappingAndRefusesAMalformedFile) {
+  // Given the reference drive's ESI
+  const std::string esi =
+      std::string(DRIVECHECK_SOURCE_DIR) + "/reference_drive/ethercat/reference_drive.xml";
+  // When shown
+  const auto shown = drivecheck({"esi", "show", esi});
+  // Then the device's identity, its PDOs and each entry's access and PdoMapping, with file:line
+  ASSERT_EQ(shown.exit_code, 0) << shown.err;
+  EXPECT_NE(shown.out.find("product code 00000402h, revision 00010000h"), std::string::npos)
+      << shown.out;
+  EXPECT_NE(shown.out.find("TxPdo 1A00h 'TPDO mapping parameter 1', SM3"), std::string::npos);
+  EXPECT_NE(shown.out.find("6041h sub 0   UINT         16 bit(s) ro T   'statusword'"),
+            std::string::npos)
+      << shown.out;
+  EXPECT_NE(shown.out.find("  Dc: no OpMode"), std::string::npos);
+  // And a file that is no ESI is refused with file:line, exit 2
+  const auto not_esi = drivecheck(
+      {"esi", "show", std::string(DRIVECHECK_SOURCE_DIR) + "/reference_drive/reference_drive.eds"});
+  EXPECT_EQ(not_esi.exit_code, 2) << not_esi.err;
+  EXPECT_NE(not_esi.err.find("reference_drive.eds:"), std::string::npos) << not_esi.err;
+  expect_usage_error(drivecheck({"esi"}), "subcommand is required");
 }
 
 TEST(CliDecode, PrintsEachRecordWithTimeInterfaceDirectionAndFrame) {

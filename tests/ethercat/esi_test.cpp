@@ -194,5 +194,206 @@ TEST(EsiReader, FindsTheDeviceBySlaveIdentity) {
   EXPECT_EQ(find_esi_device(*esi, std::nullopt, std::nullopt), &esi->devices[0]);
 }
 
+// PdoMapping flags, Dc/OpMode, Slots and Modules. Line numbers matter below: keep the layout.
+constexpr const char* kModular = R"(<?xml version="1.0"?>
+<EtherCATInfo Version="1.6">
+  <Vendor><Id>2</Id><Name>Example</Name></Vendor>
+  <Descriptions>
+    <Devices>
+      <Device Physics="YY">
+        <Type ProductCode="#x7" RevisionNo="1">Coupler</Type>
+        <Name>Modular drive</Name>
+        <Profile>
+          <Dictionary>
+            <DataTypes>
+              <DataType><Name>DT7000</Name><BitSize>48</BitSize>
+                <SubItem><SubIdx>0</SubIdx><Name>count</Name><Type>USINT</Type><BitSize>8</BitSize><Flags><Access>ro</Access></Flags></SubItem>
+                <SubItem><SubIdx>1</SubIdx><Name>Out</Name><Type>UINT</Type><BitSize>16</BitSize><Flags><Access>rw</Access><PdoMapping>R</PdoMapping></Flags></SubItem>
+                <SubItem><SubIdx>2</SubIdx><Name>Both</Name><Type>UINT</Type><BitSize>16</BitSize><Flags><Access>rw</Access></Flags></SubItem>
+              </DataType>
+            </DataTypes>
+            <Objects>
+              <Object><Index>#x6041</Index><Name>Statusword</Name><Type>UINT</Type><BitSize>16</BitSize><Flags><Access>ro</Access><PdoMapping>T</PdoMapping></Flags></Object>
+              <Object><Index>#x6040</Index><Name>Controlword</Name><Type>UINT</Type><BitSize>16</BitSize><Flags><Access>rw</Access><PdoMapping>rt</PdoMapping></Flags></Object>
+              <Object><Index>#x7000</Index><Name>Record</Name><Type>DT7000</Type><BitSize>48</BitSize><Flags><PdoMapping>TR</PdoMapping></Flags></Object>
+              <Object><Index>#x1000</Index><Name>Device type</Name><Type>UDINT</Type><BitSize>32</BitSize><Flags><Access>ro</Access></Flags></Object>
+            </Objects>
+          </Dictionary>
+        </Profile>
+        <Dc>
+          <OpMode><Name>FreeRun</Name><Desc>Free run</Desc><AssignActivate>0</AssignActivate></OpMode>
+          <OpMode><Name>DC</Name><Desc>DC-Synchron</Desc><AssignActivate>#x300</AssignActivate>
+            <CycleTimeSync0 Factor="1">0</CycleTimeSync0><ShiftTimeSync0 Input="0">-2000</ShiftTimeSync0>
+            <CycleTimeSync1 Factor="0">0</CycleTimeSync1></OpMode>
+        </Dc>
+        <Slots MaxSlotCount="2" SlotPdoIncrement="#x10">
+          <Slot MinInstances="1" MaxInstances="1"><Name>Axis</Name><ModuleIdent Default="1">#x100</ModuleIdent><ModuleIdent>#x101</ModuleIdent></Slot>
+          <Slot MinInstances="0" MaxInstances="1" SlotGroup="2"><Name>Option</Name><ModuleClass><Class>IO</Class></ModuleClass></Slot>
+        </Slots>
+      </Device>
+    </Devices>
+    <Modules>
+      <Module><Type ModuleIdent="#x100" ModuleClass="Axis">AX1</Type><Name>Axis module</Name>
+        <TxPdo><Index>#x1A00</Index><Name>Status</Name><Entry><Index>#x6041</Index><SubIndex>0</SubIndex><BitLen>16</BitLen></Entry></TxPdo>
+        <DcOpModeName>DC</DcOpModeName>
+      </Module>
+    </Modules>
+  </Descriptions>
+</EtherCATInfo>
+)";
+
+std::string modular_error_of(const std::string& from, const std::string& to) {
+  std::string text = kModular;
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  const auto esi = read_esi(text, "bad.xml");
+  return esi ? std::string("(read)") : esi.error().to_string();
+}
+
+TEST(EsiReader, ReadsPdoMappingFlagsOfObjectsAndSubItems) {
+  // Given VARs flagged T and rt, a record whose SubItem 1 says R and whose Object says TR, and
+  // an object without PdoMapping
+  const auto esi = read_esi(kModular, "modular.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const EsiDevice& d = esi->devices[0];
+  // When read; Then each entry has its directions, lower case read as upper case
+  const auto* status = d.find(0x6041, 0);
+  ASSERT_NE(status, nullptr);
+  ASSERT_TRUE(status->pdo_mapping);
+  EXPECT_TRUE(status->pdo_mapping->tx);
+  EXPECT_FALSE(status->pdo_mapping->rx);
+  EXPECT_EQ(status->pdo_mapping->text, "T");
+  EXPECT_EQ(status->pdo_mapping->line, 19);
+  const auto* control = d.find(0x6040, 0);
+  ASSERT_TRUE(control && control->pdo_mapping);
+  EXPECT_TRUE(control->pdo_mapping->rx && control->pdo_mapping->tx);
+  // And a SubItem's own flag wins; one without takes the Object's
+  const auto* out = d.find(0x7000, 1);
+  ASSERT_TRUE(out && out->pdo_mapping);
+  EXPECT_TRUE(out->pdo_mapping->rx);
+  EXPECT_FALSE(out->pdo_mapping->tx);
+  const auto* both = d.find(0x7000, 2);
+  ASSERT_TRUE(both && both->pdo_mapping);
+  EXPECT_TRUE(both->pdo_mapping->rx && both->pdo_mapping->tx);
+  EXPECT_EQ(both->pdo_mapping->text, "TR");
+  EXPECT_FALSE(d.find(0x1000, 0)->pdo_mapping);
+}
+
+TEST(EsiReader, RefusesAnUnknownPdoMappingWithItsLine) {
+  // Given PdoMapping values outside the schema's enumeration, When read, Then file:line names it
+  EXPECT_NE(modular_error_of("<PdoMapping>T</PdoMapping>", "<PdoMapping>X</PdoMapping>")
+                .find("bad.xml:19: <PdoMapping> 'X' is none of R, T, RT, TR"),
+            std::string::npos)
+      << modular_error_of("<PdoMapping>T</PdoMapping>", "<PdoMapping>X</PdoMapping>");
+  EXPECT_NE(modular_error_of("<PdoMapping>R</PdoMapping>", "<PdoMapping>Rt</PdoMapping>")
+                .find("bad.xml:14: <PdoMapping> 'Rt'"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<PdoMapping>TR</PdoMapping>", "<PdoMapping></PdoMapping>")
+                .find("bad.xml:21: <PdoMapping> ''"),
+            std::string::npos);
+}
+
+TEST(EsiReader, ReadsDcOpModes) {
+  // Given two Dc/OpModes, When read, Then their names, AssignActivate and times
+  const auto esi = read_esi(kModular, "modular.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const auto& modes = esi->devices[0].dc_op_modes;
+  ASSERT_EQ(modes.size(), 2u);
+  EXPECT_EQ(modes[0].name, "FreeRun");
+  EXPECT_EQ(modes[0].assign_activate, 0);
+  EXPECT_FALSE(modes[0].cycle_time_sync0);
+  EXPECT_EQ(modes[1].name, "DC");
+  EXPECT_EQ(modes[1].desc, "DC-Synchron");
+  EXPECT_EQ(modes[1].assign_activate, 0x300);
+  EXPECT_EQ(modes[1].line, 28);
+  ASSERT_TRUE(modes[1].cycle_time_sync0);
+  EXPECT_EQ(modes[1].cycle_time_sync0->value, 0);
+  EXPECT_EQ(modes[1].cycle_time_sync0->factor, 1);
+  ASSERT_TRUE(modes[1].shift_time_sync0);
+  EXPECT_EQ(modes[1].shift_time_sync0->value, -2000);
+  EXPECT_EQ(modes[1].shift_time_sync0->input, false);
+  ASSERT_TRUE(modes[1].cycle_time_sync1);
+  EXPECT_EQ(modes[1].cycle_time_sync1->factor, 0);
+  EXPECT_FALSE(modes[1].shift_time_sync1);
+}
+
+TEST(EsiReader, RefusesBadDcOpModesWithTheirLine) {
+  // Given an OpMode without AssignActivate, one without Name, and a time that is no xs:int
+  EXPECT_NE(modular_error_of("<AssignActivate>#x300</AssignActivate>", "")
+                .find("bad.xml:28: <OpMode> has no <AssignActivate>"),
+            std::string::npos)
+      << modular_error_of("<AssignActivate>#x300</AssignActivate>", "");
+  EXPECT_NE(modular_error_of("<Name>FreeRun</Name>", "").find("bad.xml:27: <OpMode> has no <Name>"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("-2000</Shift", "#x10</Shift")
+                .find("bad.xml:29: <ShiftTimeSync0> '#x10' is not an xs:int"),
+            std::string::npos)
+      << modular_error_of("-2000</Shift", "#x10</Shift");
+  EXPECT_NE(modular_error_of("Factor=\"1\"", "Factor=\"one\"")
+                .find("bad.xml:29: CycleTimeSync0@Factor 'one' is not an xs:int"),
+            std::string::npos);
+}
+
+TEST(EsiReader, ReadsSlotsAndModules) {
+  // Given a device with two slots and a file with one module
+  const auto esi = read_esi(kModular, "modular.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  // When read; Then the slots with their instances, modules (the default marked) or classes
+  const auto& slots = esi->devices[0].slots;
+  ASSERT_TRUE(slots);
+  EXPECT_EQ(slots->max_slot_count, 2u);
+  EXPECT_EQ(slots->pdo_increment, 0x10u);
+  ASSERT_EQ(slots->slots.size(), 2u);
+  EXPECT_EQ(slots->slots[0].name, "Axis");
+  EXPECT_EQ(slots->slots[0].min_instances, 1u);
+  EXPECT_EQ(slots->slots[0].module_idents, (std::vector<std::uint32_t>{0x100, 0x101}));
+  EXPECT_EQ(slots->slots[0].default_ident, 0x100u);
+  EXPECT_EQ(slots->slots[0].line, 33);
+  EXPECT_EQ(slots->slots[1].slot_group, 2u);
+  EXPECT_EQ(slots->slots[1].module_classes, (std::vector<std::string>{"IO"}));
+  // And the module with its ident, class, PDOs and DC operation mode
+  ASSERT_EQ(esi->modules.size(), 1u);
+  const auto* module = esi->find_module(0x100);
+  ASSERT_NE(module, nullptr);
+  EXPECT_EQ(module->name, "Axis module");
+  EXPECT_EQ(module->module_class, "Axis");
+  EXPECT_EQ(module->line, 39);
+  ASSERT_EQ(module->tx_pdos.size(), 1u);
+  EXPECT_EQ(module->tx_pdos[0].entries.at(0).index, 0x6041);
+  EXPECT_EQ(module->dc_op_mode_name, "DC");
+  EXPECT_EQ(esi->find_module(0x101), nullptr);
+}
+
+TEST(EsiReader, RefusesBadSlotsAndModulesWithTheirLine) {
+  // Given a slot without MaxInstances, a slot naming no module, a module without ModuleIdent, a
+  // module twice and a bad ModuleIdent
+  EXPECT_NE(modular_error_of("MinInstances=\"1\" MaxInstances=\"1\"", "MinInstances=\"1\"")
+                .find("bad.xml:33: <Slot> has no MaxInstances (required)"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<ModuleClass><Class>IO</Class></ModuleClass>", "")
+                .find("bad.xml:34: <Slot> names no module"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<Type ModuleIdent=\"#x100\" ", "<Type ")
+                .find("bad.xml:39: <Type> has no ModuleIdent (required)"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<ModuleIdent Default=\"1\">#x100</ModuleIdent>",
+                             "<ModuleIdent>#xG</ModuleIdent>")
+                .find("bad.xml:33: <ModuleIdent> '#xG' is not a number"),
+            std::string::npos);
+  EXPECT_NE(modular_error_of("<DcOpModeName>DC</DcOpModeName>\n      </Module>",
+                             "</Module><Module><Type ModuleIdent=\"256\">X</Type><Name>Y</Name>"
+                             "</Module>")
+                .find("bad.xml:41: <Module> with ModuleIdent 00000100h is there twice"),
+            std::string::npos)
+      << modular_error_of("<DcOpModeName>DC</DcOpModeName>\n      </Module>",
+                          "</Module><Module><Type ModuleIdent=\"256\">X</Type><Name>Y</Name>"
+                          "</Module>");
+  EXPECT_NE(modular_error_of("MinInstances=\"0\" MaxInstances=\"1\"",
+                             "MinInstances=\"2\" MaxInstances=\"1\"")
+                .find("bad.xml:34: <Slot> MinInstances 2 exceeds MaxInstances 1"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace drivecheck::ethercat

@@ -16,11 +16,14 @@ console output, then checks
    is one line "<file>:<line>: step N <action>: Expected ...; Actual ...", N numbers the step
    as the JSON's checks do (from 1), and the file:line is the vector's file;
 5. every report carries the revision and the vector-set digest, and the documents the
-   citations refer to.
+   citations refer to;
+6. with --expect-esi FILE (a run with --esi FILE): every report names the ESI with its sha256,
+   and the ESI device's identity once (JSON run.esi, JUnit esi.*, HTML rows, console header).
 
 Exit 0 pass, 1 fail, 77 skipped (python3-jsonschema or xmllint missing; CTest SKIP_RETURN_CODE).
 """
 import argparse
+import hashlib
 import html.parser
 import json
 import pathlib
@@ -92,6 +95,38 @@ def check_message(where, message, vector, failures):
                         f"{failed_steps}")
 
 
+def check_esi(path, run, junit_root, page, console, failures):
+    """run.esi (JSON), esi.* properties (JUnit), the ESI rows (HTML) and the console header
+    all give the ESI's file and its sha256, and the ESI device's identity once."""
+    digest = hashlib.sha256(pathlib.Path(path).read_bytes()).hexdigest()
+    esi = run.get("esi")
+    if esi is None:
+        failures.append("JSON run.esi is missing")
+        return
+    if esi.get("file") != path or esi.get("sha256") != digest:
+        failures.append(f"JSON run.esi {esi.get('file')!r} {esi.get('sha256')!r}, expected "
+                        f"{path!r} {digest}")
+    device = esi.get("device")
+    if not device or not device.get("name"):
+        failures.append(f"JSON run.esi.device {device!r}: no device identity")
+        device = {}
+    props = {}
+    for prop in junit_root.iter("property"):
+        props.setdefault(prop.get("name"), []).append(prop.get("value"))
+    for key, want in (("esi.file", path), ("esi.sha256", digest),
+                      ("esi.product_code", f"0x{device.get('product_code', 0):08X}"),
+                      ("esi.name", device.get("name"))):
+        if props.get(key) != [want]:
+            failures.append(f"junit.xml: property {key} {props.get(key)!r}, expected [{want!r}]")
+    if f"{html.escape(path)}  sha256 {digest}" not in page or "<dt>ESI device</dt>" not in page:
+        failures.append("report.html lacks the ESI row with its sha256 or the ESI device row")
+    header = [line for line in console.splitlines() if line.startswith(f"drivecheck run: ESI {path}")]
+    if len(header) != 1 or digest not in header[0] or \
+            f"product code {device.get('product_code', 0):08X}h" not in header[0]:
+        failures.append(f"console: the ESI header line {header!r} lacks the sha256 or identity")
+    print(f"ESI {path}: sha256 {digest}, device {device.get('name')!r} in every report")
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--schema", required=True)
@@ -103,6 +138,9 @@ def main():
     parser.add_argument("--expect-observed", metavar="KEY",
                         help="every failed sdo_read/sdo_write check of a failed vector carries "
                              "observed.KEY (the typed observation, e.g. abort)")
+    parser.add_argument("--expect-esi", metavar="FILE",
+                        help="the run had --esi FILE: every report names it with its sha256 "
+                             "and the ESI device's identity, once")
     parser.add_argument("run_args", nargs="*")
     args = parser.parse_args()
 
@@ -235,7 +273,8 @@ def main():
     keys = [d["key"] for d in run.get("documents", [])]
     for vector in vectors:
         for source in vector["sources"]:
-            if not any(source.startswith(key) for key in keys) and not source.startswith("EDS"):
+            if not any(source.startswith(key) for key in keys) and \
+                    not source.startswith(("EDS", "ESI")):
                 failures.append(f"{vector['id']}: citation {source!r} names no listed document")
                 break
     page = (out / "report.html").read_text(encoding="utf-8")
@@ -243,6 +282,10 @@ def main():
                    'id="clause-matrix"'):
         if needle not in page:
             failures.append(f"report.html lacks {needle!r}")
+
+    # 6. The ESI of a run with --esi: file and sha256 in every report, the device once.
+    if args.expect_esi:
+        check_esi(args.expect_esi, run, root, page, console, failures)
 
     for failure in failures:
         print("FAIL:", failure)

@@ -92,6 +92,28 @@ TEST(HtmlReport, EdsFindingsAreShownUnderTheEdsLine) {
   EXPECT_EQ(render_html(clean).find("<dt>EDS findings</dt>"), std::string::npos);
 }
 
+TEST(HtmlReport, EsiFileDigestAndDeviceAreShownAfterTheEds) {
+  // Given a run with --esi (its device's name hostile)
+  auto run = synthetic_run();
+  test_support::with_esi(run);
+  // When written as HTML
+  const std::string html = render_html(run);
+  // Then the ESI row gives the file and its sha256, the ESI device row its identity, escaped
+  const auto esi = html.find("<dt>ESI</dt>");
+  const auto device = html.find("<dt>ESI device</dt>");
+  ASSERT_NE(esi, std::string::npos);
+  ASSERT_NE(device, std::string::npos);
+  EXPECT_LT(html.find("<dt>EDS</dt>"), esi);
+  EXPECT_EQ(html.find("<dt>", esi + 1), device);
+  EXPECT_NE(html.find("esi/reference_drive.xml  sha256 " + run.info.esi_sha256), std::string::npos);
+  EXPECT_NE(html.find("vendor ID 0000009Ah, product code 00000402h, revision 00010000h"),
+            std::string::npos);
+  EXPECT_EQ(html.find("<script>alert(1)"), std::string::npos);
+  // And a run without --esi shows neither
+  const std::string plain = render_html(synthetic_run());
+  EXPECT_EQ(plain.find("<dt>ESI"), std::string::npos);
+}
+
 TEST(HtmlReport, ShowsCountsMatrixAndEveryVector) {
   // Given the synthetic run (pass 2, fail 2 of which 1 warning, deviation 1, n/a 1, error 1)
   // When written as HTML

@@ -213,6 +213,54 @@ TEST(JsonReport, EdsFindingsAreWrittenAndReadBack) {
   EXPECT_FALSE(json::parse(render_json(clean))["run"]["eds"].contains("findings"));
 }
 
+TEST(JsonReport, EsiFileDigestAndDeviceAreWrittenAndReadBack) {
+  // Given a run with --esi: the ESI's file, its sha256 and the ESI device the slave matched
+  TempDir dir;
+  auto run = valid_utf8_run();
+  test_support::with_esi(run);
+  run.info.esi_device->name = "drivecheck reference drive";
+  // When written as JSON and read back
+  const json document = json::parse(render_json(run));
+  ASSERT_TRUE(write_json_report(dir / "run.json", run));
+  const auto read = read_json_report(dir / "run.json");
+  // Then run.esi holds them as the EDS's are held (file, sha256), with the device's identity
+  EXPECT_EQ(document["run"]["esi"]["file"], "esi/reference_drive.xml");
+  EXPECT_EQ(document["run"]["esi"]["sha256"], run.info.esi_sha256);
+  EXPECT_EQ(document["run"]["esi"]["device"]["vendor_id"], 0x9A);
+  EXPECT_EQ(document["run"]["esi"]["device"]["product_code"], 0x402);
+  EXPECT_EQ(document["run"]["esi"]["device"]["revision"], 0x10000);
+  EXPECT_EQ(document["run"]["esi"]["device"]["name"], "drivecheck reference drive");
+  ASSERT_TRUE(read) << read.error().to_string();
+  EXPECT_EQ(read->info.esi_file, run.info.esi_file);
+  EXPECT_EQ(read->info.esi_sha256, run.info.esi_sha256);
+  ASSERT_TRUE(read->info.esi_device.has_value());
+  EXPECT_EQ(read->info.esi_device->vendor_id, 0x9Au);
+  EXPECT_EQ(read->info.esi_device->product_code, 0x402u);
+  EXPECT_EQ(read->info.esi_device->revision, 0x10000u);
+  EXPECT_EQ(read->info.esi_device->name, "drivecheck reference drive");
+  // And a run without --esi has no run.esi at all (reports of schema 4 before it stay valid)
+  const auto plain = valid_utf8_run();
+  EXPECT_FALSE(json::parse(render_json(plain))["run"].contains("esi"));
+  ASSERT_TRUE(write_json_report(dir / "plain.json", plain));
+  const auto plain_read = read_json_report(dir / "plain.json");
+  ASSERT_TRUE(plain_read) << plain_read.error().to_string();
+  EXPECT_TRUE(plain_read->info.esi_file.empty());
+  EXPECT_FALSE(plain_read->info.esi_device.has_value());
+}
+
+TEST(JsonReport, EsiDeviceWithoutAKeyIsAnError) {
+  // Given a report whose run.esi.device lacks product_code
+  auto run = valid_utf8_run();
+  test_support::with_esi(run);
+  json document = json::parse(render_json(run));
+  document["run"]["esi"]["device"].erase("product_code");
+  // When read; Then the error names the key
+  const auto read = parse_json_report(document.dump());
+  ASSERT_FALSE(read);
+  EXPECT_NE(read.error().to_string().find("run.esi.device.product_code"), std::string::npos)
+      << read.error().to_string();
+}
+
 TEST(JsonReport, RunOrderIsWrittenAndReadBackAndDefaultsToFile) {
   // Given a run made with --order shuffle:7
   TempDir dir;

@@ -174,6 +174,28 @@ TEST(JunitReport, EdsFindingsAreRunProperties) {
   EXPECT_EQ(document.select_nodes("//property[starts-with(@name,'eds.finding.')]").size(), 2U);
 }
 
+TEST(JunitReport, EsiFileDigestAndDeviceAreRunProperties) {
+  // Given a run with --esi
+  auto run = test_support::synthetic_run();
+  test_support::with_esi(run);
+  // When written as JUnit XML
+  pugi::xml_document document;
+  ASSERT_TRUE(document.load_string(render_junit(run).c_str()));
+  // Then esi.file, esi.sha256 and the ESI device's identity are run-wide properties, once
+  const auto first = document.child("testsuites").child("testsuite");
+  EXPECT_EQ(property(first, "esi.file"), "esi/reference_drive.xml");
+  EXPECT_EQ(property(first, "esi.sha256"), run.info.esi_sha256);
+  EXPECT_EQ(property(first, "esi.vendor_id"), "0x0000009A");
+  EXPECT_EQ(property(first, "esi.product_code"), "0x00000402");
+  EXPECT_EQ(property(first, "esi.revision"), "0x00010000");
+  EXPECT_EQ(document.select_nodes("//property[@name='esi.sha256']").size(), 1U);
+  EXPECT_EQ(document.select_nodes("//property[@name='esi.name']").size(), 1U);
+  // And a run without --esi has no esi.* property
+  pugi::xml_document plain;
+  ASSERT_TRUE(plain.load_string(render_junit(test_support::synthetic_run()).c_str()));
+  EXPECT_EQ(plain.select_nodes("//property[starts-with(@name,'esi.')]").size(), 0U);
+}
+
 TEST(JunitReport, SystemOutIsTheDecodedTranscript) {
   // Given the passing SDO upload vector with two frames
   // When written as JUnit XML

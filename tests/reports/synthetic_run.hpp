@@ -167,6 +167,14 @@ inline conformance::RunResult synthetic_run() {
 // synthetic_run() and what a run interrupted by Ctrl-C adds, with its provenance: every tally
 // (pass 2, fail 1, warning 1, deviation 1, not-applicable 1, error 1, interrupted 1; total 8),
 // a failed check marked on the timing diagram, the cited documents; exit code 130.
+// The ESI of a run with --esi: its file, digest and the device the slave was matched to.
+inline void with_esi(conformance::RunResult& run) {
+  run.info.esi_file = "esi/reference_drive.xml";
+  run.info.esi_sha256 = "2c26b46b68ffc68ff99b453c1d30413413422d706483bfa0f98a5e886266e7ae";
+  run.info.esi_device = conformance::EsiDeviceIdentity{0x0000009A, 0x00000402, 0x00010000,
+                                                       std::string(kHostileName), 19};
+}
+
 inline conformance::RunResult synthetic_run_every_tally() {
   auto run = synthetic_run();
   run.info.revision = "v0.1.0-42-gabcdef0";
@@ -174,6 +182,8 @@ inline conformance::RunResult synthetic_run_every_tally() {
   run.info.vector_files = 12;
   run.info.profile_choice = "--profile festo-cmmp";
   run.info.capabilities = {"heartbeat.producer: present (1017h read 0 ms, written back)"};
+  // As a run with --esi gives them (the schema's optional run.esi with its device).
+  with_esi(run);
   run.info.documents = {
       {"CiA 301", "CANopen application layer and communication profile", "v4.2.0 (2011-02-21)"},
       {"000_33c1d912b8b6010a.txt", "Festo CMMP-AS-...-M3/-M0 Description", "8046795 1510b"}};

@@ -5,6 +5,7 @@
 // shows each EtherCAT named deviation against the standard drive.
 #include "reference_drive/ethercat/ethercat_drive.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "protocol/cia301/pdo_service.hpp"
 #include "protocol/cia301/sdo_abort.hpp"
 #include "protocol/cia402/state_machine.hpp"
 #include "protocol/ethercat/coe.hpp"
@@ -955,6 +957,46 @@ TEST(ReferenceEsi, ReadsBackAsTheDrivesIdentityAndPdos) {
   EXPECT_EQ(device.find(0x1C12, 1)->default_data, (Bytes{0x00, 0x16}));
   EXPECT_FALSE(device.find(0x6041, 0)->default_data);  // a process value: no default
   EXPECT_EQ(device.find(0x6041, 0)->access, ecat::EsiAccess::ro);
+}
+
+TEST(ReferenceEsi, PdoMappingFlagsAreWhatTheDrivesMappingsAccept) {
+  // Given the checked-in ESI and the drive's dictionary
+  Master master;
+  const auto esi = ecat::read_esi(checked_in_esi(), "reference_drive.xml");
+  ASSERT_TRUE(esi) << esi.error().to_string();
+  const ecat::EsiDevice& device = esi->devices[0];
+  const auto& od = master.drive().dictionary();
+  // When each entry's Flags/PdoMapping is compared with what the drive's PDO service accepts
+  // in a mapping of each direction (an entry of its full length)
+  std::size_t flagged = 0;
+  for (const cia301::Object& object : od.objects()) {
+    for (const cia301::Entry& entry : object.entries()) {
+      const auto* esi_entry = device.find(object.index(), entry.sub_index());
+      ASSERT_NE(esi_entry, nullptr)
+          << fmt::format("{:04X}h sub {}", object.index(), entry.sub_index());
+      const std::uint32_t value = std::uint32_t{object.index()} << 16 |
+                                  std::uint32_t{entry.sub_index()} << 8 |
+                                  (cia301::info(entry.type()).bit_size & 0xFFu);
+      const bool rx =
+          cia301::info(entry.type()).bit_size != 0 &&
+          cia301::check_pdo_mapping_entry(od, cia301::PdoDirection::receive, value, false)
+              .has_value();
+      const bool tx =
+          cia301::info(entry.type()).bit_size != 0 &&
+          cia301::check_pdo_mapping_entry(od, cia301::PdoDirection::transmit, value, false)
+              .has_value();
+      // Then the ESI flags exactly the directions the drive accepts (none: no PdoMapping)
+      const auto where = fmt::format("{:04X}h sub {}", object.index(), entry.sub_index());
+      EXPECT_EQ(esi_entry->pdo_mapping.has_value(), rx || tx) << where;
+      if (esi_entry->pdo_mapping) {
+        ++flagged;
+        EXPECT_EQ(esi_entry->pdo_mapping->rx, rx) << where;
+        EXPECT_EQ(esi_entry->pdo_mapping->tx, tx) << where;
+      }
+    }
+  }
+  EXPECT_GT(flagged, 10u);
+  EXPECT_EQ(device.find(0x6041, 0)->pdo_mapping->text, "T");
 }
 
 }  // namespace
