@@ -9,7 +9,7 @@
 //      restores the factory defaults (setup restore-defaults, a step writing 1011h) runs on a
 //      real bus only with --allow-factory-restore (allow_factory_restore). Else N/A.
 //   2. setup (setup.cpp): reset-node / reset-communication (boot-up awaited within
-//      $timing.bootup) / restore-defaults (reset communication, 1011h sub 1 "load", then
+//      $timing.bootup) / restore-defaults (reset node, 1011h sub 1 "load", then
 //      reset node) / none; then the profile's commissioning writes (FORMAT.md
 //      "Commissioning"; not after setup none), the NMT state (`nmt:`), then the CiA 402 state
 //      (`drive_state:`) by the standard path.

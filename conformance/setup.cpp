@@ -306,9 +306,10 @@ StepStatus VectorRun::setup() {
       break;
     case Setup::restore_defaults: {
       // The SDO server in a known state first, whatever the vector before left (NMT Stopped,
-      // where SDO is not served; a transfer it did not finish; SDO COB-IDs it changed): reset
-      // communication, the DUT back.
-      if (auto s = reset("setup restore-defaults", false); s != StepStatus::ok) return s;
+      // where SDO is not served; a transfer it did not finish; SDO COB-IDs it changed), and the
+      // drive's power stage off (a drive may refuse 1011h while it is on: Festo, a vector left
+      // it SWITCHED ON): reset node, the DUT back.
+      if (auto s = reset("setup restore-defaults", true); s != StepStatus::ok) return s;
       // 1011h sub 1 := "load" (6C 6F 61 64), then reset node (CiA 301 §7.5.2.14).
       const std::array<std::uint8_t, 4> load{0x6C, 0x6F, 0x61, 0x64};
       const auto outcome = sdo_download({0x1011, 1}, load);

@@ -510,8 +510,10 @@ void Cia402Application::on_cycle(ReferenceDrive& drive, can::TimePoint now) {
 void Cia402Application::read_parameters() {
   const cia301::ObjectDictionary& od = *od_;
   factors_ = read_factor_group(od);
-  if (config_.deviations.has(Deviation::factor_acceleration_from_velocity_factor))
-    factors_.acceleration = factors_.velocity;  // 6094h's ratio where 6097h's belongs
+  // Deviation factor-acceleration-from-velocity-factor: 6094h read where 6097h belongs.
+  if (config_.deviations.has(Deviation::factor_acceleration_from_velocity_factor)) {
+    factors_.acceleration = factors_.velocity;
+  }
   factors_.velocity = in_axis_units(factors_.velocity, config_.internal_velocity_unit);
   factors_.acceleration = in_axis_units(factors_.acceleration, config_.internal_acceleration_unit);
   if (config_.deviations.has(Deviation::factor_polarity_ignored)) factors_.polarity = 0;
@@ -625,7 +627,10 @@ void Cia402Application::check_limits(can::TimePoint now, can::Duration dt) {
       pds_.clear_fault_cause(faults::kFollowingError.code);
     }
   } else if (!monitored || error <= limit) {
-    following_error_since_.reset();
+    // Deviation following-error-timer-not-restarted: back inside the window the timer runs on.
+    if (!monitored || !config_.deviations.has(Deviation::following_error_timer_not_restarted)) {
+      following_error_since_.reset();
+    }
     if (monitored || !axis_.following()) context_->following_error = false;
   }
 }

@@ -163,7 +163,7 @@ void HomingMode::step(can::TimePoint now, const HomingInputs& inputs, HomingAxis
       finished_ = now;
     } else if (halt) {
       interrupt(config_.deviations.halt_sets_error, axis);
-    } else if (falling) {
+    } else if (falling && !config_.deviations.bit4_falling_ignored) {
       interrupt(false, axis);
       halted_ = false;
     } else if (config_.timeout.count() > 0 && now - started_ > config_.timeout) {
@@ -641,6 +641,7 @@ void HomingOperationMode::apply_deviations(const ModeContext& ctx) {
     deviations.start_ignores_halt |= set.has(Deviation::homing_start_ignores_halt);
     deviations.attained_cleared_on_bit4_low |=
         set.has(Deviation::homing_attained_cleared_on_bit4_low);
+    deviations.bit4_falling_ignored |= set.has(Deviation::homing_bit4_falling_ignored);
   }
   mode_.set_deviations(deviations);
 }

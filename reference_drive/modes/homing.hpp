@@ -195,6 +195,8 @@ struct HomingDeviations {
   bool start_ignores_halt = false;
   // homing-attained-cleared-on-bit4-low: a completed homing shows 0/0/1 once bit 4 is 0.
   bool attained_cleared_on_bit4_low = false;
+  // homing-bit4-falling-ignored: bit 4 1 -> 0 during a homing does not interrupt it.
+  bool bit4_falling_ignored = false;
 };
 
 struct HomingConfig {

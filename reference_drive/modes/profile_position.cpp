@@ -306,7 +306,8 @@ void ProfilePositionMode::update_target_reached(ModeContext& ctx, const ModeCycl
   const bool inside =
       demand_there && (ctx.has(Deviation::pp_target_reached_on_demand) || off <= window);
   if (!inside) {
-    in_window_since_.reset();
+    // Deviation pp-window-time-not-restarted: leaving the window keeps the time of the entry.
+    if (!ctx.has(Deviation::pp_window_time_not_restarted)) in_window_since_.reset();
     reached_ = false;
     return;
   }
