@@ -6,6 +6,8 @@
 # REQUIRE_FAILURE: the run must report at least one failing vector (the deviation tests: a
 # deviation that no vector catches fails its test) and the failures are listed.
 
+include(${CMAKE_CURRENT_LIST_DIR}/DrivecheckFailedVectors.cmake)
+
 foreach(var DRIVECHECK BUS EXPECT_EXIT OUTPUT_DIR)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "DrivecheckConformanceRun.cmake: ${var} is not set")
@@ -43,13 +45,7 @@ endif()
 
 if(REQUIRE_FAILURE)
   # The console lists each failing vector as "× <id> — ..." ("x <id> ..." without UTF-8).
-  string(REPLACE "\n" ";" lines "${console}")
-  set(failed "")
-  foreach(line IN LISTS lines)
-    if(line MATCHES "^(×|x) ([^ ]+)")
-      list(APPEND failed ${CMAKE_MATCH_2})
-    endif()
-  endforeach()
+  drivecheck_failed_vectors("${console}" failed)
   if(NOT failed)
     message(FATAL_ERROR "no vector failed: the deviation went undetected (${OUTPUT_DIR})")
   endif()

@@ -8,6 +8,7 @@
 #   every PdoMapping removed  the ESI says nothing about mappability: the entries-mappable
 #                             results are not applicable, no mappable vector runs, exit 0
 #   cmake -DDRIVECHECK=<program> -DESI=<reference_drive.xml> -DOUT=<dir> -P esi_pdo_mapping_tampered.cmake
+include(${CMAKE_CURRENT_LIST_DIR}/../../cmake/DrivecheckFailedVectors.cmake)
 cmake_policy(SET CMP0057 NEW)  # if(... IN_LIST ...)
 foreach(var DRIVECHECK ESI OUT)
   if(NOT DEFINED ${var})
@@ -42,24 +43,7 @@ message("${console}${errors}")
 if(NOT status STREQUAL "1")
   message(FATAL_ERROR "drivecheck run exited with ${status}, expected 1 (failures)")
 endif()
-string(REPLACE "\n" ";" lines "${console}")
-set(failed "")
-foreach(line IN LISTS lines)
-  if(line MATCHES "^(×|x) ([^ ]+)")
-    list(APPEND failed ${CMAKE_MATCH_2})
-  endif()
-endforeach()
-set(expected esi/pdo/1a00/mappable esi/pdo/1a00/entries-mappable)
-foreach(id IN LISTS expected)
-  if(NOT id IN_LIST failed)
-    message(FATAL_ERROR "${id} did not fail (failed: ${failed})")
-  endif()
-endforeach()
-list(LENGTH failed n)
-list(LENGTH expected m)
-if(NOT n EQUAL m)
-  message(FATAL_ERROR "${n} vectors failed, expected exactly ${expected}: ${failed}")
-endif()
+drivecheck_expect_failed_exactly("${console}" esi/pdo/1a00/mappable esi/pdo/1a00/entries-mappable)
 
 # 2. No PdoMapping at all: nothing to judge mappability by.
 string(REGEX REPLACE "<PdoMapping>[A-Za-z]*</PdoMapping>" "" bare "${text}")
