@@ -4,14 +4,17 @@
 #   run.sh NN [drivecheck args] apply hand-NN.patch, build, run -> results/hand-NN[-tag].json,
 #                               diff against results/base.json, revert the worktree
 #   e.g. run.sh 07 --profile cia402-alternative     (TAG=alt run.sh 07 --profile ...)
-# Env: WT (worktree, default /work/wt-blind17), TAG (suffix of the result files).
+# Env: WT (required: a scratch git worktree of this repository; the script runs
+# `git checkout -- .` there, so never point it at your working copy), TAG (suffix of the
+# result files). ccache is used when CCACHE_DIR is set.
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
-WT=${WT:-/work/wt-blind17}
+WT=${WT:?set WT to a scratch git worktree of this repository (git worktree add ...)}
 OUT=$HERE/results
 mkdir -p "$OUT"
-export CCACHE_BASEDIR=/work CCACHE_DIR=/work/.ccache
-export CMAKE_CXX_COMPILER_LAUNCHER=ccache CMAKE_C_COMPILER_LAUNCHER=ccache
+if [ -n "${CCACHE_DIR:-}" ]; then
+  export CMAKE_CXX_COMPILER_LAUNCHER=ccache CMAKE_C_COMPILER_LAUNCHER=ccache
+fi
 cd "$WT"
 [ -f build/dev/build.ninja ] || cmake --preset dev >/dev/null
 id=$1; shift
