@@ -106,6 +106,7 @@ ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& c
   const FactorGroup& f = ctx.factors;
   SetPoint sp;
   const double target = static_cast<double>(ctx.read_signed(cia402::kTargetPosition));
+  bool relative = false;
   if ((controlword & kRelative) != 0 && !ctx.has(Deviation::pp_relative_as_absolute)) {
     // Relative to the demand position 6062h (Festo L5407-5412), here in internal units; the
     // demand of the buffered set-point's start is the running one's target.
@@ -120,7 +121,12 @@ ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& c
                         : !buffered_.empty()          ? buffered_.back().target
                         : running_                    ? running_->target
                                                       : trajectory_.position();
-    sp.target = base + f.position_to_internal(target) - f.position_to_internal(0.0);
+    // Deviation pp-software-limit-on-relative-distance: 607Dh applied to the distance 607Ah.
+    const double distance = ctx.has(Deviation::pp_software_limit_on_relative_distance)
+                                ? ctx.clamp_position(f.position_to_internal(target))
+                                : f.position_to_internal(target);
+    sp.target = base + distance - f.position_to_internal(0.0);
+    relative = true;
   } else if (ctx.position_range.active()) {
     // A rotary axis: the target modulo the range, reached from where this set-point starts
     // (the preceding target of a set of set-points, else the demand) the way the rotary axis
@@ -148,7 +154,9 @@ ProfilePositionMode::SetPoint ProfilePositionMode::read_set_point(ModeContext& c
   }
   const bool was_limited = ctx.position_limited;
   ctx.position_limited = false;
-  sp.target = ctx.clamp_position(sp.target);
+  if (!relative || !ctx.has(Deviation::pp_software_limit_on_relative_distance)) {
+    sp.target = ctx.clamp_position(sp.target);
+  }
   sp.clamped = ctx.position_limited;
   ctx.position_limited = was_limited || sp.clamped;
   double velocity = static_cast<double>(ctx.read_unsigned(cia402::kProfileVelocity));

@@ -68,7 +68,10 @@ void ProfileTorqueMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
   ctx.axis.command_torque(demand_);
   ctx.torque_demand = demand_;
   bits_ = 0;
-  if (demand_ == wanted && !ctx.has(Deviation::tq_target_reached_never_set)) bits_ |= 0x0400;
+  // Deviation tq-halt-target-reached-missing: with halt the demand is still compared with 6071h.
+  const double goal =
+      cycle.halt && ctx.has(Deviation::tq_halt_target_reached_missing) ? target : wanted;
+  if (demand_ == goal && !ctx.has(Deviation::tq_target_reached_never_set)) bits_ |= 0x0400;
 }
 
 std::uint16_t ProfileTorqueMode::statusword_bits(cia402::State state) const {
