@@ -554,7 +554,11 @@ void HomingObjects::read_parameters() {
           od_.find(cia402::kHomingSpeedZero.index, cia402::kHomingSpeedZero.sub_index)) {
     mode_.set_zero_speed(static_cast<std::uint32_t>(e->as_unsigned()));
   }
-  if (const auto* e = od_.find(cia402::kHomingAcceleration.index, 0)) {
+  // Deviation homing-acceleration-from-profile-acceleration: 6083h read where 609Ah belongs.
+  const cia402::ObjectId acceleration = mode_.config().deviations.acceleration_from_profile
+                                            ? cia402::kProfileAcceleration
+                                            : cia402::kHomingAcceleration;
+  if (const auto* e = od_.find(acceleration.index, acceleration.sub_index)) {
     mode_.set_acceleration(static_cast<std::uint32_t>(e->as_unsigned()));
   }
   if (const auto& bit = mode_.config().travel_to_zero_bit) {
@@ -642,6 +646,8 @@ void HomingOperationMode::apply_deviations(const ModeContext& ctx) {
     deviations.attained_cleared_on_bit4_low |=
         set.has(Deviation::homing_attained_cleared_on_bit4_low);
     deviations.bit4_falling_ignored |= set.has(Deviation::homing_bit4_falling_ignored);
+    deviations.acceleration_from_profile |=
+        set.has(Deviation::homing_acceleration_from_profile_acceleration);
   }
   mode_.set_deviations(deviations);
 }

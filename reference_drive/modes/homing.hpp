@@ -197,6 +197,8 @@ struct HomingDeviations {
   bool attained_cleared_on_bit4_low = false;
   // homing-bit4-falling-ignored: bit 4 1 -> 0 during a homing does not interrupt it.
   bool bit4_falling_ignored = false;
+  // homing-acceleration-from-profile-acceleration: the ramps use 6083h, not 609Ah.
+  bool acceleration_from_profile = false;
 };
 
 struct HomingConfig {

@@ -39,7 +39,12 @@ void ProfileVelocityMode::cycle(ModeContext& ctx, const ModeCycle& cycle) {
   const double dt = std::chrono::duration<double>(cycle.period).count();
   double limit = ctx.axis.max_speed();
   const double max_profile = static_cast<double>(ctx.read_unsigned(cia402::kMaxProfileVelocity));
-  if (max_profile > 0.0) limit = std::min(limit, f.speed_to_internal(max_profile));
+  // Deviation pv-max-profile-velocity-replaces-max-motor-speed: 607Fh in place of 6080h.
+  if (max_profile > 0.0) {
+    limit = ctx.has(Deviation::pv_max_profile_velocity_replaces_max_motor_speed)
+                ? f.speed_to_internal(max_profile)
+                : std::min(limit, f.speed_to_internal(max_profile));
+  }
   const double target_user = static_cast<double>(ctx.read_signed(cia402::kTargetVelocity));
   // Deviation pv-max-velocity-positive-only: the limit is applied to positive velocities only.
   const double lowest = ctx.has(Deviation::pv_max_velocity_positive_only)
