@@ -192,7 +192,10 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     return StepStatus::ok;
   }
   if (const auto* read = std::get_if<SdoReadStep>(&action)) {
-    const auto what = fmt::format("read {:04X}h sub {}", read->index, read->sub);
+    // With relative_to the value judged is a difference: "read 6064h sub 0 - $start".
+    const auto what =
+        fmt::format("read {:04X}h sub {}{}", read->index, read->sub,
+                    read->relative_to.empty() ? std::string() : " - $" + read->relative_to);
     if (const auto& entry = read->expect.mapping_entry) {
       std::string error;
       const auto count = value_of(ValueSpec{0, entry->count, 0}, error);
@@ -262,14 +265,25 @@ StepStatus VectorRun::run_stimulus(const Step& step) {
     const auto& data = outcome.data;
     const std::uint64_t raw =
         cia301::load_unsigned(std::span(data.data(), std::min<std::size_t>(data.size(), 8)));
-    const std::int64_t value =
+    const std::int64_t read_value =
         read->is_signed && !data.empty()
             ? cia301::load_signed(std::span(data.data(), std::min<std::size_t>(data.size(), 8)))
             : static_cast<std::int64_t>(raw);
-    if (!read->save.empty()) saved_[read->save] = value;
-    const auto actual =
+    auto actual =
         outcome.describe() +
-        (data.size() <= 8 && !data.empty() ? fmt::format(" = {} ({:X}h)", value, raw) : "");
+        (data.size() <= 8 && !data.empty() ? fmt::format(" = {} ({:X}h)", read_value, raw) : "");
+    // relative_to: the value judged and saved is the read minus a value saved before.
+    std::int64_t value = read_value;
+    if (!read->relative_to.empty()) {
+      std::string error;
+      const auto base = value_of(ValueSpec{0, read->relative_to}, error);
+      if (!base) return harness_error(name, error);
+      if (data.empty() || data.size() > 8 || __builtin_sub_overflow(read_value, *base, &value))
+        return harness_error(name,
+                             fmt::format("{}: no difference of {} and {}", what, actual, *base));
+      actual += fmt::format(", minus ${} ({}) = {}", read->relative_to, *base, value);
+    }
+    if (!read->save.empty()) saved_[read->save] = value;
     std::string expected;
     bool ok = true;
     switch (expect.kind) {

@@ -171,6 +171,10 @@ struct SdoReadStep {
   SdoExpect expect;
   bool is_signed = false;
   std::string save;
+  // `relative_to: name` (with `signed: true`): the value judged and saved is the value read
+  // minus the one saved as `name`, e.g. the distance the axis moved between two reads of 6064h
+  // (FORMAT.md "Saved values").
+  std::string relative_to{};
   std::uint8_t block_size = 0;  // `block_size:` with transfer: block (1..127); 0 = default
   friend bool operator==(const SdoReadStep&, const SdoReadStep&) = default;
 };

@@ -452,7 +452,7 @@ const std::vector<StepSyntax>& step_syntax() {
       {"send", {}},
       {"nmt", {"node"}},
       {"sdo_write", {"transfer", "expect", "refused_means_not_applicable", "clause"}},
-      {"sdo_read", {"transfer", "block_size", "expect", "signed", "save"}},
+      {"sdo_read", {"transfer", "block_size", "expect", "signed", "save", "relative_to"}},
       {"wait", {}},
       {"controlword", {}},
       {"simulate", {}},
@@ -1121,6 +1121,30 @@ class Parser {
         auto saved = name(node, "save");
         if (!saved) return std::nullopt;
         read.save = *saved;
+      }
+      if (const auto node = modifier("relative_to")) {
+        // The read minus a value saved before: a distance or a change, judged (and saved) as
+        // such. Signed, so that a move the wrong way is a negative number; with a value or a
+        // range only (a mask, a size or data are about the bytes read, not a difference).
+        auto base = name(node, "relative_to");
+        if (!base) return std::nullopt;
+        if (saves_.count(*base) == 0) {
+          error(node, fmt::format("relative_to: '{}' names no value saved earlier in this vector "
+                                  "(save: {})",
+                                  *base, *base));
+          return std::nullopt;
+        }
+        if (!read.is_signed) {
+          error(node, "relative_to: needs signed: true (a difference has a sign)");
+          return std::nullopt;
+        }
+        const auto kind = read.expect.kind;
+        if (!(kind == SdoExpect::Kind::ok || kind == SdoExpect::Kind::range ||
+              (kind == SdoExpect::Kind::value && !read.expect.mask))) {
+          error(node, "relative_to: goes with expect: {value: X} or {range: [lo, hi]} (or none)");
+          return std::nullopt;
+        }
+        read.relative_to = *base;
       }
       return read;
     }

@@ -430,6 +430,7 @@ class Writer {
     key("signed");
     plain(s.is_signed ? "true" : "false");
     name_key("save", s.save);
+    name_key("relative_to", s.relative_to);
   }
   void action(const WaitStep& s) { duration_key("wait", s.duration); }
   void action(const BusOffStep& s) { duration_key("bus_off", s.duration); }

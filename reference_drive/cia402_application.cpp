@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <utility>
 
 #include "protocol/cia402/modes.hpp"
 #include "reference_drive/modes/cyclic_sync.hpp"
@@ -514,6 +515,9 @@ void Cia402Application::read_parameters() {
   if (config_.deviations.has(Deviation::factor_acceleration_from_velocity_factor)) {
     factors_.acceleration = factors_.velocity;
   }
+  // Deviation factor-velocity-inverted: 6094h applied as divisor / numerator.
+  if (config_.deviations.has(Deviation::factor_velocity_inverted))
+    std::swap(factors_.velocity.numerator, factors_.velocity.divisor);
   factors_.velocity = in_axis_units(factors_.velocity, config_.internal_velocity_unit);
   factors_.acceleration = in_axis_units(factors_.acceleration, config_.internal_acceleration_unit);
   if (config_.deviations.has(Deviation::factor_polarity_ignored)) factors_.polarity = 0;
@@ -657,7 +661,14 @@ void Cia402Application::publish() {
   put(od, cia402::kPositionActualValue, shown(f.position_to_user(axis_.position())));
   put(od, cia402::kVelocityDemandValue,
       FactorGroup::to_i32(f.velocity_to_user(axis_.following() ? axis_.demand_velocity() : 0.0)));
-  put(od, cia402::kVelocityActualValue, FactorGroup::to_i32(f.velocity_to_user(axis_.velocity())));
+  double velocity_actual = f.velocity_to_user(axis_.velocity());
+  // Deviation factor-velocity-actual-unscaled: 606Ch not converted back through 6094h.
+  if (config_.deviations.has(Deviation::factor_velocity_actual_unscaled)) {
+    const Fraction velocity_factor = read_factor_group(od).velocity;
+    velocity_actual *= static_cast<double>(velocity_factor.numerator) /
+                       static_cast<double>(velocity_factor.divisor);
+  }
+  put(od, cia402::kVelocityActualValue, FactorGroup::to_i32(velocity_actual));
   const auto torque =
       static_cast<std::int64_t>(std::lround(std::clamp(axis_.torque(), -32768.0, 32767.0)));
   put(od, cia402::kTorqueDemand,

@@ -960,6 +960,33 @@ TEST_F(EngineDriveTest, RangeOfAScaledSavedValue) {
   EXPECT_NE(fail.message.find(", $type*3-1 = "), std::string::npos) << fail.message;
 }
 
+TEST_F(EngineDriveTest, ReadRelativeToASavedValue) {
+  // Given 1017h written 100, read and saved, then written 250
+  const std::string head =
+      "    - sdo_write: {index: 0x1017, sub: 0, value: 100, size: 2}\n"
+      "    - sdo_read: {index: 0x1017, sub: 0}\n      signed: true\n      save: before\n"
+      "    - sdo_write: {index: 0x1017, sub: 0, value: 250, size: 2}\n";
+  // When read again relative to the saved value, the difference saved and used as a bound
+  const auto pass =
+      run(make_vector(head + "    - sdo_read: {index: 0x1017, sub: 0}\n"
+                             "      signed: true\n      relative_to: before\n"
+                             "      expect: {value: 150}\n      save: change\n"
+                             "    - sdo_read: {index: 0x1017, sub: 0}\n"
+                             "      signed: true\n"
+                             "      expect: {range: [\"$change+100\", \"$change+100\"]}\n"));
+  // Then the difference (150) is what is judged and what is saved
+  EXPECT_EQ(pass.verdict, Verdict::pass) << pass.message;
+  // And the value read itself does not pass as the difference; the failure shows both
+  const auto fail = run(make_vector(head + "    - sdo_read: {index: 0x1017, sub: 0}\n"
+                                           "      signed: true\n      relative_to: before\n"
+                                           "      expect: {range: [200, 300]}\n"));
+  EXPECT_EQ(fail.verdict, Verdict::fail);
+  EXPECT_NE(fail.message.find("read 1017h sub 0 - $before: value in [200, 300]"), std::string::npos)
+      << fail.message;
+  EXPECT_NE(fail.message.find("= 250 (FAh), minus $before (100) = 150"), std::string::npos)
+      << fail.message;
+}
+
 TEST_F(EngineDriveTest, DutLostAfterSilentVectors) {
   // Given one vector where the drive answers, then four where it says nothing
   std::vector<Vector> vectors;

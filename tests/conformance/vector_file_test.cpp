@@ -517,6 +517,39 @@ TEST(VectorFile, SavedValueScaledByALiteralRatio) {
   }
 }
 
+TEST(VectorFile, ReadRelativeToASavedValue) {
+  // Given a position saved, then read relative to it (the distance moved), saved in turn
+  const auto set = parse_vectors(std::string(kHead) +
+                                     "  steps:\n"
+                                     "    - sdo_read: {index: 0x6064, sub: 0}\n"
+                                     "      signed: true\n      save: start\n"
+                                     "    - sdo_read: {index: 0x6064, sub: 0}\n"
+                                     "      signed: true\n      relative_to: start\n"
+                                     "      expect: {range: [10, 1000]}\n      save: moved\n",
+                                 "v.yaml");
+  // When parsed
+  ASSERT_TRUE(set.ok()) << set.errors.front().to_string();
+  // Then the read names the value it is relative to, and the difference may be saved
+  const auto& read = std::get<SdoReadStep>(set.vectors.at(0).steps.at(1).action);
+  EXPECT_EQ(read.relative_to, "start");
+  EXPECT_EQ(read.save, "moved");
+  // And an unknown name, an unsigned read or a bit mask is an error naming the line
+  const std::string saved =
+      std::string(kHead) +
+      "  steps:\n    - sdo_read: {index: 0x6064, sub: 0}\n      signed: true\n      save: p\n";
+  EXPECT_NE(only_error(saved + "    - sdo_read: {index: 0x6064, sub: 0}\n      signed: true\n"
+                               "      relative_to: q\n")
+                .find("v.yaml:11: relative_to: 'q' names no value saved earlier"),
+            std::string::npos);
+  EXPECT_NE(only_error(saved + "    - sdo_read: {index: 0x6064, sub: 0}\n      relative_to: p\n")
+                .find("v.yaml:10: relative_to: needs signed: true"),
+            std::string::npos);
+  EXPECT_NE(only_error(saved + "    - sdo_read: {index: 0x6064, sub: 0}\n      signed: true\n"
+                               "      relative_to: p\n      expect: {value: 4, mask: 0xF}\n")
+                .find("relative_to: goes with expect: {value: X} or {range: [lo, hi]}"),
+            std::string::npos);
+}
+
 TEST(VectorFile, DeviceValuesOkOrAbortAndSilencePatterns) {
   // Given $dut values, ok-or-abort and a frame pattern in expect_silence
   const auto set = parse_vectors(
