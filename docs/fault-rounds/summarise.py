@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
-# Per fault: vectors whose verdict changed against the baseline, must pass->fail first.
-#   summarise.py [TAG]     (TAG: the suffix run.sh wrote, e.g. alt -> base-alt.json, hand-NN-alt.json)
+# Per fault of a round: vectors whose verdict changed against the baseline, must pass->fail first.
+#   summarise.py ROUND [TAG]   (ROUND: s17, s18, ...; TAG: the suffix run.sh wrote, e.g. alt ->
+#                              base-alt.json, hand-NN-alt.json)
 import json, sys, os
-R = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'results')
-tag = ('-' + sys.argv[1]) if len(sys.argv) > 1 else ''
+if len(sys.argv) < 2:
+    sys.exit('usage: summarise.py ROUND [TAG]')
+R = os.path.join(os.path.dirname(os.path.abspath(__file__)), sys.argv[1], 'results')
+tag = ('-' + sys.argv[2]) if len(sys.argv) > 2 else ''
 def load(name):
     d = json.load(open(os.path.join(R, name)))
     return {v['id']: v for v in d['vectors']}

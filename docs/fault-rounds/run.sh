@@ -1,16 +1,19 @@
 #!/usr/bin/env bash
-# Rerun one blind fault of round s18 against the embedded reference drive.
-#   run.sh base                 baseline: build clean, run all vectors -> results/base.json
-#   run.sh NN [drivecheck args] apply hand-NN.patch, build, run -> results/hand-NN[-tag].json,
-#                               diff against results/base.json, revert the worktree
-#   e.g. run.sh 07 --profile cia402-alternative     (TAG=alt run.sh 07 --profile ...)
+# Rerun one blind fault of a round (s17, s18, ...) against the embedded reference drive.
+#   run.sh ROUND base                 baseline: build, run all vectors -> ROUND/results/base.json
+#   run.sh ROUND NN [drivecheck args] apply ROUND/hand-NN.patch, build, run ->
+#                                     ROUND/results/hand-NN[-tag].json, diff against
+#                                     ROUND/results/base.json, revert the worktree
+#   e.g. run.sh s18 07 --profile cia402-alternative     (TAG=alt run.sh s18 07 --profile ...)
+# A patch applies to the commit its round was written against (ROUND/README.md names it).
 # Env: WT (required: a scratch git worktree of this repository; the script runs
 # `git checkout -- .` there, so never point it at your working copy), TAG (suffix of the
 # result files). ccache is used when CCACHE_DIR is set.
 set -euo pipefail
-HERE=$(cd "$(dirname "$0")" && pwd)
+ROUND=$(cd "$(dirname "$0")/${1:?name the round, e.g. s18}" && pwd)
+shift
 WT=${WT:?set WT to a scratch git worktree of this repository (git worktree add ...)}
-OUT=$HERE/results
+OUT=$ROUND/results
 mkdir -p "$OUT"
 if [ -n "${CCACHE_DIR:-}" ]; then
   export CMAKE_CXX_COMPILER_LAUNCHER=ccache CMAKE_C_COMPILER_LAUNCHER=ccache
@@ -24,7 +27,7 @@ trap 'git -C "$WT" checkout -- .' EXIT
 if [ "$id" = base ]; then
   name=base$suffix
 else
-  git apply "$HERE/hand-$id.patch"
+  git apply "$ROUND/hand-$id.patch"
   name=hand-$id$suffix
 fi
 nice -n 10 ninja -C build/dev -j2 drivecheck >"$OUT/$name.build.log" 2>&1 ||
